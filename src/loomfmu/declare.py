@@ -1,0 +1,205 @@
+"""The model declaration layer: variables with full metadata and acausal
+equations as CasADi expressions.
+
+A mechanism module in ``models/`` builds a :class:`Model` by declaring
+
+* parameters (``causality="parameter"``, with a ``source``: seed file and
+  equation, or ``"assumption: ..."`` with the reason),
+* continuous states (``der(x)`` appears in the equations),
+* algebraic variables (unknowns without derivative),
+* inputs and outputs (the causality chosen at the FMU boundary),
+* equations in residual form ``lhs == rhs`` (no assignments),
+* event indicators (breakpoints where the solver must restart),
+* ports: named groups of variables (e.g. a shaft with speed and torque) that a
+  scene can connect.
+
+This one declaration is the only source for the generated C, the model
+description, the scipy reference right-hand side and the parameter tables in
+the docs (see :mod:`loomfmu.codegen`, :mod:`loomfmu.fmi2_xml`,
+:mod:`loomfmu.reference`).
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+import casadi as ca
+
+from .units import check_unit
+
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
+
+#: Variable kinds in the order the value references are laid out.
+KINDS = ("parameter", "state", "input", "output", "algebraic")
+
+
+@dataclass
+class Variable:
+    """One scalar variable, named and described as FMI names things."""
+
+    name: str
+    kind: str  # one of KINDS
+    sym: ca.SX
+    start: float | None
+    unit: str = ""
+    description: str = ""
+    min: float = -math.inf
+    max: float = math.inf
+    nominal: float | None = None
+    source: str = ""  # parameters: seed file + equation, or "assumption: why"
+
+    @property
+    def causality(self) -> str:
+        return {"parameter": "parameter", "input": "input", "output": "output"}.get(
+            self.kind, "local")
+
+    def check_value(self, value: float) -> None:
+        """Raise ValueError when ``value`` is outside this variable's range."""
+        if not math.isfinite(value):
+            raise ValueError(f"{self.name} = {value!r} is not finite; allowed range "
+                             f"[{self.min}, {self.max}] {self.unit}")
+        if not self.min <= value <= self.max:
+            raise ValueError(f"{self.name} = {value!r} {self.unit} is outside the "
+                             f"allowed range [{self.min}, {self.max}]")
+
+
+@dataclass
+class Port:
+    """A named connector: ``kind`` (e.g. "shaft", "warp") and its variables by role."""
+
+    name: str
+    kind: str
+    variables: dict[str, str]
+    description: str = ""
+
+
+@dataclass
+class EventIndicator:
+    """A function whose sign change marks a breakpoint inside a step."""
+
+    name: str
+    expr: ca.SX
+    description: str = ""
+
+
+@dataclass
+class Model:
+    """A mechanism declared as an acausal DAE."""
+
+    name: str
+    description: str = ""
+    stop_time: float = 1.0
+    step_size: float = 1e-3
+    h_max: float = math.inf     # default largest internal solver step
+    h_fixed: float = 1e-4       # default step of the fixed-step solver
+    variables: list[Variable] = field(default_factory=list)
+    equations: list[ca.SX] = field(default_factory=list)
+    events: list[EventIndicator] = field(default_factory=list)
+    ports: list[Port] = field(default_factory=list)
+    options: dict = field(default_factory=dict)  # build options the model was made with
+    t: ca.SX = field(default_factory=lambda: ca.SX.sym("time"))
+
+    def __post_init__(self):
+        if not re.match(r"^[A-Za-z_][A-Za-z0-9_]*$", self.name):
+            raise ValueError(f"model name {self.name!r} must be a C identifier")
+        self._by_name: dict[str, Variable] = {}
+        self._der: dict[str, ca.SX] = {}
+
+    # -- declaration ------------------------------------------------------
+    def _add(self, name, kind, start, unit, description, **kw) -> ca.SX:
+        if not _NAME.match(name):
+            raise ValueError(f"variable name {name!r} is not a valid identifier")
+        if name in self._by_name:
+            raise ValueError(f"variable {name!r} declared twice in model {self.name}")
+        check_unit(unit)
+        if not description:
+            raise ValueError(f"variable {name!r} needs a description")
+        sym = ca.SX.sym(name)
+        var = Variable(name, kind, sym, None if start is None else float(start),
+                       unit, description, **kw)
+        if start is not None:
+            var.check_value(var.start)
+        self.variables.append(var)
+        self._by_name[name] = var
+        return sym
+
+    def parameter(self, name, value, *, unit="", description="", source,
+                  min=-math.inf, max=math.inf) -> ca.SX:
+        """Declare a parameter; ``source`` is mandatory (seed + equation or assumption)."""
+        if not source:
+            raise ValueError(f"parameter {name!r} needs a source (seed/equation or assumption)")
+        return self._add(name, "parameter", value, unit, description,
+                         min=min, max=max, source=source)
+
+    def state(self, name, start, *, unit="", description="", nominal=None,
+              min=-math.inf, max=math.inf) -> ca.SX:
+        sym = self._add(name, "state", start, unit, description, nominal=nominal,
+                        min=min, max=max)
+        self._der[name] = ca.SX.sym(f"der({name})")
+        return sym
+
+    def input(self, name, start, *, unit="", description="", min=-math.inf,
+              max=math.inf) -> ca.SX:
+        return self._add(name, "input", start, unit, description, min=min, max=max)
+
+    def algebraic(self, name, *, unit="", description="") -> ca.SX:
+        return self._add(name, "algebraic", None, unit, description)
+
+    def output(self, name, expr, *, unit="", description="") -> ca.SX:
+        """Declare an output defined by an expression of the model's variables."""
+        sym = self._add(name, "output", None, unit, description)
+        self._by_name[name].expr = expr  # type: ignore[attr-defined]
+        return sym
+
+    def der(self, x: ca.SX) -> ca.SX:
+        """The time derivative of state ``x`` (an unknown of the equations)."""
+        name = x.name()
+        if name not in self._der:
+            raise ValueError(f"der() of {name!r}: it is not a declared state")
+        return self._der[name]
+
+    def eq(self, lhs, rhs=0.0) -> None:
+        """Add the equation ``lhs == rhs``."""
+        self.equations.append(ca.SX(lhs) - ca.SX(rhs))
+
+    def event(self, name, expr, *, description="") -> None:
+        self.events.append(EventIndicator(name, ca.SX(expr), description))
+
+    def port(self, name, kind, *, description="", **roles: str) -> None:
+        for role, var in roles.items():
+            if var not in self._by_name:
+                raise ValueError(f"port {name!r}: {role}={var!r} is not a declared variable")
+        self.ports.append(Port(name, kind, dict(roles), description))
+
+    def set_starts_from(self, states: ca.SX, exprs: ca.SX) -> None:
+        """Set the start values of ``states`` to ``exprs`` evaluated at the
+        parameters' and the other states' start values (e.g. a static equilibrium)."""
+        known = [v for v in self.variables if v.kind in ("parameter", "state", "input")]
+        f = ca.Function("starts", [ca.vertcat(*[v.sym for v in known])], [exprs])
+        values = f(ca.DM([v.start for v in known])).full().ravel()
+        for sym, value in zip(ca.vertsplit(states), values):
+            var = self.var(sym.name())
+            var.check_value(float(value))
+            var.start = float(value)
+
+    # -- queries ------------------------------------------------------------
+    def var(self, name: str) -> Variable:
+        try:
+            return self._by_name[name]
+        except KeyError:
+            raise ValueError(f"model {self.name} has no variable {name!r}") from None
+
+    def of_kind(self, kind: str) -> list[Variable]:
+        return [v for v in self.variables if v.kind == kind]
+
+    def syms(self, kind: str) -> ca.SX:
+        vs = self.of_kind(kind)
+        return ca.vertcat(*[v.sym for v in vs]) if vs else ca.SX(0, 1)
+
+    def ders(self) -> ca.SX:
+        xs = self.of_kind("state")
+        return ca.vertcat(*[self._der[v.name] for v in xs]) if xs else ca.SX(0, 1)
+
+    def starts(self, kind: str) -> list[float]:
+        return [v.start for v in self.of_kind(kind)]

@@ -1,0 +1,136 @@
+"""``modelDescription.xml`` for FMI 2.0 Co-Simulation, from the declaration.
+
+Variable order and value references come from :func:`loomfmu.codegen.real_table`
+(the same table the C declaration is written from).  Dependencies in
+``ModelStructure`` are computed from the sparsity of the exact CasADi
+Jacobians: an output lists the inputs it depends on directly (Outputs), and
+the parameters, states and inputs it depends on at initialization
+(InitialUnknowns).
+"""
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+
+import casadi as ca
+
+from .codegen import SOLVER_DESCRIPTIONS, SOLVERS, RealVar, real_table
+from .declare import Model
+from .ode import OdeForm
+from .runtime_files import LOG_CATEGORIES
+from .units import UNITS
+
+
+def _num(v: float) -> str:
+    return repr(float(v))
+
+
+def _depends(expr: ca.SX, syms: ca.SX) -> list[list[int]]:
+    """For each row of ``expr``, the columns of ``syms`` it structurally depends on."""
+    if expr.numel() == 0 or syms.numel() == 0:
+        return [[] for _ in range(expr.numel())]
+    sp = ca.jacobian(expr, syms).sparsity()
+    rows: list[list[int]] = [[] for _ in range(expr.numel())]
+    for r, c in zip(*sp.get_triplet()):
+        rows[r].append(c)
+    return rows
+
+
+def _scalar_variable(parent: ET.Element, row: RealVar) -> None:
+    causality = {"setting": "parameter", "parameter": "parameter", "input": "input",
+                 "output": "output"}.get(row.kind, "local")
+    variability = {"setting": "fixed", "parameter": "fixed"}.get(row.kind, "continuous")
+    attrs = {"name": row.name, "valueReference": str(row.vr), "causality": causality,
+             "variability": variability, "description": row.description}
+    if row.kind == "state":
+        attrs["initial"] = "exact"
+    elif row.kind in ("output", "algebraic"):
+        attrs["initial"] = "calculated"
+    sv = ET.SubElement(parent, "ScalarVariable", attrs)
+    real = {}
+    if row.unit:
+        real["unit"] = row.unit
+    if math.isfinite(row.min):
+        real["min"] = _num(row.min)
+    if math.isfinite(row.max):
+        real["max"] = _num(row.max)
+    if row.var is not None and row.var.nominal is not None:
+        real["nominal"] = _num(row.var.nominal)
+    if row.start is not None and row.kind not in ("output", "algebraic"):
+        real["start"] = _num(row.start)
+    ET.SubElement(sv, "Real", real)
+
+
+def model_description(model: Model, ode: OdeForm, guid: str, sources: list[str]) -> str:
+    rows = real_table(model)
+    root = ET.Element("fmiModelDescription", {
+        "fmiVersion": "2.0", "modelName": model.name, "guid": guid,
+        "description": model.description, "generationTool": "loomfmu",
+        "variableNamingConvention": "structured", "numberOfEventIndicators": "0"})
+    cs = ET.SubElement(root, "CoSimulation", {
+        "modelIdentifier": model.name, "needsExecutionTool": "false",
+        "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "false",
+        "maxOutputDerivativeOrder": "0", "canRunAsynchronuously": "false",
+        "canBeInstantiatedOnlyOncePerProcess": "false",
+        "canNotUseMemoryManagementFunctions": "false", "canGetAndSetFMUstate": "false",
+        "canSerializeFMUstate": "false", "providesDirectionalDerivative": "false"})
+    files = ET.SubElement(cs, "SourceFiles")
+    for f in sources:
+        if f.endswith(".c"):
+            ET.SubElement(files, "File", {"name": f})
+
+    used = sorted({r.unit for r in rows if r.unit})
+    ud = ET.SubElement(root, "UnitDefinitions")
+    for u in used:
+        unit = ET.SubElement(ud, "Unit", {"name": u})
+        ET.SubElement(unit, "BaseUnit", {k: str(v) for k, v in UNITS[u].items()})
+
+    td = ET.SubElement(root, "TypeDefinitions")
+    st = ET.SubElement(td, "SimpleType", {"name": "Solver"})
+    en = ET.SubElement(st, "Enumeration")
+    for i, s in enumerate(SOLVERS, 1):
+        ET.SubElement(en, "Item", {"name": s, "value": str(i),
+                                   "description": SOLVER_DESCRIPTIONS[s]})
+
+    lc = ET.SubElement(root, "LogCategories")
+    for name, desc in LOG_CATEGORIES:
+        ET.SubElement(lc, "Category", {"name": name, "description": desc})
+
+    ET.SubElement(root, "DefaultExperiment", {
+        "startTime": "0.0", "stopTime": _num(model.stop_time), "tolerance": "1e-06",
+        "stepSize": _num(model.step_size)})
+
+    mv = ET.SubElement(root, "ModelVariables")
+    for row in rows:
+        _scalar_variable(mv, row)
+    sv = ET.SubElement(mv, "ScalarVariable", {
+        "name": "solver", "valueReference": "0", "causality": "parameter",
+        "variability": "fixed", "description": "embedded solver: " + "; ".join(
+            f"{i} = {s}" for i, s in enumerate(SOLVERS, 1))})
+    ET.SubElement(sv, "Enumeration", {"declaredType": "Solver", "start": "1"})
+
+    _model_structure(root, model, ode, rows)
+    ET.indent(root, "  ")
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+
+
+def _model_structure(root: ET.Element, model: Model, ode: OdeForm, rows: list[RealVar]) -> None:
+    index = {r.name: r.vr + 1 for r in rows}  # 1-based position in ModelVariables
+    names = {k: [v.name for v in model.of_kind(k)] for k in ("parameter", "state", "input")}
+    y_rows = [r for r in rows if r.kind == "output"]
+    ms = ET.SubElement(root, "ModelStructure")
+    outputs = ET.SubElement(ms, "Outputs")
+    feed = _depends(ode.y, ode.u)
+    for r, cols in zip(y_rows, feed):
+        deps = sorted(index[names["input"][c]] for c in cols)
+        ET.SubElement(outputs, "Unknown", {
+            "index": str(index[r.name]), "dependencies": " ".join(map(str, deps)),
+            "dependenciesKind": " ".join("dependent" for _ in deps)})
+    init = ET.SubElement(ms, "InitialUnknowns")
+    known = ca.vertcat(ode.p, ode.x, ode.u)
+    known_names = names["parameter"] + names["state"] + names["input"]
+    for r, cols in zip(y_rows, _depends(ode.y, known)):
+        deps = sorted(index[known_names[c]] for c in cols)
+        ET.SubElement(init, "Unknown", {
+            "index": str(index[r.name]), "dependencies": " ".join(map(str, deps)),
+            "dependenciesKind": " ".join("dependent" for _ in deps)})

@@ -1,0 +1,345 @@
+/* loomfmu shared runtime: FMI 2.0 Co-Simulation interface.
+ *
+ * Every function checks the instance pointer and the call order against a
+ * mask of allowed states, and logs expected vs actual on failure.  Features
+ * the model description declares as absent (FMU state, directional
+ * derivatives, input derivatives) return fmi2Error with a log line. */
+#include <math.h>
+#include <string.h>
+
+#include "fmi2Functions.h"
+#include "lf_runtime.h"
+
+#define ANY_STATE                                                                    \
+    (LF_ST_INSTANTIATED | LF_ST_INIT | LF_ST_STEP_COMPLETE | LF_ST_STEP_FAILED |     \
+     LF_ST_TERMINATED | LF_ST_ERROR)
+#define RUNNING (LF_ST_STEP_COMPLETE | LF_ST_STEP_FAILED)
+
+typedef struct {
+    fmi2CallbackFunctions cb;
+} Fmi2Env;
+
+static void fmi2_log_bridge(void *env, const char *instance, LfStatus status,
+                            const char *category, const char *message) {
+    const fmi2CallbackFunctions *cb = (const fmi2CallbackFunctions *)env;
+    /* pre-formatted: importers such as FMPy do not expand the variadic part */
+    cb->logger(cb->componentEnvironment, instance, (fmi2Status)status, category, message);
+}
+
+static int allowed(LfInstance *c, const char *fn, int mask) {
+    if (!c) return 0;
+    if (c->state & mask) return 1;
+    lf_log(c, LF_ERROR, LF_LOG_ERROR,
+           "%s must not be called in the current state (state mask %d, allowed %d)", fn,
+           (int)c->state, mask);
+    return 0;
+}
+
+#define CHECK(fn, mask)                                                              \
+    do {                                                                             \
+        if (!allowed((LfInstance *)c, fn, mask)) return fmi2Error;                   \
+    } while (0)
+
+/* ---- inquiry, logging, life cycle ------------------------------------ */
+
+const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+const char *fmi2GetVersion(void) { return fmi2Version; }
+
+fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t n,
+                               const fmi2String categories[]) {
+    LfInstance *inst = (LfInstance *)c;
+    size_t i;
+    int k;
+    CHECK("fmi2SetDebugLogging", ANY_STATE);
+    if (n == 0) {
+        for (k = 0; k < LF_N_LOG; k++) inst->log_on[k] = loggingOn;
+        return fmi2OK;
+    }
+    for (i = 0; i < n; i++) {
+        int found = 0;
+        for (k = 0; k < LF_N_LOG; k++)
+            if (categories[i] && strcmp(categories[i], lf_log_category_names[k]) == 0) {
+                inst->log_on[k] = loggingOn;
+                found = 1;
+            }
+        if (!found) {
+            lf_log(inst, LF_ERROR, LF_LOG_ERROR, "fmi2SetDebugLogging: unknown category %s",
+                   categories[i] ? categories[i] : "(null)");
+            return fmi2Error;
+        }
+    }
+    return fmi2OK;
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
+                              fmi2String fmuGUID, fmi2String resourceLocation,
+                              const fmi2CallbackFunctions *functions, fmi2Boolean visible,
+                              fmi2Boolean loggingOn) {
+    LfAllocator alloc;
+    LfInstance *c;
+    const char *name = instanceName ? instanceName : "";
+    int k;
+    (void)resourceLocation;
+    (void)visible;
+    if (!functions || !functions->logger || !functions->allocateMemory ||
+        !functions->freeMemory)
+        return NULL;
+    if (fmuType != fmi2CoSimulation) {
+        functions->logger(functions->componentEnvironment, name, fmi2Error, "logStatusError",
+                          "fmi2Instantiate: only fmi2CoSimulation is supported");
+        return NULL;
+    }
+    if (!fmuGUID || strcmp(fmuGUID, lf_model.guid) != 0) {
+        functions->logger(functions->componentEnvironment, name, fmi2Error, "logStatusError",
+                          "fmi2Instantiate: the GUID does not match this binary's");
+        return NULL;
+    }
+    alloc.calloc = functions->allocateMemory;
+    alloc.free = functions->freeMemory;
+    /* the logger bridge needs the callbacks; they outlive the instance */
+    c = lf_instantiate(name, fmi2_log_bridge, (void *)functions, alloc);
+    if (!c) {
+        functions->logger(functions->componentEnvironment, name, fmi2Error, "logStatusError",
+                          "fmi2Instantiate: out of memory or solver registry mismatch");
+        return NULL;
+    }
+    for (k = 0; k < LF_N_LOG; k++) c->log_on[k] = loggingOn;
+    return c;
+}
+
+void fmi2FreeInstance(fmi2Component c) { lf_free((LfInstance *)c); }
+
+fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
+                               fmi2Real tolerance, fmi2Real startTime,
+                               fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
+    LfInstance *inst = (LfInstance *)c;
+    CHECK("fmi2SetupExperiment", LF_ST_INSTANTIATED);
+    (void)stopTimeDefined;
+    (void)stopTime;
+    if (!isfinite(startTime)) {
+        lf_log(inst, LF_ERROR, LF_LOG_ERROR, "fmi2SetupExperiment: startTime = %g", startTime);
+        return fmi2Error;
+    }
+    inst->t_start = inst->t = startTime;
+    /* an importer's tolerance overrides solver_rtol (FMI 2.0, 4.2.1) */
+    if (toleranceDefined && lf_set_real(inst, LF_SET_RTOL, tolerance) != LF_OK)
+        return fmi2Error;
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
+    CHECK("fmi2EnterInitializationMode", LF_ST_INSTANTIATED);
+    ((LfInstance *)c)->state = LF_ST_INIT;
+    return fmi2OK;
+}
+
+fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
+    LfInstance *inst = (LfInstance *)c;
+    CHECK("fmi2ExitInitializationMode", LF_ST_INIT);
+    if (lf_initialize(inst) != LF_OK) {
+        inst->state = LF_ST_ERROR;
+        return fmi2Error;
+    }
+    inst->state = LF_ST_STEP_COMPLETE;
+    return fmi2OK;
+}
+
+fmi2Status fmi2Terminate(fmi2Component c) {
+    CHECK("fmi2Terminate", RUNNING);
+    ((LfInstance *)c)->state = LF_ST_TERMINATED;
+    return fmi2OK;
+}
+
+fmi2Status fmi2Reset(fmi2Component c) {
+    CHECK("fmi2Reset", ANY_STATE);
+    lf_reset_values((LfInstance *)c);
+    return fmi2OK;
+}
+
+/* ---- values ------------------------------------------------------------ */
+
+#define VALUES_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING | LF_ST_TERMINATED)
+
+fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                       fmi2Real value[]) {
+    size_t i;
+    CHECK("fmi2GetReal", VALUES_STATES | LF_ST_ERROR);
+    for (i = 0; i < nvr; i++)
+        if (lf_get_real((LfInstance *)c, vr[i], &value[i]) != LF_OK) return fmi2Error;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                       const fmi2Real value[]) {
+    size_t i;
+    CHECK("fmi2SetReal", LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING);
+    for (i = 0; i < nvr; i++)
+        if (lf_set_real((LfInstance *)c, vr[i], value[i]) != LF_OK) return fmi2Error;
+    return fmi2OK;
+}
+
+static fmi2Status no_such(LfInstance *c, const char *fn, const char *type, fmi2ValueReference vr) {
+    lf_log(c, LF_ERROR, LF_LOG_ERROR, "%s: there is no %s variable with value reference %u",
+           fn, type, (unsigned)vr);
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                          fmi2Integer value[]) {
+    size_t i;
+    CHECK("fmi2GetInteger", VALUES_STATES | LF_ST_ERROR);
+    for (i = 0; i < nvr; i++) {
+        if (vr[i] != LF_VR_SOLVER) return no_such((LfInstance *)c, "fmi2GetInteger", "Integer", vr[i]);
+        value[i] = ((LfInstance *)c)->solver_id;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                          const fmi2Integer value[]) {
+    size_t i;
+    CHECK("fmi2SetInteger", LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING);
+    for (i = 0; i < nvr; i++) {
+        if (vr[i] != LF_VR_SOLVER) return no_such((LfInstance *)c, "fmi2SetInteger", "Integer", vr[i]);
+        if (lf_set_solver((LfInstance *)c, value[i]) != LF_OK) return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                          fmi2Boolean value[]) {
+    (void)value;
+    CHECK("fmi2GetBoolean", VALUES_STATES | LF_ST_ERROR);
+    return nvr ? no_such((LfInstance *)c, "fmi2GetBoolean", "Boolean", vr[0]) : fmi2OK;
+}
+
+fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                          const fmi2Boolean value[]) {
+    (void)value;
+    CHECK("fmi2SetBoolean", LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING);
+    return nvr ? no_such((LfInstance *)c, "fmi2SetBoolean", "Boolean", vr[0]) : fmi2OK;
+}
+
+fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                         fmi2String value[]) {
+    (void)value;
+    CHECK("fmi2GetString", VALUES_STATES | LF_ST_ERROR);
+    return nvr ? no_such((LfInstance *)c, "fmi2GetString", "String", vr[0]) : fmi2OK;
+}
+
+fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                         const fmi2String value[]) {
+    (void)value;
+    CHECK("fmi2SetString", LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING);
+    return nvr ? no_such((LfInstance *)c, "fmi2SetString", "String", vr[0]) : fmi2OK;
+}
+
+/* ---- not provided (declared absent in the model description) ---------- */
+
+static fmi2Status unsupported(fmi2Component c, const char *fn) {
+    if (c) lf_log((LfInstance *)c, LF_ERROR, LF_LOG_ERROR,
+                  "%s is not supported by this FMU (see modelDescription.xml)", fn);
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s) {
+    (void)s;
+    return unsupported(c, "fmi2GetFMUstate");
+}
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s) {
+    (void)s;
+    return unsupported(c, "fmi2SetFMUstate");
+}
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *s) {
+    (void)s;
+    return unsupported(c, "fmi2FreeFMUstate");
+}
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *n) {
+    (void)s;
+    (void)n;
+    return unsupported(c, "fmi2SerializedFMUstateSize");
+}
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t n) {
+    (void)s;
+    (void)b;
+    (void)n;
+    return unsupported(c, "fmi2SerializeFMUstate");
+}
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte b[], size_t n,
+                                   fmi2FMUstate *s) {
+    (void)s;
+    (void)b;
+    (void)n;
+    return unsupported(c, "fmi2DeSerializeFMUstate");
+}
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference u[],
+                                        size_t nu, const fmi2ValueReference z[], size_t nz,
+                                        const fmi2Real dv[], fmi2Real dz[]) {
+    (void)u; (void)nu; (void)z; (void)nz; (void)dv; (void)dz;
+    return unsupported(c, "fmi2GetDirectionalDerivative");
+}
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
+                                       size_t nvr, const fmi2Integer order[],
+                                       const fmi2Real value[]) {
+    (void)vr; (void)nvr; (void)order; (void)value;
+    return unsupported(c, "fmi2SetRealInputDerivatives");
+}
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
+                                        size_t nvr, const fmi2Integer order[],
+                                        fmi2Real value[]) {
+    (void)vr; (void)nvr; (void)order; (void)value;
+    return unsupported(c, "fmi2GetRealOutputDerivatives");
+}
+
+/* ---- co-simulation ------------------------------------------------------ */
+
+fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetPrior) {
+    LfInstance *inst = (LfInstance *)c;
+    LfStatus st;
+    (void)noSetPrior;
+    CHECK("fmi2DoStep", LF_ST_STEP_COMPLETE);
+    st = lf_do_step(inst, t, h);
+    if (st == LF_DISCARD) inst->state = LF_ST_STEP_FAILED;
+    else if (st != LF_OK && st != LF_WARNING) inst->state = LF_ST_ERROR;
+    return (fmi2Status)st;
+}
+
+fmi2Status fmi2CancelStep(fmi2Component c) {
+    CHECK("fmi2CancelStep", RUNNING);
+    return unsupported(c, "fmi2CancelStep (fmi2DoStep never returns fmi2Pending)");
+}
+
+fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
+    CHECK("fmi2GetStatus", RUNNING | LF_ST_TERMINATED);
+    if (s != fmi2DoStepStatus) return unsupported(c, "fmi2GetStatus for this status kind");
+    *value = ((LfInstance *)c)->state == LF_ST_STEP_FAILED ? fmi2Discard : fmi2OK;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
+    CHECK("fmi2GetRealStatus", RUNNING | LF_ST_TERMINATED);
+    if (s != fmi2LastSuccessfulTime) return unsupported(c, "fmi2GetRealStatus for this kind");
+    *value = ((LfInstance *)c)->last_successful_time;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
+    (void)s;
+    (void)value;
+    CHECK("fmi2GetIntegerStatus", RUNNING | LF_ST_TERMINATED);
+    return unsupported(c, "fmi2GetIntegerStatus");
+}
+
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
+    CHECK("fmi2GetBooleanStatus", RUNNING | LF_ST_TERMINATED);
+    if (s != fmi2Terminated) return unsupported(c, "fmi2GetBooleanStatus for this kind");
+    *value = fmi2False;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
+    (void)s;
+    (void)value;
+    CHECK("fmi2GetStringStatus", RUNNING | LF_ST_TERMINATED);
+    return unsupported(c, "fmi2GetStringStatus");
+}

@@ -1,0 +1,28 @@
+/* loomfmu runtime: small dense linear algebra for the implicit solvers.
+ *
+ * Matrices are n x n, column-major: A[i + j*n] is row i, column j.
+ * Only libc/libm; no allocation, no global state.
+ */
+#ifndef LF_LINALG_H
+#define LF_LINALG_H
+
+#include <stddef.h>
+
+/* LU factorization with partial (row) pivoting, in place: on return the
+ * strictly lower part of `a` holds L (unit diagonal implied) and the upper
+ * part holds U, with P*A = L*U.  piv[k] is the row swapped with row k at
+ * elimination step k (LAPACK getrf convention, 0-based).
+ *
+ * Returns 0 on success, or k+1 when the pivot of column k is zero or not
+ * finite (matrix singular to working precision or containing Inf/NaN); the
+ * factorization is then incomplete and must not be used for solving. */
+int lf_lu_factor(double *a, size_t n, size_t *piv);
+
+/* Solve A*x = b with the factors from lf_lu_factor; b is overwritten by x. */
+void lf_lu_solve(const double *lu, size_t n, const size_t *piv, double *b);
+
+/* Number of doubles needed to store n pivot indices (size_t) inside a
+ * double workspace. */
+size_t lf_lu_piv_doubles(size_t n);
+
+#endif

@@ -1,0 +1,392 @@
+/* loomfmu shared runtime: model instance, values and the co-simulation step
+ * loop with event location on the solver's dense output.
+ *
+ * Inputs are held constant over a communication step (zero-order hold); a
+ * change of an input restarts the solver at the communication point. */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "lf_runtime.h"
+
+const char *const lf_log_category_names[LF_N_LOG] = LF_LOG_CATEGORY_NAMES;
+
+#define LF_EVENT_MAX_ITER 200
+
+void lf_log(LfInstance *c, LfStatus status, LfLogCategory cat, const char *fmt, ...) {
+    char buf[512];
+    va_list ap;
+    /* errors and discards are always reported; the rest on request */
+    if (!c || !c->log) return;
+    if (!c->log_on[cat] && cat != LF_LOG_ERROR && cat != LF_LOG_DISCARD) return;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    c->log(c->log_env, c->name, status, lf_log_category_names[cat], buf);
+}
+
+static void *lf_calloc(LfInstance *c, size_t n, size_t size) {
+    return c->alloc.calloc(n > 0 ? n : 1, size);
+}
+
+/* Size the CasADi work arrays for the largest of the generated functions. */
+static int alloc_casadi_work(LfInstance *c) {
+    long long n_arg = 0, n_res = 0, n_iw = 0, n_w = 0;
+    int k;
+    for (k = 0; k < LF_N_FN; k++) {
+        long long a = 0, r = 0, i = 0, w = 0;
+        if (lf_model.fn[k].work(&a, &r, &i, &w)) return 0;
+        if (a > n_arg) n_arg = a;
+        if (r > n_res) n_res = r;
+        if (i > n_iw) n_iw = i;
+        if (w > n_w) n_w = w;
+    }
+    c->arg = (const double **)lf_calloc(c, (size_t)n_arg, sizeof(double *));
+    c->res = (double **)lf_calloc(c, (size_t)n_res, sizeof(double *));
+    c->iw = (long long *)lf_calloc(c, (size_t)n_iw, sizeof(long long));
+    c->w = (double *)lf_calloc(c, (size_t)n_w, sizeof(double));
+    return c->arg && c->res && c->iw && c->w;
+}
+
+void lf_free(LfInstance *c) {
+    if (!c) return;
+    if (c->solver_ready) lf_solver_free(&c->solver, &c->alloc);
+    c->alloc.free((void *)c->arg);
+    c->alloc.free(c->res);
+    c->alloc.free(c->iw);
+    c->alloc.free(c->w);
+    c->alloc.free(c->name);
+    c->alloc.free(c);
+}
+
+void lf_reset_values(LfInstance *c) {
+    unsigned vr;
+    for (vr = 0; vr < LF_NREAL; vr++) c->r[vr] = lf_model.real_start[vr];
+    c->solver_id = 1;
+    c->t = c->t_start = c->last_successful_time = 0.0;
+    c->outputs_valid = 0;
+    c->inputs_changed = 0;
+    c->n_events = 0;
+    c->max_steps = 10000000L;
+    if (c->solver_ready) {
+        lf_solver_free(&c->solver, &c->alloc);
+        c->solver_ready = 0;
+    }
+    c->state = LF_ST_INSTANTIATED;
+}
+
+LfInstance *lf_instantiate(const char *name, LfLogFn log, void *log_env,
+                           LfAllocator alloc) {
+    LfInstance *c;
+    size_t k, len = strlen(name);
+    if (lf_n_methods != LF_N_SOLVERS) return NULL;
+    for (k = 0; k < lf_n_methods; k++)
+        if (strcmp(lf_methods[k]->name, lf_model.solver_names[k]) != 0) return NULL;
+    c = (LfInstance *)alloc.calloc(1, sizeof(LfInstance));
+    if (!c) return NULL;
+    c->alloc = alloc;
+    c->log = log;
+    c->log_env = log_env;
+    c->name = (char *)alloc.calloc(len + 1, 1);
+    if (!c->name || !alloc_casadi_work(c)) {
+        lf_free(c);
+        return NULL;
+    }
+    memcpy(c->name, name, len + 1);
+    lf_reset_values(c);
+    return c;
+}
+
+/* ---- evaluating the generated functions ------------------------------- */
+
+static LfStatus eval_fn(LfInstance *c, int fn, double t, const double *x,
+                        double *out0, double *out1) {
+    c->arg[0] = &t;
+    c->arg[1] = x;
+    c->arg[2] = &c->r[LF_VR_U0];
+    c->arg[3] = &c->r[LF_VR_P0];
+    c->res[0] = out0;
+    if (fn == LF_FN_JAC) c->res[1] = out1;
+    return lf_model.fn[fn].eval(c->arg, c->res, c->iw, c->w, 0) ? LF_ERROR : LF_OK;
+}
+
+static int first_nonfinite(const double *v, size_t n) {
+    size_t i;
+    for (i = 0; i < n; i++)
+        if (!isfinite(v[i])) return (int)i;
+    return -1;
+}
+
+static LfStatus rhs_cb(void *ctx, double t, const double *x, double *dx) {
+    LfInstance *c = (LfInstance *)ctx;
+    int bad;
+    if (eval_fn(c, LF_FN_ODE, t, x, dx, NULL) != LF_OK) return LF_ERROR;
+    bad = first_nonfinite(dx, LF_NX);
+    if (bad >= 0) {
+        lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
+               "t = %.17g: derivative of state %s is %g", t,
+               lf_model.real_names[LF_VR_X0 + bad], dx[bad]);
+        return LF_DISCARD;
+    }
+    return LF_OK;
+}
+
+static LfStatus jac_cb(void *ctx, double t, const double *x, double *J, double *dfdt) {
+    LfInstance *c = (LfInstance *)ctx;
+    int bad;
+    if (eval_fn(c, LF_FN_JAC, t, x, J, dfdt) != LF_OK) return LF_ERROR;
+    bad = first_nonfinite(J, (size_t)LF_NX * LF_NX);
+    if (bad >= 0 || first_nonfinite(dfdt, LF_NX) >= 0) {
+        lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: Jacobian is not finite", t);
+        return LF_DISCARD;
+    }
+    return LF_OK;
+}
+
+LfStatus lf_update_outputs(LfInstance *c) {
+    double y[LF_DIM(LF_NY + LF_NZ)];
+    int bad;
+    if (c->outputs_valid || LF_NY + LF_NZ == 0) return LF_OK;
+    if (eval_fn(c, LF_FN_OUT, c->t, &c->r[LF_VR_X0], y, NULL) != LF_OK) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: output function failed", c->t);
+        return LF_ERROR;
+    }
+    bad = first_nonfinite(y, LF_NY + LF_NZ);
+    if (bad >= 0) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: output %s is %g (not finite)",
+               c->t, lf_model.real_names[LF_VR_Y0 + bad], y[bad]);
+        return LF_ERROR;
+    }
+    memcpy(&c->r[LF_VR_Y0], y, sizeof(double) * (LF_NY + LF_NZ));
+    c->outputs_valid = 1;
+    return LF_OK;
+}
+
+/* ---- values ------------------------------------------------------------ */
+
+LfStatus lf_set_real(LfInstance *c, unsigned vr, double value) {
+    const char *name;
+    LfKind kind;
+    if (vr >= LF_NREAL) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR,
+               "fmi2SetReal: value reference %u is not a Real (expected < %u)", vr,
+               (unsigned)LF_NREAL);
+        return LF_ERROR;
+    }
+    name = lf_model.real_names[vr];
+    kind = lf_model.real_kind[vr];
+    if (kind == LF_KIND_OUTPUT || kind == LF_KIND_LOCAL) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s is calculated and cannot be set",
+               c->t, name);
+        return LF_ERROR;
+    }
+    if (kind != LF_KIND_INPUT && !(c->state & (LF_ST_INSTANTIATED | LF_ST_INIT))) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR,
+               "t = %.17g: %s can only be set before fmi2ExitInitializationMode", c->t, name);
+        return LF_ERROR;
+    }
+    if (!isfinite(value) || value < lf_model.real_min[vr] || value > lf_model.real_max[vr]) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR,
+               "t = %.17g: %s = %g is outside its range [%g, %g]; value not set", c->t,
+               name, value, lf_model.real_min[vr], lf_model.real_max[vr]);
+        return LF_ERROR;
+    }
+    if (kind == LF_KIND_INPUT && value != c->r[vr]) c->inputs_changed = 1;
+    c->r[vr] = value;
+    c->outputs_valid = 0;
+    return LF_OK;
+}
+
+LfStatus lf_get_real(LfInstance *c, unsigned vr, double *value) {
+    LfKind kind;
+    if (vr >= LF_NREAL) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR,
+               "fmi2GetReal: value reference %u is not a Real (expected < %u)", vr,
+               (unsigned)LF_NREAL);
+        return LF_ERROR;
+    }
+    kind = lf_model.real_kind[vr];
+    if ((kind == LF_KIND_OUTPUT || kind == LF_KIND_LOCAL) && lf_update_outputs(c) != LF_OK)
+        return LF_ERROR;
+    *value = c->r[vr];
+    return LF_OK;
+}
+
+LfStatus lf_set_solver(LfInstance *c, int id) {
+    if (id < 1 || id > (int)lf_n_methods) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "solver = %d is not a solver (expected 1..%d)", id,
+               (int)lf_n_methods);
+        return LF_ERROR;
+    }
+    if (!(c->state & (LF_ST_INSTANTIATED | LF_ST_INIT))) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR,
+               "solver can only be set before fmi2ExitInitializationMode");
+        return LF_ERROR;
+    }
+    c->solver_id = id;
+    return LF_OK;
+}
+
+/* ---- stepping ------------------------------------------------------------ */
+
+static LfStatus eval_events(LfInstance *c, double t, const double *x, double *e) {
+    if (LF_NE == 0) return LF_OK;
+    if (eval_fn(c, LF_FN_EVT, t, x, e, NULL) != LF_OK || first_nonfinite(e, LF_NE) >= 0) {
+        lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: event indicators not finite", t);
+        return LF_DISCARD;
+    }
+    return LF_OK;
+}
+
+LfStatus lf_initialize(LfInstance *c) {
+    LfOde ode;
+    LfSolverOptions opt;
+    LfStatus st;
+    ode.n = LF_NX;
+    ode.ctx = c;
+    ode.rhs = rhs_cb;
+    ode.jac = jac_cb;
+    opt.rtol = c->r[LF_SET_RTOL];
+    opt.atol = c->r[LF_SET_ATOL];
+    opt.h_max = c->r[LF_SET_H_MAX];
+    opt.h_fixed = c->r[LF_SET_H_FIXED];
+    opt.max_steps = c->max_steps;
+    c->t = c->last_successful_time = c->t_start;
+    st = lf_solver_init(&c->solver, lf_methods[c->solver_id - 1], ode, opt, c->t_start,
+                        &c->r[LF_VR_X0], &c->alloc);
+    if (st != LF_OK) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "solver %s: %s", lf_methods[c->solver_id - 1]->name,
+               c->solver.message);
+        return LF_ERROR;
+    }
+    c->solver_ready = 1;
+    c->inputs_changed = 0;
+    c->outputs_valid = 0;
+    st = eval_events(c, c->t, &c->r[LF_VR_X0], c->e_old);
+    if (st != LF_OK) return LF_ERROR;
+    return lf_update_outputs(c);
+}
+
+static int crossed(double a, double b) { return (a > 0 && b <= 0) || (a < 0 && b >= 0); }
+
+/* Event indicator k on the dense output at time t. */
+static LfStatus event_at(LfInstance *c, int k, double t, double *g) {
+    LfStatus st;
+    c->solver.method->dense(&c->solver, t, c->x_tmp);
+    st = eval_events(c, t, c->x_tmp, c->e_new);
+    *g = c->e_new[k];
+    return st;
+}
+
+/* Illinois (modified regula falsi) on [ta, tb] where indicator k changes
+ * sign; returns the right end of the final bracket (the new side). */
+static LfStatus locate_root(LfInstance *c, int k, double ta, double ga, double tb,
+                            double gb, double *t_root) {
+    int side = 0, it;
+    double tol = 8.0 * 2.220446049250313e-16 * fmax(fabs(ta), fabs(tb)) + 1e-15;
+    for (it = 0; it < LF_EVENT_MAX_ITER && tb - ta > tol; it++) {
+        double tm = tb - gb * (tb - ta) / (gb - ga), gm;
+        LfStatus st;
+        if (!(tm > ta && tm < tb)) tm = 0.5 * (ta + tb);
+        st = event_at(c, k, tm, &gm);
+        if (st != LF_OK) return st;
+        if (crossed(ga, gm)) {
+            tb = tm;
+            gb = gm;
+            if (side == -1) ga *= 0.5;
+            side = -1;
+        } else {
+            ta = tm;
+            ga = gm;
+            if (side == 1) gb *= 0.5;
+            side = 1;
+        }
+    }
+    *t_root = tb;
+    return LF_OK;
+}
+
+/* After an accepted step: find the earliest crossing, restart there. */
+static LfStatus handle_events(LfInstance *c) {
+    LfSolver *s = &c->solver;
+    double t_first = s->t, e_end[LF_DIM(LF_NE)];
+    int k, first = -1;
+    LfStatus st = eval_events(c, s->t, s->x, e_end);
+    if (st != LF_OK) return st;
+    for (k = 0; k < LF_NE; k++) {
+        double tr;
+        if (!crossed(c->e_old[k], e_end[k])) continue;
+        st = locate_root(c, k, s->t_old, c->e_old[k], s->t, e_end[k], &tr);
+        if (st != LF_OK) return st;
+        if (first < 0 || tr < t_first) {
+            t_first = tr;
+            first = k;
+        }
+    }
+    if (first < 0) {
+        memcpy(c->e_old, e_end, sizeof(double) * LF_NE);
+        return LF_OK;
+    }
+    c->n_events++;
+    lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: event %s, solver restarted", t_first,
+           lf_model.event_names[first]);
+    if (t_first < s->t) {
+        s->method->dense(s, t_first, c->x_tmp);
+        lf_solver_reset(s, t_first, c->x_tmp);
+    } else {
+        lf_solver_reset(s, s->t, s->x);
+    }
+    return eval_events(c, s->t, s->x, c->e_old);
+}
+
+static LfStatus fail_step(LfInstance *c, LfStatus st, const char *what) {
+    LfSolver *s = &c->solver;
+    memcpy(&c->r[LF_VR_X0], s->x, sizeof(double) * LF_NX);
+    c->t = c->last_successful_time = s->t;
+    c->outputs_valid = 0;
+    lf_log(c, st, st == LF_DISCARD ? LF_LOG_DISCARD : LF_LOG_ERROR,
+           "t = %.17g: solver %s failed: %s; state kept at the last accepted time", s->t,
+           s->method->name, what);
+    return st;
+}
+
+LfStatus lf_do_step(LfInstance *c, double t0, double h) {
+    LfSolver *s = &c->solver;
+    double t_end = t0 + h;
+    long steps = 0;
+    LfStatus st;
+    if (!(h > 0) || !isfinite(h)) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR,
+               "fmi2DoStep: communicationStepSize = %g, expected a finite value > 0", h);
+        return LF_ERROR;
+    }
+    if (fabs(t0 - c->t) > 1e-9 * fmax(1.0, fabs(c->t))) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR,
+               "fmi2DoStep: currentCommunicationPoint = %.17g, expected %.17g", t0, c->t);
+        return LF_ERROR;
+    }
+    if (c->inputs_changed) {
+        lf_solver_reset(s, s->t, s->x);
+        st = eval_events(c, s->t, s->x, c->e_old);
+        if (st != LF_OK) return fail_step(c, st, "event indicators not finite");
+        c->inputs_changed = 0;
+    }
+    while (s->t < t_end) {
+        s->message[0] = '\0';
+        st = s->method->step(s, t_end);
+        if (st != LF_OK) return fail_step(c, st, s->message);
+        if (LF_NE > 0) {
+            st = handle_events(c);
+            if (st != LF_OK) return fail_step(c, st, "event handling failed");
+        }
+        if (++steps > c->max_steps)
+            return fail_step(c, LF_DISCARD, "too many internal steps in one communication step");
+    }
+    memcpy(&c->r[LF_VR_X0], s->x, sizeof(double) * LF_NX);
+    c->t = t_end;
+    c->outputs_valid = 0;
+    st = lf_update_outputs(c);
+    if (st != LF_OK) return st;
+    c->last_successful_time = t_end;
+    return LF_OK;
+}

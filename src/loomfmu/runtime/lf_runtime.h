@@ -1,0 +1,83 @@
+/* loomfmu shared runtime: the model instance and the co-simulation step
+ * loop, independent of the FMI version (lf_fmi2.c is the FMI 2.0 facade). */
+#ifndef LF_RUNTIME_H
+#define LF_RUNTIME_H
+
+#include <stdarg.h>
+#include "lf_model.h"
+#include "lf_solver.h"
+
+#define LF_DIM(n) ((n) > 0 ? (n) : 1)
+
+/* FMI interface states, as bits so that each call can check a mask. */
+typedef enum {
+    LF_ST_INSTANTIATED = 1 << 0,
+    LF_ST_INIT = 1 << 1,
+    LF_ST_STEP_COMPLETE = 1 << 2,
+    LF_ST_STEP_FAILED = 1 << 3,
+    LF_ST_TERMINATED = 1 << 4,
+    LF_ST_ERROR = 1 << 5
+} LfState;
+
+typedef enum {
+    LF_LOG_EVENTS = 0,
+    LF_LOG_WARNING = 1,
+    LF_LOG_DISCARD = 2,
+    LF_LOG_ERROR = 3,
+    LF_LOG_SOLVER = 4,
+    LF_N_LOG = 5
+} LfLogCategory;
+
+extern const char *const lf_log_category_names[LF_N_LOG];
+
+typedef void (*LfLogFn)(void *env, const char *instance, LfStatus status,
+                        const char *category, const char *message);
+
+typedef struct {
+    char *name;
+    void *log_env;
+    LfLogFn log;
+    LfAllocator alloc;
+    int log_on[LF_N_LOG];
+    LfState state;
+
+    double r[LF_NREAL];      /* every Real by value reference */
+    int solver_id;           /* 1-based index into lf_methods[] */
+    double t;                /* current communication time */
+    double t_start;
+    double last_successful_time;
+    int outputs_valid;       /* r[] outputs/locals match t, x, u, p */
+    int inputs_changed;      /* an input was set since the last step */
+
+    /* CasADi work, sized for the largest generated function */
+    const double **arg;
+    double **res;
+    long long *iw;
+    double *w;
+
+    LfSolver solver;
+    int solver_ready;
+    double e_old[LF_DIM(LF_NE)];
+    double e_new[LF_DIM(LF_NE)];
+    double x_tmp[LF_DIM(LF_NX)];
+    long max_steps;          /* internal steps per communication step */
+    long n_events;
+} LfInstance;
+
+LfInstance *lf_instantiate(const char *name, LfLogFn log, void *log_env,
+                           LfAllocator alloc);
+void lf_free(LfInstance *c);
+void lf_reset_values(LfInstance *c);
+void lf_log(LfInstance *c, LfStatus status, LfLogCategory cat, const char *fmt, ...);
+
+LfStatus lf_set_real(LfInstance *c, unsigned vr, double value);
+LfStatus lf_get_real(LfInstance *c, unsigned vr, double *value);
+LfStatus lf_set_solver(LfInstance *c, int id);
+
+/* Start the solver at t_start with the current states (exit initialization). */
+LfStatus lf_initialize(LfInstance *c);
+/* Advance from c->t by h: integrate, locate events, update outputs. */
+LfStatus lf_do_step(LfInstance *c, double t0, double h);
+LfStatus lf_update_outputs(LfInstance *c);
+
+#endif

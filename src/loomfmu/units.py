@@ -1,0 +1,39 @@
+"""SI units known to loomfmu, as FMI ``BaseUnit`` exponents.
+
+Every unit a model uses must be listed here, so that ``modelDescription.xml``
+carries a ``UnitDefinitions`` entry for it.  The empty string means
+dimensionless (no ``unit`` attribute is written).
+"""
+from __future__ import annotations
+
+#: unit name -> BaseUnit exponents (kg, m, s, A, K, mol, cd, rad)
+UNITS: dict[str, dict[str, int]] = {
+    "m": {"m": 1},
+    "m2": {"m": 2},
+    "m4": {"m": 4},
+    "s": {"s": 1},
+    "kg": {"kg": 1},
+    "kg.m2": {"kg": 1, "m": 2},
+    "kg/m3": {"kg": 1, "m": -3},
+    "N": {"kg": 1, "m": 1, "s": -2},
+    "N.m": {"kg": 1, "m": 2, "s": -2},
+    "N/m": {"kg": 1, "s": -2},
+    "N.s/m": {"kg": 1, "s": -1},
+    "N.m/rad": {"kg": 1, "m": 2, "s": -2, "rad": -1},
+    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
+    "Pa": {"kg": 1, "m": -1, "s": -2},
+    "m/N": {"kg": -1, "s": 2},
+    "m/s": {"m": 1, "s": -1},
+    "m/s2": {"m": 1, "s": -2},
+    "rad": {"rad": 1},
+    "rad/s": {"rad": 1, "s": -1},
+    "rad/s2": {"rad": 1, "s": -2},
+    "Hz": {"s": -1},
+    "1/s": {"s": -1},
+}
+
+
+def check_unit(unit: str) -> None:
+    """Raise ValueError for a unit loomfmu cannot describe in the XML."""
+    if unit and unit not in UNITS:
+        raise ValueError(f"unit {unit!r} is not defined; known units: {sorted(UNITS)}")
