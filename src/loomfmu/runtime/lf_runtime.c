@@ -12,6 +12,8 @@
 const char *const lf_log_category_names[LF_N_LOG] = LF_LOG_CATEGORY_NAMES;
 
 #define LF_EVENT_MAX_ITER 200
+/* least step over an event (relative to max(1, |t|)); its Euler error is O(gap^2) */
+#define LF_EVENT_GAP 1e-12
 
 void lf_log(LfInstance *c, LfStatus status, LfLogCategory cat, const char *fmt, ...) {
     char buf[512];
@@ -279,9 +281,10 @@ static LfStatus event_at(LfInstance *c, int k, double t, double *g) {
 }
 
 /* Illinois (modified regula falsi) on [ta, tb] where indicator k changes
- * sign; returns the right end of the final bracket (the new side). */
+ * sign; returns the final bracket [*t_left, *t_right]: t_left on the old
+ * side, t_right on the new side of the root. */
 static LfStatus locate_root(LfInstance *c, int k, double ta, double ga, double tb,
-                            double gb, double *t_root) {
+                            double gb, double *t_left, double *t_right) {
     int side = 0, it;
     double tol = 8.0 * 2.220446049250313e-16 * fmax(fabs(ta), fabs(tb)) + 1e-15;
     for (it = 0; it < LF_EVENT_MAX_ITER && tb - ta > tol; it++) {
@@ -302,24 +305,55 @@ static LfStatus locate_root(LfInstance *c, int k, double ta, double ga, double t
             side = 1;
         }
     }
-    *t_root = tb;
+    *t_left = ta;
+    *t_right = tb;
     return LF_OK;
 }
 
-/* After an accepted step: find the earliest crossing, restart there. */
+/* Carry the state from the root's old side (t_left, x_left) across the
+ * bracket to the new side by an Euler step over a gap that grows until
+ * indicator k shows its new sign, and restart the solver there.  The caller
+ * makes the gap reach LF_EVENT_GAP * max(1, |t|) past the root: the model's
+ * own switch (an fmin, a floor) may sit a few ulps away from the
+ * indicator's root, and a restart between the two would put the first stage
+ * on the old branch.  The Euler error is O(gap^2). */
+static LfStatus cross_gap(LfInstance *c, int k, double t_left, const double *x_left,
+                          double gap) {
+    double f[LF_DIM(LF_NX)], x[LF_DIM(LF_NX)], old = c->e_old[k];
+    int i, j;
+    LfStatus st = rhs_cb(c, t_left, x_left, f);
+    if (st != LF_OK) return st;
+    for (i = 0; i < 24; i++, gap *= 4.0) {
+        for (j = 0; j < LF_NX; j++) x[j] = x_left[j] + gap * f[j];
+        st = eval_events(c, t_left + gap, x, c->e_new);
+        if (st != LF_OK) return st;
+        if (crossed(old, c->e_new[k])) break;
+    }
+    lf_solver_reset(&c->solver, t_left + gap, x);
+    st = eval_events(c, c->solver.t, c->solver.x, c->e_old);
+    /* should the sign still be undecided, do not detect this root again */
+    if (!crossed(old, c->e_old[k])) c->e_old[k] = 0.0;
+    return st;
+}
+
+/* After an accepted step: find the earliest crossing.  The step is then
+ * redone from t_old to the root's old side, so that no stage straddles the
+ * discontinuity (the dense output of the straddling step is contaminated by
+ * it), and the solver restarts on the new side. */
 static LfStatus handle_events(LfInstance *c) {
     LfSolver *s = &c->solver;
-    double t_first = s->t, e_end[LF_DIM(LF_NE)];
+    double t_left = s->t, t_right = s->t, margin, t_stop, e_end[LF_DIM(LF_NE)];
     int k, first = -1;
     LfStatus st = eval_events(c, s->t, s->x, e_end);
     if (st != LF_OK) return st;
     for (k = 0; k < LF_NE; k++) {
-        double tr;
+        double tl, tr;
         if (!crossed(c->e_old[k], e_end[k])) continue;
-        st = locate_root(c, k, s->t_old, c->e_old[k], s->t, e_end[k], &tr);
+        st = locate_root(c, k, s->t_old, c->e_old[k], s->t, e_end[k], &tl, &tr);
         if (st != LF_OK) return st;
-        if (first < 0 || tr < t_first) {
-            t_first = tr;
+        if (first < 0 || tr < t_right) {
+            t_left = tl;
+            t_right = tr;
             first = k;
         }
     }
@@ -328,15 +362,21 @@ static LfStatus handle_events(LfInstance *c) {
         return LF_OK;
     }
     c->n_events++;
-    lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: event %s, solver restarted", t_first,
-           lf_model.event_names[first]);
-    if (t_first < s->t) {
-        s->method->dense(s, t_first, c->x_tmp);
-        lf_solver_reset(s, t_first, c->x_tmp);
-    } else {
-        lf_solver_reset(s, s->t, s->x);
+    /* stop a margin before the root: the stages of the redone step must
+     * not reach the model's switch, which rounding can move by a few ulps */
+    margin = LF_EVENT_GAP * fmax(1.0, fabs(t_left));
+    t_stop = fmax(t_left - margin, s->t_old);
+    memcpy(c->x_tmp, s->x_old, sizeof(double) * LF_NX);
+    lf_solver_reset(s, s->t_old, c->x_tmp);
+    while (s->t < t_stop) {
+        st = s->method->step(s, t_stop);
+        if (st != LF_OK) return st;
     }
-    return eval_events(c, s->t, s->x, c->e_old);
+    st = cross_gap(c, first, s->t, s->x, t_right - s->t + margin);
+    if (st != LF_OK) return st;
+    lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: event %s, solver restarted", s->t,
+           lf_model.event_names[first]);
+    return LF_OK;
 }
 
 static LfStatus fail_step(LfInstance *c, LfStatus st, const char *what) {

@@ -1,0 +1,76 @@
+"""Shared fixtures: FMUs are built once per test session into a temporary dir."""
+from __future__ import annotations
+
+import pytest
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+from fmpy import calloc, free
+
+from loomfmu import build_fmu, load_model
+
+
+@pytest.fixture(scope="session")
+def dist(tmp_path_factory):
+    return tmp_path_factory.mktemp("dist")
+
+
+@pytest.fixture(scope="session")
+def heald_frame_fmu(dist):
+    result = build_fmu(load_model("heald_frame"), out_dir=dist)
+    return result
+
+
+class Slave:
+    """An FMU instance driven call by call, with its log captured."""
+
+    def __init__(self, fmu_path, name="instance"):
+        self.md = read_model_description(str(fmu_path))
+        self.unzipdir = extract(str(fmu_path))
+        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.log: list[tuple[int, str, str]] = []
+
+        def logger(env, instance, status, category, message):
+            self.log.append((status, category.decode(), message.decode()))
+
+        self._cb = fmi2CallbackFunctions()
+        self._cb.logger = fmi2CallbackLoggerTYPE(logger)
+        self._cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        self._cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipdir,
+                             modelIdentifier=self.md.coSimulation.modelIdentifier,
+                             instanceName=name)
+        self.fmu.instantiate(callbacks=self._cb)
+
+    def set(self, **values):
+        for name, value in values.items():
+            if name == "solver":
+                self.fmu.setInteger([self.vr[name]], [int(value)])
+            else:
+                self.fmu.setReal([self.vr[name]], [float(value)])
+
+    def get(self, *names):
+        return self.fmu.getReal([self.vr[n] for n in names])
+
+    def start(self, t0=0.0, **values):
+        self.fmu.setupExperiment(startTime=t0)
+        self.set(**values)
+        self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+
+
+@pytest.fixture
+def slave_factory():
+    made = []
+
+    def make(path, name="instance"):
+        s = Slave(path, name)
+        made.append(s)
+        return s
+
+    yield make
+    for s in made:
+        try:
+            s.fmu.freeInstance()
+        except Exception:
+            pass

@@ -1,0 +1,283 @@
+"""Tests of the embedded C ODE solvers (src/loomfmu/runtime/lf_solvers.c).
+
+The C harness tests/c/solver_harness.c is compiled with strict warnings and
+driven through its command line; it prints "key value" lines.
+"""
+
+import math
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+RUNTIME = ROOT / "src" / "loomfmu" / "runtime"
+HARNESS = ROOT / "tests" / "c" / "solver_harness.c"
+SOURCES = [RUNTIME / "lf_solvers.c", RUNTIME / "lf_linalg.c"]
+CFLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
+          "-fvisibility=hidden", "-fPIC"]
+
+pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not available")
+
+
+@pytest.fixture(scope="module")
+def harness(tmp_path_factory):
+    exe = tmp_path_factory.mktemp("solver_harness") / "solver_harness"
+    cmd = ["gcc", *CFLAGS, f"-I{RUNTIME}", str(HARNESS), *map(str, SOURCES), "-lm",
+           "-o", str(exe)]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    return exe
+
+
+def run(exe, *args):
+    proc = subprocess.run([str(exe), *map(str, args)], capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 0, (args, proc.stdout, proc.stderr)
+    out = {}
+    for line in proc.stdout.splitlines():
+        key, _, value = line.partition(" ")
+        if key == "message" or key.endswith(("_bad_tol", "_bad_hmax", "_no_jac", "_backwards")):
+            out[key] = value
+            continue
+        try:
+            out[key] = int(value)
+        except ValueError:
+            out[key] = float(value)
+    return out
+
+
+def solve(exe, method, problem, rtol=1e-6, atol=None, t_end=10.0, ncomm=1, h_fixed=0.01,
+          h_max=1e9):
+    if atol is None:
+        atol = rtol * 1e-3
+    return run(exe, "run", method, problem, rtol, atol, t_end, ncomm, h_fixed, h_max)
+
+
+def observed_orders(errors, ratio=2.0):
+    return [math.log(a / b) / math.log(ratio) for a, b in zip(errors, errors[1:])]
+
+
+# --------------------------------------------------------------- compilation
+
+def test_library_compiles_with_strict_flags(tmp_path):
+    for src in SOURCES:
+        obj = tmp_path / (src.stem + ".o")
+        proc = subprocess.run(["gcc", *CFLAGS, f"-I{RUNTIME}", "-c", str(src), "-o", str(obj)],
+                              capture_output=True, text=True)
+        assert proc.returncode == 0, proc.stderr
+
+
+# --------------------------------------------------------------- linear algebra
+
+def test_lu_solve_and_singularity_detection(harness):
+    r = run(harness, "linalg")
+    assert r["max_rel_residual"] < 1e-13
+    assert r["perm_ok"] == 1
+    assert r["singular_rc"] == 2   # second column dependent on the first
+    assert r["zero_rc"] == 1
+    assert r["nan_rc"] == 2 and r["inf_rc"] == 2 and r["nan0_rc"] == 1
+
+
+# --------------------------------------------------------------- accuracy
+
+@pytest.mark.parametrize("method", ["dopri5", "rodas4"])
+@pytest.mark.parametrize("problem", ["decay", "osc"])
+def test_adaptive_error_scales_with_tolerance(harness, method, problem):
+    errs = []
+    for rtol in (1e-4, 1e-6, 1e-8):
+        r = solve(harness, method, problem, rtol=rtol)
+        assert r["status"] == 0, r
+        assert r["landed"] == 1 and r["t"] == 10.0
+        # global error over 10 time units (about 1.6 periods): within a few rtol
+        assert r["err_max"] < 10 * rtol, (rtol, r)
+        assert r["err_final"] < 10 * rtol, (rtol, r)
+        errs.append(r["err_max"])
+    # tighter tolerance -> clearly smaller error (not just a lucky constant)
+    assert errs[0] > 30 * errs[1] > 900 * errs[2], errs
+
+
+@pytest.mark.parametrize("method,problem,order,lo,hi", [
+    # steps forced by h_max with a loose tolerance: observed order of the tableau
+    ("dopri5", "osc", 5, 4.6, 5.4),
+    ("dopri5", "cos", 5, 4.6, 5.4),
+    ("rodas4", "osc", 4, 3.7, 4.3),
+    ("rodas4", "decay", 4, 3.7, 4.3),
+    ("rk4", "osc", 4, 3.7, 4.3),
+    ("rk4", "decay", 4, 3.7, 4.3),
+])
+def test_convergence_order(harness, method, problem, order, lo, hi):
+    errs = []
+    for h in (0.2, 0.1, 0.05):
+        r = solve(harness, method, problem, rtol=1.0, atol=1.0, h_fixed=h, h_max=h)
+        assert r["status"] == 0, r
+        errs.append(r["err_final"])
+    orders = observed_orders(errs)
+    assert all(lo <= p <= hi for p in orders), (errs, orders)
+
+
+def test_rk4_fixed_step_order_and_landing(harness):
+    """Classical RK4: halving h divides the error by ~16; communication points
+    that are no multiple of h are still hit exactly."""
+    errs = []
+    for h in (0.1, 0.05, 0.025, 0.0125):
+        r = solve(harness, "rk4", "osc", h_fixed=h, ncomm=7)
+        assert r["status"] == 0 and r["landed"] == 1 and r["t"] == 10.0
+        errs.append(r["err_final"])
+    orders = observed_orders(errs)
+    assert all(3.7 <= p <= 4.3 for p in orders), (errs, orders)
+    r = solve(harness, "rk4", "decay", h_fixed=0.3, t_end=1.0)
+    assert r["steps"] == 4  # 0.3, 0.3, 0.3, 0.1
+    assert r["rhs"] == 4 * 4 + 1  # 4 stages per step, f at the end reused (FSAL)
+
+
+# --------------------------------------------------------------- dense output
+
+@pytest.mark.parametrize("method", ["dopri5", "rodas4", "rk4"])
+def test_dense_output_reproduces_step_ends(harness, method):
+    r = solve(harness, method, "osc", rtol=1e-6)
+    assert r["dense_end_err"] <= 1e-15
+
+
+@pytest.mark.parametrize("problem", ["decay", "osc"])
+def test_dopri5_dense_output_accuracy(harness, problem):
+    errs = []
+    for rtol in (1e-4, 1e-6, 1e-8):
+        r = solve(harness, "dopri5", problem, rtol=rtol, ncomm=3)
+        assert r["status"] == 0
+        assert r["dense_err"] < 10 * rtol, (rtol, r)
+        # interior points not much worse than the step ends
+        assert r["dense_err"] < 5 * r["err_max"], r
+        errs.append(r["dense_err"])
+    assert errs[0] > 30 * errs[1] > 900 * errs[2], errs
+
+
+@pytest.mark.parametrize("method,lo,hi", [
+    ("dopri5", 4.6, 5.4),  # 4th-order interpolant: local error O(h^5)
+    ("rodas4", 3.6, 4.4),  # 3rd-order interpolant: local error O(h^4)
+    ("rk4", 3.6, 4.4),     # cubic Hermite: O(h^4)
+])
+def test_dense_output_order(harness, method, lo, hi):
+    # x' = cos(t): the step-end values are very accurate (quadrature), so the
+    # interior error is dominated by the interpolant
+    errs = []
+    for h in (0.2, 0.1, 0.05):
+        r = solve(harness, method, "cos", rtol=1.0, atol=1.0, h_fixed=h, h_max=h)
+        assert r["status"] == 0
+        errs.append(r["dense_err"])
+    orders = observed_orders(errs)
+    assert all(lo <= p <= hi for p in orders), (errs, orders)
+
+
+def test_rodas4_dense_output_accuracy(harness):
+    for rtol in (1e-4, 1e-7):
+        r = solve(harness, "rodas4", "osc", rtol=rtol)
+        assert r["dense_err"] < 10 * rtol, r
+
+
+# --------------------------------------------------------------- stiffness
+
+def test_rodas4_stiff_far_fewer_steps(harness):
+    ro = solve(harness, "rodas4", "stiff", rtol=1e-6)
+    dp = solve(harness, "dopri5", "stiff", rtol=1e-6)
+    assert ro["status"] == 0 and dp["status"] == 0
+    assert ro["err_max"] < 1e-5 and dp["err_max"] < 1e-5, (ro, dp)
+    assert ro["steps"] * 10 < dp["steps"], (ro["steps"], dp["steps"])
+    # one Jacobian per accepted step point, one LU per attempt
+    assert ro["jac"] == ro["steps"]
+    assert ro["lu"] == ro["steps"] + ro["rejected"]
+
+
+def test_rodas4_stiff_nonautonomous(harness):
+    """Prothero-Robinson x' = L(x - sin t) + cos t, L = -1e4."""
+    ro = solve(harness, "rodas4", "pr", rtol=1e-6)
+    assert ro["status"] == 0
+    assert ro["err_max"] < 1e-4 and ro["err_final"] < 1e-5, ro
+    assert ro["steps"] < 500
+
+
+def test_rodas4_uses_time_derivative(harness):
+    """x' = cos t (J = 0): with the exact df/dt RODAS4 is 4th order (or
+    better); if the Jacobian callback claims df/dt = 0 accuracy collapses."""
+    good, bad = [], []
+    for h in (0.2, 0.1, 0.05):
+        good.append(solve(harness, "rodas4", "cos", rtol=1.0, atol=1.0, h_max=h)["err_final"])
+        bad.append(solve(harness, "rodas4", "cos_nodfdt", rtol=1.0, atol=1.0,
+                         h_max=h)["err_final"])
+    assert all(p >= 3.7 for p in observed_orders(good)), good
+    assert all(b > 1e3 * g for g, b in zip(good, bad)), (good, bad)
+    r = solve(harness, "rodas4", "cos", rtol=1e-6)
+    assert r["status"] == 0 and r["err_max"] < 1e-5, r
+
+
+def test_no_states(harness):
+    for method in ("dopri5", "rodas4", "rk4"):
+        r = solve(harness, method, "empty", t_end=2.0, ncomm=4, h_fixed=0.1)
+        assert r["status"] == 0 and r["t"] == 2.0 and r["landed"] == 1
+
+
+# --------------------------------------------------------------- failures
+
+@pytest.mark.parametrize("method", ["dopri5", "rodas4", "rk4"])
+def test_nonfinite_rhs_discards_at_last_accepted_point(harness, method):
+    r = solve(harness, method, "nan_after", t_end=2.0, h_fixed=0.03)
+    assert r["status"] == 2, r
+    assert r["message"] and "t=" in r["message"]
+    assert "non-finite" in r["message"]
+    # t is the last accepted point: before the NaN region, close to it
+    assert 0.45 < r["t"] <= 0.5, r
+    assert r["x_finite"] == 1 and r["err_at_t"] < 1e-5
+    assert r["live_blocks"] == 0
+
+
+@pytest.mark.parametrize("method", ["dopri5", "rodas4"])
+def test_blowup_discards(harness, method):
+    r = solve(harness, method, "blowup", t_end=2.0)
+    assert r["status"] == 2, r
+    assert "step size underflow" in r["message"] and "t=" in r["message"]
+    # the numerical solution's own pole is within the tolerance of t = 1
+    assert 0.99 < r["t"] < 1.0 + 1e-3, r
+    assert r["x_finite"] == 1
+
+
+@pytest.mark.parametrize("method", ["dopri5", "rodas4", "rk4"])
+def test_rhs_error_is_passed_through(harness, method):
+    r = solve(harness, method, "error_after", t_end=2.0, ncomm=4)
+    assert r["status"] == 3, r
+    assert r["t"] == 0.5 and r["message"]
+
+
+def test_rodas4_nonfinite_jacobian_discards(harness):
+    r = solve(harness, "rodas4", "nanjac", t_end=1.0)
+    assert r["status"] == 2 and r["t"] == 0.0 and "Jacobian" in r["message"], r
+
+
+def test_invalid_options(harness):
+    r = run(harness, "badopt")
+    assert r["ok"] == 1, r
+
+
+# --------------------------------------------------------------- state handling
+
+@pytest.mark.parametrize("method", ["dopri5", "rodas4", "rk4"])
+def test_state_is_struct_plus_work_buffer(harness, method):
+    r = run(harness, "snapshot", method, "osc", 1e-6, 1e-9, 10, 7, 0.05, 1e9)
+    assert r["status"] == 0 and r["identical"] == 1 and r["steps"] > 10
+
+
+@pytest.mark.parametrize("method", ["dopri5", "rodas4", "rk4"])
+def test_solvers_side_by_side(harness, method):
+    r = run(harness, "side", method, "decay", 1e-6, 1e-9, 10, 1, 0.05, 1e9)
+    assert r["status"] == 0 and r["identical"] == 1 and r["err_other"] < 1e-4
+    assert r["live_blocks"] == 0
+
+
+@pytest.mark.parametrize("method", ["dopri5", "rodas4", "rk4"])
+def test_reset_restarts_at_discontinuity(harness, method):
+    r = run(harness, "reset", method, 1e-7, 1e-10, 0.01)
+    assert r["reset_ok"] == 1
+    assert r["h_after_reset"] <= 0.2
+    assert r["dense_at_reset_err"] == 0.0
+    assert r["status"] == 0 and r["t"] == 2.0
+    assert r["err_final"] < 1e-6, r
