@@ -31,12 +31,13 @@ class FmuRun:
 def simulate(fmu: Path | str, *, solver: str = "dopri5", rtol: float = 1e-6,
              atol: float = 1e-9, stop_time: float | None = None,
              output_interval: float | None = None, values: dict | None = None,
-             output: list[str] | None = None) -> FmuRun:
+             output: list[str] | None = None, model_description=None) -> FmuRun:
     """Simulate ``fmu`` with ``fmpy.simulate_fmu`` (co-simulation).
 
     solver: one of SOLVERS.  rtol, atol: tolerances of the adaptive solvers (> 0).
     output_interval: communication step (default: the FMU's DefaultExperiment).
     values: start values by name (parameters, inputs, states, solver settings).
+    model_description: FMPy's parsed description, to skip parsing on repeated runs.
     """
     if solver not in SOLVERS:
         raise ValueError(f"solver = {solver!r}; allowed: {SOLVERS}")
@@ -52,14 +53,17 @@ def simulate(fmu: Path | str, *, solver: str = "dopri5", rtol: float = 1e-6,
     wall = time.perf_counter()
     res = fmpy.simulate_fmu(str(fmu), validate=False, stop_time=stop_time,
                             relative_tolerance=rtol, output_interval=output_interval,
-                            start_values=start, output=output, logger=logger)
+                            start_values=start, output=output, logger=logger,
+                            model_description=model_description)
     wall = time.perf_counter() - wall
     names = [n for n in res.dtype.names if n != "time"]
     return FmuRun(np.asarray(res["time"]), {n: np.asarray(res[n]) for n in names}, wall, log)
 
 
-def compare(run: FmuRun, ref: Reference, names: list[str]) -> dict[str, dict[str, float]]:
-    """Error of each output in ``names`` at the reference's times."""
+def compare(run: FmuRun | Reference, ref: Reference,
+            names: list[str]) -> dict[str, dict[str, float]]:
+    """Error of each output in ``names`` of ``run`` (an FMU run or another
+    reference) at the reference's times."""
     if len(run.t) != len(ref.t) or not np.allclose(run.t, ref.t, rtol=0, atol=1e-9):
         raise ValueError("FMU and reference output times differ")
     errs = {}
