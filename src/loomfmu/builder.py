@@ -16,7 +16,7 @@ from fmpy.validation import validate_fmu
 from .codegen import generate_sources
 from .declare import Model
 from .fmi2_xml import model_description
-from .ode import explicit_ode
+from .ode import dae_form
 from .runtime_files import RUNTIME_DIR, RUNTIME_HEADERS, RUNTIME_SOURCES
 
 #: Flags for code we write (the runtime and the generated declaration).
@@ -78,17 +78,17 @@ def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 
     t0 = time.perf_counter()
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    ode = explicit_ode(model)
+    dae = dae_form(model)
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp) / model.name
         src = root / "sources"
         src.mkdir(parents=True)
         for f in RUNTIME_SOURCES + RUNTIME_HEADERS:
             shutil.copy(RUNTIME_DIR / f, src / f)
-        gen_files, guid = generate_sources(model, ode, src)
+        gen_files, guid = generate_sources(model, dae, src)
         sources = list(RUNTIME_SOURCES) + [f for f in gen_files if f.endswith(".c")]
         (root / "modelDescription.xml").write_text(
-            model_description(model, ode, guid, sorted(sources)))
+            model_description(model, dae, guid, sorted(sources)))
         generated_c = [f for f in gen_files if f.endswith("_casadi.c")]
         compile_binary(src, root / "binaries" / "linux64" / f"{model.name}.so", generated_c)
         fmu = out_dir / f"{model.name}.fmu"

@@ -2,8 +2,11 @@
 
 A model contributes to the FMU only
 
-* ``<id>_casadi.c/.h``: CasADi-generated right-hand side, its exact Jacobian
-  (df/dx and df/dt), the outputs and the event indicators;
+* ``<id>_casadi.c/.h``: CasADi-generated functions of (t, x, w, u, p, q):
+  the closed-form unknowns w = [der(x); z] and their exact Jacobian
+  (explicit models), or the residual F and its exact Jacobians (implicit
+  models, solved by Newton in the runtime); the outputs, event indicators,
+  mode validity and reinit;
 * ``model_decl.h/.c``: counts, the value-reference table (names, starts,
   ranges, kinds), the solver names and the runtime settings, all written from
   the Python declaration.
@@ -13,7 +16,8 @@ the order of ``ModelVariables`` in the model description::
 
     settings | parameters | states | inputs | outputs | algebraic locals
 
-The Enumeration ``solver`` has Integer value reference 0.
+The Enumeration ``solver`` has Integer value reference 0, the modes (Integer
+outputs) 1, 2, ...
 """
 from __future__ import annotations
 
@@ -26,7 +30,7 @@ from pathlib import Path
 import casadi as ca
 
 from .declare import Model, Variable
-from .ode import OdeForm
+from .ode import DaeForm
 from .runtime_files import LOG_CATEGORIES
 
 #: Solvers in the order of the runtime registry (lf_methods[] in lf_solvers.c);
@@ -98,26 +102,45 @@ def real_table(model: Model) -> list[RealVar]:
     return rows
 
 
-def model_guid(model: Model, ode: OdeForm) -> str:
+def model_guid(model: Model, dae: DaeForm) -> str:
     """A GUID that changes whenever the declaration or its equations change."""
     h = hashlib.sha256()
     for r in real_table(model):
         h.update(f"{r.name}|{r.kind}|{r.start}|{r.min}|{r.max}|{r.unit};".encode())
-    for expr in (ode.f, ode.y, ode.e):
+    for v in model.of_kind("mode"):
+        h.update(f"{v.name}|{model.mode_values[v.name]}|{v.start};".encode())
+    for expr in (dae.F, dae.y, dae.e, dae.valid, dae.reinit):
         h.update(str(expr).encode())
     return "{" + str(uuid.UUID(bytes=h.digest()[:16], version=4)) + "}"
 
 
-def casadi_functions(ode: OdeForm) -> list[ca.Function]:
-    """The four functions the runtime calls, with fixed argument lists (t, x, u, p)."""
-    name = ode.model.name
-    J, dfdt = ode.jacobian()
-    return [
-        ode.function(f"{name}_ode", [ode.f], ["xdot"]),
-        ode.function(f"{name}_jac", [J, dfdt], ["J", "dfdt"]),
-        ode.function(f"{name}_out", [ca.vertcat(ode.y, ode.z)], ["y"]),
-        ode.function(f"{name}_evt", [ode.e], ["e"]),
-    ]
+#: The generated functions in the order of the runtime's LfFunctionId.
+FUNCTIONS = ("wsol", "wjac", "res", "rjac", "out", "evt", "valid", "reinit")
+
+
+def casadi_functions(dae: DaeForm) -> list[ca.Function]:
+    """The functions the runtime calls, all with arguments (t, x, w, u, p, q).
+
+    Explicit models: wsol -> w, wjac -> (dw/dx, dw/dt); res/rjac are the
+    residual and its Jacobians (used only by tests).  Implicit models: res ->
+    F, rjac -> (dF/dw, dF/dx, dF/dt); wsol/wjac return zeros (never called).
+    """
+    name = dae.model.name
+    nw, nx = dae.w.numel(), dae.nx
+    if dae.implicit:
+        wsol, wjac = ca.SX.zeros(nw), [ca.SX.zeros(nw, nx), ca.SX.zeros(nw)]
+    else:
+        wsol = dae.wsol
+        wjac = [ca.densify(ca.jacobian(wsol, dae.x)), ca.densify(ca.jacobian(wsol, dae.t))]
+    rjac = [ca.densify(ca.jacobian(dae.F, v)) for v in (dae.w, dae.x, dae.t)]
+    zloc = dae.w[nx:, 0]
+    outs = {
+        "wsol": ([wsol], ["w_sol"]), "wjac": (wjac, ["dw_dx", "dw_dt"]),
+        "res": ([dae.F], ["F"]), "rjac": (rjac, ["dF_dw", "dF_dx", "dF_dt"]),
+        "out": ([ca.vertcat(dae.y, zloc)], ["y"]), "evt": ([dae.e], ["e"]),
+        "valid": ([dae.valid], ["valid"]), "reinit": ([dae.reinit], ["x_new"]),
+    }
+    return [dae.function(f"{name}_{f}", *outs[f]) for f in FUNCTIONS]
 
 
 def _c_double(v: float | None) -> str:
@@ -142,7 +165,7 @@ _KIND_C = {"setting": "LF_KIND_SETTING", "parameter": "LF_KIND_PARAMETER",
            "algebraic": "LF_KIND_LOCAL"}
 
 
-def declaration_header(model: Model, ode: OdeForm) -> str:
+def declaration_header(model: Model, dae: DaeForm) -> str:
     n = {k: len(model.of_kind(k)) for k in ("parameter", "state", "input", "output",
                                             "algebraic")}
     lines = [
@@ -155,7 +178,10 @@ def declaration_header(model: Model, ode: OdeForm) -> str:
         f"#define LF_NU {n['input']}",
         f"#define LF_NY {n['output']}",
         f"#define LF_NZ {n['algebraic']}",
-        f"#define LF_NE {ode.e.numel()}",
+        f"#define LF_NE {dae.e.numel()}",
+        f"#define LF_NW {dae.w.numel()}",
+        f"#define LF_NQ {len(model.of_kind('mode'))}",
+        f"#define LF_IMPLICIT {1 if dae.implicit else 0}",
         f"#define LF_N_SOLVERS {len(SOLVERS)}",
     ]
     lines += [f"#define {s.macro} {i}" for i, s in enumerate(SETTINGS)]
@@ -165,7 +191,7 @@ def declaration_header(model: Model, ode: OdeForm) -> str:
     return "\n".join(lines)
 
 
-def declaration_source(model: Model, ode: OdeForm, guid: str) -> str:
+def declaration_source(model: Model, dae: DaeForm, guid: str) -> str:
     rows = real_table(model)
     name = model.name
     out = [f"/* Generated by loomfmu from models/{name}.py -- do not edit. */",
@@ -178,13 +204,24 @@ def declaration_source(model: Model, ode: OdeForm, guid: str) -> str:
     out.append(_c_array("char *const", "event_names",
                         [_c_str(e.name) for e in model.events]))
     out.append(_c_array("char *const", "solver_names", [_c_str(s) for s in SOLVERS]))
-    fns = ", ".join(f"{{{name}_{f}, {name}_{f}_work}}" for f in ("ode", "jac", "out", "evt"))
+    modes = model.of_kind("mode")
+    out.append(_c_array("char *const", "mode_names", [_c_str(v.name) for v in modes]))
+    out.append(_c_array("int", "mode_start", [str(int(v.start)) for v in modes]))
+    values = [model.mode_values[v.name] for v in modes]
+    offsets = [sum(len(v) for v in values[:i]) for i in range(len(values) + 1)]
+    out.append(_c_array("int", "mode_value_offset", [str(o) for o in offsets]))
+    out.append(_c_array("double", "mode_values", [repr(float(x)) for v in values for x in v]))
+    mode_index = {v.name: i for i, v in enumerate(modes)}
+    out.append(_c_array("int", "event_mode", [
+        str(mode_index.get(model.event_modes.get(e.name), -1)) for e in model.events]))
+    fns = ", ".join(f"{{{name}_{f}, {name}_{f}_work}}" for f in FUNCTIONS)
     out.append(f"""const LfModel lf_model = {{
     {_c_str(name)},
     {_c_str(guid)},
     {len(rows)},
     real_names, real_start, real_min, real_max, real_kind,
-    event_names,
+    event_names, event_mode,
+    mode_names, mode_start, mode_value_offset, mode_values,
     solver_names,
     {{{fns}}}
 }};
@@ -192,16 +229,16 @@ def declaration_source(model: Model, ode: OdeForm, guid: str) -> str:
     return "\n".join(out)
 
 
-def generate_sources(model: Model, ode: OdeForm, outdir: Path) -> tuple[list[str], str]:
+def generate_sources(model: Model, dae: DaeForm, outdir: Path) -> tuple[list[str], str]:
     """Write the model's C files into ``outdir``; return (file names, guid)."""
     outdir.mkdir(parents=True, exist_ok=True)
-    guid = model_guid(model, ode)
+    guid = model_guid(model, dae)
     cname = f"{model.name}_casadi"
     cg = ca.CodeGenerator(f"{cname}.c", {"with_header": True, "casadi_int": "long long int",
                                          "casadi_real": "double", "with_export": False})
-    for f in casadi_functions(ode):
+    for f in casadi_functions(dae):
         cg.add(f)
     cg.generate(str(outdir) + "/")
-    (outdir / "model_decl.h").write_text(declaration_header(model, ode))
-    (outdir / "model_decl.c").write_text(declaration_source(model, ode, guid))
+    (outdir / "model_decl.h").write_text(declaration_header(model, dae))
+    (outdir / "model_decl.c").write_text(declaration_source(model, dae, guid))
     return [f"{cname}.c", f"{cname}.h", "model_decl.h", "model_decl.c"], guid

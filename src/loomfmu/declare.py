@@ -30,8 +30,9 @@ from .units import check_unit
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
 
-#: Variable kinds in the order the value references are laid out.
-KINDS = ("parameter", "state", "input", "output", "algebraic")
+#: Variable kinds in the order the value references are laid out
+#: (modes are Integer variables, the others Real).
+KINDS = ("parameter", "state", "input", "output", "algebraic", "mode")
 
 
 @dataclass
@@ -98,6 +99,10 @@ class Model:
     events: list[EventIndicator] = field(default_factory=list)
     ports: list[Port] = field(default_factory=list)
     options: dict = field(default_factory=dict)  # build options the model was made with
+    mode_values: dict[str, tuple[int, ...]] = field(default_factory=dict)
+    mode_valid: dict[str, ca.SX] = field(default_factory=dict)
+    reinits: dict[str, ca.SX] = field(default_factory=dict)
+    event_modes: dict[str, str] = field(default_factory=dict)
     t: ca.SX = field(default_factory=lambda: ca.SX.sym("time"))
 
     def __post_init__(self):
@@ -145,6 +150,41 @@ class Model:
 
     def algebraic(self, name, *, unit="", description="") -> ca.SX:
         return self._add(name, "algebraic", None, unit, description)
+
+    def mode(self, name, start: int, values, *, description="") -> ca.SX:
+        """Declare a discrete mode (an Integer output of the FMU).
+
+        values: the allowed values in priority order; at an event the runtime
+        takes the first value whose validity expression (see ``mode_rule``)
+        is >= 0.
+        """
+        values = tuple(int(v) for v in values)
+        if int(start) not in values:
+            raise ValueError(f"mode {name!r}: start = {start!r}; allowed: {values}")
+        sym = self._add(name, "mode", int(start), "", description,
+                        min=min(values), max=max(values))
+        self.mode_values[name] = values
+        return sym
+
+    def mode_rule(self, mode: ca.SX, valid, *, events: list[str]) -> None:
+        """``valid`` >= 0 where the current value of ``mode`` is consistent;
+        ``events``: the event indicators at whose zero this mode is re-chosen."""
+        name = mode.name()
+        if name not in self.mode_values:
+            raise ValueError(f"mode_rule: {name!r} is not a declared mode")
+        known = {e.name for e in self.events}
+        for ev in events:
+            if ev not in known:
+                raise ValueError(f"mode_rule: event {ev!r} is not declared")
+            self.event_modes[ev] = name
+        self.mode_valid[name] = ca.SX(valid)
+
+    def reinit(self, state: ca.SX, expr) -> None:
+        """The value of ``state`` right after a mode change (default: unchanged)."""
+        name = state.name()
+        if name not in self._der:
+            raise ValueError(f"reinit: {name!r} is not a declared state")
+        self.reinits[name] = ca.SX(expr)
 
     def output(self, name, expr, *, unit="", description="") -> ca.SX:
         """Declare an output defined by an expression of the model's variables."""

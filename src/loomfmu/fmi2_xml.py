@@ -16,7 +16,7 @@ import casadi as ca
 
 from .codegen import SOLVER_DESCRIPTIONS, SOLVERS, RealVar, real_table
 from .declare import Model
-from .ode import OdeForm
+from .ode import DaeForm
 from .runtime_files import LOG_CATEGORIES
 from .units import UNITS
 
@@ -61,7 +61,18 @@ def _scalar_variable(parent: ET.Element, row: RealVar) -> None:
     ET.SubElement(sv, "Real", real)
 
 
-def model_description(model: Model, ode: OdeForm, guid: str, sources: list[str]) -> str:
+def _resolved_outputs(dae: DaeForm) -> ca.SX:
+    """Outputs with the unknowns w eliminated, for the dependency analysis:
+    substituted for explicit models; for implicit ones each w is replaced by
+    a stand-in that depends on everything F depends on."""
+    if not dae.implicit:
+        return ca.substitute(dae.y, dae.w, dae.wsol)
+    known = ca.vertsplit(ca.vertcat(dae.x, dae.u, dae.p))
+    stand_in = sum((k for k in known if ca.depends_on(dae.F, k)), ca.SX(0))
+    return ca.substitute(dae.y, dae.w, ca.repmat(stand_in, dae.w.numel(), 1))
+
+
+def model_description(model: Model, dae: DaeForm, guid: str, sources: list[str]) -> str:
     rows = real_table(model)
     root = ET.Element("fmiModelDescription", {
         "fmiVersion": "2.0", "modelName": model.name, "guid": guid,
@@ -108,29 +119,43 @@ def model_description(model: Model, ode: OdeForm, guid: str, sources: list[str])
         "variability": "fixed", "description": "embedded solver: " + "; ".join(
             f"{i} = {s}" for i, s in enumerate(SOLVERS, 1))})
     ET.SubElement(sv, "Enumeration", {"declaredType": "Solver", "start": "1"})
+    for k, v in enumerate(model.of_kind("mode"), 1):
+        sv = ET.SubElement(mv, "ScalarVariable", {
+            "name": v.name, "valueReference": str(k), "causality": "output",
+            "variability": "discrete", "initial": "calculated",
+            "description": v.description})
+        ET.SubElement(sv, "Integer", {"min": str(int(v.min)), "max": str(int(v.max))})
 
-    _model_structure(root, model, ode, rows)
+    _model_structure(root, model, dae, rows)
     ET.indent(root, "  ")
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
 
-def _model_structure(root: ET.Element, model: Model, ode: OdeForm, rows: list[RealVar]) -> None:
+def _model_structure(root: ET.Element, model: Model, dae: DaeForm, rows: list[RealVar]) -> None:
     index = {r.name: r.vr + 1 for r in rows}  # 1-based position in ModelVariables
+    modes = model.of_kind("mode")
+    for k, v in enumerate(modes):
+        index[v.name] = len(rows) + 2 + k  # after the Reals and `solver`
     names = {k: [v.name for v in model.of_kind(k)] for k in ("parameter", "state", "input")}
     y_rows = [r for r in rows if r.kind == "output"]
+    y = _resolved_outputs(dae)
     ms = ET.SubElement(root, "ModelStructure")
     outputs = ET.SubElement(ms, "Outputs")
-    feed = _depends(ode.y, ode.u)
-    for r, cols in zip(y_rows, feed):
+    for r, cols in zip(y_rows, _depends(y, dae.u)):
         deps = sorted(index[names["input"][c]] for c in cols)
         ET.SubElement(outputs, "Unknown", {
             "index": str(index[r.name]), "dependencies": " ".join(map(str, deps)),
             "dependenciesKind": " ".join("dependent" for _ in deps)})
+    for v in modes:  # discrete states: change only at events inside a step
+        ET.SubElement(outputs, "Unknown", {"index": str(index[v.name]), "dependencies": "",
+                                           "dependenciesKind": ""})
     init = ET.SubElement(ms, "InitialUnknowns")
-    known = ca.vertcat(ode.p, ode.x, ode.u)
+    known = ca.vertcat(dae.p, dae.x, dae.u)
     known_names = names["parameter"] + names["state"] + names["input"]
-    for r, cols in zip(y_rows, _depends(ode.y, known)):
+    for r, cols in zip(y_rows, _depends(y, known)):
         deps = sorted(index[known_names[c]] for c in cols)
         ET.SubElement(init, "Unknown", {
             "index": str(index[r.name]), "dependencies": " ".join(map(str, deps)),
             "dependenciesKind": " ".join("dependent" for _ in deps)})
+    for v in modes:  # chosen at initialization from everything known
+        ET.SubElement(init, "Unknown", {"index": str(index[v.name])})

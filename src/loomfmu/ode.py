@@ -79,3 +79,84 @@ def explicit_ode(model: Model) -> OdeForm:
                              "after solving (cyclic definition)")
     return OdeForm(model, model.t, model.syms("state"), model.syms("input"),
                    model.syms("parameter"), xdot, y, z, e)
+
+
+@dataclass
+class DaeForm:
+    """The model as the runtime sees it, every function of (t, x, w, u, p, q).
+
+    w = [der(x); z] are the unknowns, F(t, x, w, u, p, q) = 0 their equations
+    and q the discrete modes.  ``wsol`` is the closed-form solution for w when
+    F is linear in w (None otherwise: the runtime then solves F = 0 by
+    Newton with the exact dF/dw).  Outputs, algebraic locals, event
+    indicators and mode validity may use w; ``reinit`` gives the states after
+    a mode change.
+    """
+
+    model: Model
+    t: ca.SX
+    x: ca.SX
+    w: ca.SX
+    u: ca.SX
+    p: ca.SX
+    q: ca.SX
+    F: ca.SX
+    wsol: ca.SX | None
+    y: ca.SX
+    e: ca.SX
+    valid: ca.SX
+    reinit: ca.SX
+
+    @property
+    def args(self) -> list[ca.SX]:
+        return [self.t, self.x, self.w, self.u, self.p, self.q]
+
+    @property
+    def nx(self) -> int:
+        return self.x.numel()
+
+    @property
+    def implicit(self) -> bool:
+        return self.wsol is None
+
+    def function(self, name: str, outs: list[ca.SX], out_names: list[str]) -> ca.Function:
+        return ca.Function(name, self.args, outs, ["t", "x", "w", "u", "p", "q"], out_names)
+
+
+def _outputs_in_w(model: Model) -> ca.SX:
+    """Output expressions with references to other outputs resolved."""
+    outs = model.of_kind("output")
+    y = ca.vertcat(*[v.expr for v in outs]) if outs else ca.SX(0, 1)
+    ysym = model.syms("output")
+    for _ in range(len(outs)):
+        if not ca.depends_on(y, ysym):
+            return y
+        y = ca.substitute(y, ysym, y)
+    raise ValueError(f"model {model.name}: outputs are defined cyclically")
+
+
+def dae_form(model: Model) -> DaeForm:
+    """The unknowns w, their equations and every function the runtime calls."""
+    xs, zs = model.of_kind("state"), model.of_kind("algebraic")
+    w = ca.vertcat(model.ders(), model.syms("algebraic"))
+    F = ca.vertcat(*model.equations) if model.equations else ca.SX(0, 1)
+    if F.numel() != w.numel():
+        raise ValueError(
+            f"model {model.name}: {F.numel()} equations for {w.numel()} unknowns "
+            f"({len(xs)} derivatives + {len(zs)} algebraic variables)")
+    A = ca.jacobian(F, w)
+    wsol = None
+    if not ca.depends_on(A, w):
+        wsol = ca.solve(A, -ca.substitute(F, w, ca.DM.zeros(w.numel())))
+    q = model.syms("mode")
+    y = _outputs_in_w(model)
+    e = ca.vertcat(*[ev.expr for ev in model.events]) if model.events else ca.SX(0, 1)
+    modes = model.of_kind("mode")
+    valid = ca.vertcat(*[model.mode_valid[v.name] for v in modes]) if modes else ca.SX(0, 1)
+    x = model.syms("state")
+    reinit = ca.vertcat(*[model.reinits.get(v.name, v.sym) for v in xs]) if xs else ca.SX(0, 1)
+    if ca.depends_on(reinit, w):
+        raise ValueError(f"model {model.name}: reinit expressions may not use derivatives "
+                         "or algebraic variables")
+    return DaeForm(model, model.t, x, w, model.syms("input"), model.syms("parameter"), q,
+                   F, wsol, y, e, valid, reinit)

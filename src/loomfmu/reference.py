@@ -1,33 +1,41 @@
 """The scipy reference: the same declaration, integrated by ``solve_ivp``.
 
-The right-hand side is the model's :class:`~loomfmu.ode.OdeForm` evaluated
-from Python (a CasADi function per call).  The integration is piecewise:
-every event indicator of the model (e.g. the heald frame's dwell boundaries)
-is a terminal ``solve_ivp`` event, and the integration restarts at each
-located breakpoint, so no step straddles a kink of the right-hand side.
+The right-hand side is the model's :class:`~loomfmu.ode.DaeForm` evaluated
+from Python: the unknowns w = [der(x); z] in closed form, or by a Newton
+iteration written here (independent of the C runtime's) for models whose
+equations are nonlinear in w.  The integration is piecewise: every event
+indicator of the model (breakpoints, friction switches) is a terminal
+``solve_ivp`` event; at each located event the mode it governs is re-chosen
+by the same rule as the FMU's (first value in priority order whose validity
+is >= 0 after reinit), written again here, and the integration restarts.
 Inputs are held at constant values, as the FMU holds them over a
 communication step.
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from .declare import Model
-from .ode import explicit_ode
+from .ode import DaeForm, dae_form
+
+#: after an event, integrate this long with that event off before watching it
+#: again (its indicator may restart at zero, which solve_ivp counts as a root)
+EVENT_GAP = 1e-10
 
 
 @dataclass
 class Reference:
     t: np.ndarray                 # requested output times
-    y: dict[str, np.ndarray]      # outputs and states by name
+    y: dict[str, np.ndarray]      # outputs, states and modes by name
     wall_seconds: float
     n_rhs: int
     n_segments: int
+    switches: list[tuple[float, str, int, int]] = field(default_factory=list)
 
 
 def _values(model: Model, kind: str, overrides: dict[str, float]) -> np.ndarray:
@@ -37,6 +45,61 @@ def _values(model: Model, kind: str, overrides: dict[str, float]) -> np.ndarray:
         v.check_value(value)
         vals.append(value)
     return np.array(vals)
+
+
+class _Dae:
+    """Numeric evaluation of a DaeForm with the inputs and parameters fixed."""
+
+    def __init__(self, dae: DaeForm, u: np.ndarray, p: np.ndarray, q: np.ndarray):
+        self.dae, self.u, self.p, self.q = dae, u, p, q.astype(float)
+        self.nx, self.nw = dae.nx, dae.w.numel()
+        f = dae.function
+        self.wsol = None if dae.implicit else f("wsol", [dae.wsol], ["w_sol"])
+        self.F = f("F", [dae.F], ["F"])
+        self.Fw = f("Fw", [ca.jacobian(dae.F, dae.w)], ["Fw"])
+        self.out = f("out", [ca.vertcat(dae.y, dae.w[dae.nx:, 0])], ["y"])
+        self.evt = f("evt", [dae.e], ["e"])
+        self.valid = f("valid", [dae.valid], ["v"])
+        self.reinit = f("reinit", [dae.reinit], ["x_new"])
+        self.w = np.zeros(self.nw)
+        self.n_rhs = 0
+
+    def args(self, t, x, w=None):
+        return (t, x, self.w if w is None else w, self.u, self.p, self.q)
+
+    def solve(self, t, x) -> np.ndarray:
+        if self.wsol is not None:
+            self.w = np.asarray(self.wsol(*self.args(t, x))).ravel()
+            return self.w
+        w = self.w.copy()
+        for _ in range(50):
+            F = np.asarray(self.F(*self.args(t, x, w))).ravel()
+            dw = np.linalg.solve(np.asarray(self.Fw(*self.args(t, x, w))), F)
+            w -= dw
+            if np.all(np.abs(dw) <= 1e-13 + 1e-11 * np.abs(w)):
+                self.w = w
+                return w
+        raise RuntimeError(f"reference: Newton did not converge at t = {t}")
+
+    def rhs(self, t, x):
+        self.n_rhs += 1
+        return self.solve(t, x)[: self.nx]
+
+    def outputs(self, t, x):
+        return np.asarray(self.out(*self.args(t, x, self.solve(t, x)))).ravel()
+
+    def choose_mode(self, k: int, values: tuple[int, ...], t, x) -> np.ndarray:
+        """First value of mode k, in priority order, consistent after reinit."""
+        for value in values:
+            self.q[k] = value
+            x_try = np.asarray(self.reinit(*self.args(t, x))).ravel()
+            try:
+                w = self.solve(t, x_try)
+            except (RuntimeError, np.linalg.LinAlgError):
+                continue
+            if float(self.valid(*self.args(t, x_try, w))[k]) >= 0:
+                return x_try
+        raise RuntimeError(f"reference: no consistent value of mode {k} at t = {t}")
 
 
 def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: float = 1e-10,
@@ -65,31 +128,41 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
         t_eval = np.linspace(0.0, t_end, n + 1)
     t_eval = np.asarray(t_eval, dtype=float)
 
-    ode = explicit_ode(model)
-    p, u = _values(model, "parameter", values), _values(model, "input", values)
-    x0 = _values(model, "state", values)
-    f = ode.function("f", [ode.f], ["xdot"])
-    g = ode.function("g", [ca.vertcat(ode.y, ode.z)], ["y"])
-    e = ode.function("e", [ode.e], ["e"])
-    counter = [0]
+    dae = dae_form(model)
+    modes = model.of_kind("mode")
+    d = _Dae(dae, _values(model, "input", values), _values(model, "parameter", values),
+             np.array([int(v.start) for v in modes], dtype=float))
+    x = _values(model, "state", values)
+    mode_of_event = [next((i for i, v in enumerate(modes)
+                           if model.event_modes.get(ev.name) == v.name), None)
+                     for ev in model.events]
 
-    def rhs(t, x):
-        counter[0] += 1
-        return np.asarray(f(t, x, u, p)).ravel()
+    # consistent initial modes
+    for k, v in enumerate(modes):
+        try:
+            ok = float(d.valid(*d.args(0.0, x, d.solve(0.0, x)))[k]) >= 0
+        except (RuntimeError, np.linalg.LinAlgError):
+            ok = False
+        if not ok:
+            x = d.choose_mode(k, model.mode_values[v.name], 0.0, x)
 
     def make_event(k):
         def ev(t, x):
-            return float(e(t, x, u, p)[k])
+            return float(d.evt(*d.args(t, x, d.solve(t, x)))[k])
         ev.terminal = True
         return ev
 
-    events = [make_event(k) for k in range(ode.e.numel())]
-    xs = np.empty((len(t_eval), len(x0)))
-    t0, x, skip, segments = 0.0, x0.copy(), None, 0
+    events = [make_event(k) for k in range(dae.e.numel())]
+    xs = np.empty((len(t_eval), len(x)))
+    qs = np.empty((len(t_eval), len(modes)))
+    switches: list[tuple[float, str, int, int]] = []
+    t0, segments, off = 0.0, 0, None
     wall = time.perf_counter()
     while True:
-        active = [ev for k, ev in enumerate(events) if k != skip]
-        sol = solve_ivp(rhs, (t0, t_end), x, method=method, rtol=rtol, atol=atol,
+        gap = off is not None
+        t1_seg = min(t0 + EVENT_GAP * max(1.0, abs(t0)), t_end) if gap else t_end
+        active = [ev for k, ev in enumerate(events) if k != off] if gap else events
+        sol = solve_ivp(d.rhs, (t0, t1_seg), x, method=method, rtol=rtol, atol=atol,
                         events=active or None, dense_output=True)
         if sol.status < 0:
             raise RuntimeError(f"reference for {model.name} failed at t = {sol.t[-1]}: "
@@ -99,15 +172,31 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
         sel = (t_eval >= t0) & (t_eval <= t1)
         if sel.any():
             xs[sel] = sol.sol(t_eval[sel]).T
+            qs[sel] = d.q
+        x = sol.y[:, -1]
         if sol.status == 0:
-            break
-        fired = [k for k, te in enumerate(sol.t_events) if len(te)]
-        skip = [i for i, ev in enumerate(events) if ev is active[fired[0]]][0]
-        t0, x = t1, sol.y[:, -1]
+            if t1 >= t_end:
+                break
+            t0, off = t1, None  # end of the gap segment: watch every event again
+            continue
+        fired = next(k for k, te in enumerate(sol.t_events) if len(te))
+        k_event = events.index(active[fired])
+        j = mode_of_event[k_event]
+        if j is not None:
+            old = int(d.q[j])
+            x = d.choose_mode(j, model.mode_values[modes[j].name], t1, x)
+            if int(d.q[j]) != old:
+                switches.append((t1, modes[j].name, old, int(d.q[j])))
+        t0, off = t1, k_event
     wall = time.perf_counter() - wall
 
-    ys = np.array([np.asarray(g(t, xi, u, p)).ravel() for t, xi in zip(t_eval, xs)])
     out = {v.name: xs[:, i] for i, v in enumerate(model.of_kind("state"))}
+    out.update({v.name: qs[:, i] for i, v in enumerate(modes)})
     names = [v.name for v in model.of_kind("output") + model.of_kind("algebraic")]
+    ys = []
+    for t, xi, qi in zip(t_eval, xs, qs):
+        d.q[:] = qi
+        ys.append(d.outputs(t, xi))
+    ys = np.array(ys).reshape(len(t_eval), len(names))
     out.update({name: ys[:, i] for i, name in enumerate(names)})
-    return Reference(t_eval, out, wall, counter[0], segments)
+    return Reference(t_eval, out, wall, d.n_rhs, segments, switches)

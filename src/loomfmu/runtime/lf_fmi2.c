@@ -189,8 +189,9 @@ fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
     size_t i;
     CHECK("fmi2GetInteger", VALUES_STATES | LF_ST_ERROR);
     for (i = 0; i < nvr; i++) {
-        if (vr[i] != LF_VR_SOLVER) return no_such((LfInstance *)c, "fmi2GetInteger", "Integer", vr[i]);
-        value[i] = ((LfInstance *)c)->solver_id;
+        int v;
+        if (lf_get_integer((LfInstance *)c, vr[i], &v) != LF_OK) return fmi2Error;
+        value[i] = v;
     }
     return fmi2OK;
 }

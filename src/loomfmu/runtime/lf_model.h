@@ -1,9 +1,13 @@
 /* loomfmu shared runtime: the contract a generated model fulfils.
  *
  * A model contributes CasADi-generated functions with the fixed argument
- * list (t, x, u, p) and one `const LfModel lf_model` (model_decl.c), both
- * written by loomfmu.codegen from the Python declaration.  Nothing here is
- * written by hand per model.
+ * list (t, x, w, u, p, q) and one `const LfModel lf_model` (model_decl.c),
+ * both written by loomfmu.codegen from the Python declaration.  Nothing here
+ * is written by hand per model.
+ *
+ * w = [der(x); z] are the unknowns of the model's equations F = 0: given in
+ * closed form by `wsol` (LF_IMPLICIT == 0) or found by Newton on `res` with
+ * the exact dF/dw from `rjac` (LF_IMPLICIT == 1).  q are the discrete modes.
  */
 #ifndef LF_MODEL_H
 #define LF_MODEL_H
@@ -29,7 +33,18 @@ typedef struct {
     LfCasadiWork work;
 } LfFunction;
 
-enum { LF_FN_ODE = 0, LF_FN_JAC = 1, LF_FN_OUT = 2, LF_FN_EVT = 3, LF_N_FN = 4 };
+/* in the order of loomfmu.codegen.FUNCTIONS */
+enum {
+    LF_FN_WSOL = 0,   /* -> w                        (explicit models) */
+    LF_FN_WJAC = 1,   /* -> dw/dx, dw/dt             (explicit models) */
+    LF_FN_RES = 2,    /* -> F                        (implicit models) */
+    LF_FN_RJAC = 3,   /* -> dF/dw, dF/dx, dF/dt      (implicit models) */
+    LF_FN_OUT = 4,    /* -> outputs, algebraic locals */
+    LF_FN_EVT = 5,    /* -> event indicators */
+    LF_FN_VALID = 6,  /* -> >= 0 where the current mode is consistent */
+    LF_FN_REINIT = 7, /* -> states after a mode change */
+    LF_N_FN = 8
+};
 
 /* Real value references are laid out as
  *   settings | parameters | states | inputs | outputs | algebraic locals */
@@ -39,8 +54,9 @@ enum { LF_FN_ODE = 0, LF_FN_JAC = 1, LF_FN_OUT = 2, LF_FN_EVT = 3, LF_N_FN = 4 }
 #define LF_VR_Y0 (LF_VR_U0 + LF_NU)
 #define LF_VR_Z0 (LF_VR_Y0 + LF_NY)
 #define LF_NREAL (LF_VR_Z0 + LF_NZ)
-/* Integer value reference of the `solver` enumeration */
+/* Integer value references: the `solver` enumeration, then the modes */
 #define LF_VR_SOLVER 0
+#define LF_VR_Q0 1
 
 typedef struct {
     const char *identifier;
@@ -52,8 +68,13 @@ typedef struct {
     const double *real_max;
     const LfKind *real_kind;
     const char *const *event_names;
+    const int *event_mode;           /* mode re-chosen at each event, -1: none */
+    const char *const *mode_names;
+    const int *mode_start;
+    const int *mode_value_offset;    /* values of mode k: [offset[k], offset[k+1]) */
+    const double *mode_values;       /* in priority order */
     const char *const *solver_names; /* must match lf_methods[] */
-    LfFunction fn[LF_N_FN];          /* ode, jac, out, evt */
+    LfFunction fn[LF_N_FN];
 } LfModel;
 
 extern const LfModel lf_model;

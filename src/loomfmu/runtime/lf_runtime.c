@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "lf_linalg.h"
 #include "lf_runtime.h"
 
 const char *const lf_log_category_names[LF_N_LOG] = LF_LOG_CATEGORY_NAMES;
@@ -21,6 +22,7 @@ void lf_log(LfInstance *c, LfStatus status, LfLogCategory cat, const char *fmt, 
     /* errors and discards are always reported; the rest on request */
     if (!c || !c->log) return;
     if (!c->log_on[cat] && cat != LF_LOG_ERROR && cat != LF_LOG_DISCARD) return;
+    if (c->quiet && cat == LF_LOG_DISCARD) return;
     va_start(ap, fmt);
     vsnprintf(buf, sizeof buf, fmt, ap);
     va_end(ap);
@@ -63,7 +65,10 @@ void lf_free(LfInstance *c) {
 
 void lf_reset_values(LfInstance *c) {
     unsigned vr;
+    int k;
     for (vr = 0; vr < LF_NREAL; vr++) c->r[vr] = lf_model.real_start[vr];
+    for (k = 0; k < LF_NQ; k++) c->q[k] = lf_model.mode_start[k];
+    memset(c->w_cur, 0, sizeof c->w_cur);
     c->solver_id = 1;
     c->t = c->t_start = c->last_successful_time = 0.0;
     c->outputs_valid = 0;
@@ -101,14 +106,18 @@ LfInstance *lf_instantiate(const char *name, LfLogFn log, void *log_env,
 
 /* ---- evaluating the generated functions ------------------------------- */
 
-static LfStatus eval_fn(LfInstance *c, int fn, double t, const double *x,
-                        double *out0, double *out1) {
+/* Call generated function `fn` at (t, x, w) with the instance's u, p, q. */
+static LfStatus eval_fn(LfInstance *c, int fn, double t, const double *x, const double *w,
+                        double *out0, double *out1, double *out2) {
     c->arg[0] = &t;
     c->arg[1] = x;
-    c->arg[2] = &c->r[LF_VR_U0];
-    c->arg[3] = &c->r[LF_VR_P0];
+    c->arg[2] = w;
+    c->arg[3] = &c->r[LF_VR_U0];
+    c->arg[4] = &c->r[LF_VR_P0];
+    c->arg[5] = c->q;
     c->res[0] = out0;
-    if (fn == LF_FN_JAC) c->res[1] = out1;
+    if (fn == LF_FN_WJAC || fn == LF_FN_RJAC) c->res[1] = out1;
+    if (fn == LF_FN_RJAC) c->res[2] = out2;
     return lf_model.fn[fn].eval(c->arg, c->res, c->iw, c->w, 0) ? LF_ERROR : LF_OK;
 }
 
@@ -119,26 +128,96 @@ static int first_nonfinite(const double *v, size_t n) {
     return -1;
 }
 
-static LfStatus rhs_cb(void *ctx, double t, const double *x, double *dx) {
-    LfInstance *c = (LfInstance *)ctx;
-    int bad;
-    if (eval_fn(c, LF_FN_ODE, t, x, dx, NULL) != LF_OK) return LF_ERROR;
-    bad = first_nonfinite(dx, LF_NX);
-    if (bad >= 0) {
+#define LF_NEWTON_MAX_ITER 30
+#define LF_NEWTON_RTOL 1e-10
+#define LF_NEWTON_ATOL 1e-12
+
+/* Factor dF/dw at (t, x, w) into c->jac_ww (implicit models). */
+static LfStatus factor_dFdw(LfInstance *c, double t, const double *x, const double *w) {
+    if (eval_fn(c, LF_FN_RJAC, t, x, w, c->jac_ww, c->jac_wx, c->jac_wt) != LF_OK)
+        return LF_ERROR;
+    if (lf_lu_factor(c->jac_ww, LF_NW, c->piv) != 0) {
         lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
-               "t = %.17g: derivative of state %s is %g", t,
-               lf_model.real_names[LF_VR_X0 + bad], dx[bad]);
+               "t = %.17g: algebraic loop has no unique solution (dF/dw singular)", t);
         return LF_DISCARD;
     }
     return LF_OK;
 }
 
+/* Newton on F(t, x, w) = 0 from c->w_cur, with the exact dF/dw. */
+static LfStatus newton(LfInstance *c, double t, const double *x, double *w) {
+    int it, i;
+    LfStatus st;
+    memcpy(w, c->w_cur, sizeof(double) * LF_NW);
+    for (it = 0; it < LF_NEWTON_MAX_ITER; it++) {
+        int done = 1;
+        if (eval_fn(c, LF_FN_RES, t, x, w, c->res_F, NULL, NULL) != LF_OK) return LF_ERROR;
+        if (first_nonfinite(c->res_F, LF_NW) >= 0) break;
+        st = factor_dFdw(c, t, x, w);
+        if (st != LF_OK) return st;
+        lf_lu_solve(c->jac_ww, LF_NW, c->piv, c->res_F);
+        for (i = 0; i < LF_NW; i++) {
+            w[i] -= c->res_F[i];
+            if (fabs(c->res_F[i]) > LF_NEWTON_ATOL + LF_NEWTON_RTOL * fabs(w[i])) done = 0;
+        }
+        if (done && first_nonfinite(w, LF_NW) < 0) return LF_OK;
+    }
+    c->n_newton_fail++;
+    lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
+           "t = %.17g: algebraic loop: Newton did not converge in %d iterations", t,
+           LF_NEWTON_MAX_ITER);
+    return LF_DISCARD;
+}
+
+/* The unknowns w = [der(x); z] at (t, x). */
+static LfStatus solve_w(LfInstance *c, double t, const double *x, double *w) {
+    LfStatus st;
+    int bad;
+    if (LF_IMPLICIT) {
+        st = newton(c, t, x, w);
+        if (st != LF_OK) return st;
+    } else if (eval_fn(c, LF_FN_WSOL, t, x, w, w, NULL, NULL) != LF_OK) {
+        return LF_ERROR;
+    }
+    bad = first_nonfinite(w, LF_NW);
+    if (bad >= 0) {
+        lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: unknown %d of the model equations "
+               "(derivative or algebraic variable) is %g", t, bad, w[bad]);
+        return LF_DISCARD;
+    }
+    memcpy(c->w_cur, w, sizeof(double) * LF_NW);
+    return LF_OK;
+}
+
+static LfStatus rhs_cb(void *ctx, double t, const double *x, double *dx) {
+    LfInstance *c = (LfInstance *)ctx;
+    LfStatus st = solve_w(c, t, x, c->w_tmp);
+    if (st != LF_OK) return st;
+    memcpy(dx, c->w_tmp, sizeof(double) * LF_NX);
+    return LF_OK;
+}
+
+/* df/dx and df/dt: the first LF_NX rows of dw/dx, dw/dt, which implicit
+ * models get from the implicit function theorem, dw = -(dF/dw)^-1 dF. */
 static LfStatus jac_cb(void *ctx, double t, const double *x, double *J, double *dfdt) {
     LfInstance *c = (LfInstance *)ctx;
-    int bad;
-    if (eval_fn(c, LF_FN_JAC, t, x, J, dfdt) != LF_OK) return LF_ERROR;
-    bad = first_nonfinite(J, (size_t)LF_NX * LF_NX);
-    if (bad >= 0 || first_nonfinite(dfdt, LF_NX) >= 0) {
+    int i, j;
+    LfStatus st;
+    if (LF_IMPLICIT) {
+        st = solve_w(c, t, x, c->w_tmp);
+        if (st == LF_OK) st = factor_dFdw(c, t, x, c->w_tmp);
+        if (st != LF_OK) return st;
+        for (j = 0; j < LF_NX; j++) lf_lu_solve(c->jac_ww, LF_NW, c->piv, &c->jac_wx[j * LF_NW]);
+        lf_lu_solve(c->jac_ww, LF_NW, c->piv, c->jac_wt);
+        for (i = 0; i < LF_NW * LF_NX; i++) c->jac_wx[i] = -c->jac_wx[i];
+        for (i = 0; i < LF_NW; i++) c->jac_wt[i] = -c->jac_wt[i];
+    } else if (eval_fn(c, LF_FN_WJAC, t, x, c->w_cur, c->jac_wx, c->jac_wt, NULL) != LF_OK) {
+        return LF_ERROR;
+    }
+    for (j = 0; j < LF_NX; j++)
+        for (i = 0; i < LF_NX; i++) J[i + j * LF_NX] = c->jac_wx[i + j * LF_NW];
+    memcpy(dfdt, c->jac_wt, sizeof(double) * LF_NX);
+    if (first_nonfinite(J, (size_t)LF_NX * LF_NX) >= 0 || first_nonfinite(dfdt, LF_NX) >= 0) {
         lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: Jacobian is not finite", t);
         return LF_DISCARD;
     }
@@ -149,7 +228,11 @@ LfStatus lf_update_outputs(LfInstance *c) {
     double y[LF_DIM(LF_NY + LF_NZ)];
     int bad;
     if (c->outputs_valid || LF_NY + LF_NZ == 0) return LF_OK;
-    if (eval_fn(c, LF_FN_OUT, c->t, &c->r[LF_VR_X0], y, NULL) != LF_OK) {
+    if (solve_w(c, c->t, &c->r[LF_VR_X0], c->w_tmp) != LF_OK) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: model equations cannot be solved", c->t);
+        return LF_ERROR;
+    }
+    if (eval_fn(c, LF_FN_OUT, c->t, &c->r[LF_VR_X0], c->w_tmp, y, NULL, NULL) != LF_OK) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: output function failed", c->t);
         return LF_ERROR;
     }
@@ -214,6 +297,21 @@ LfStatus lf_get_real(LfInstance *c, unsigned vr, double *value) {
     return LF_OK;
 }
 
+LfStatus lf_get_integer(LfInstance *c, unsigned vr, int *value) {
+    if (vr == LF_VR_SOLVER) {
+        *value = c->solver_id;
+        return LF_OK;
+    }
+    if (vr >= LF_VR_Q0 && vr < LF_VR_Q0 + LF_NQ) {
+        *value = (int)c->q[vr - LF_VR_Q0];
+        return LF_OK;
+    }
+    lf_log(c, LF_ERROR, LF_LOG_ERROR,
+           "fmi2GetInteger: value reference %u is not an Integer (expected < %d)", vr,
+           LF_VR_Q0 + LF_NQ);
+    return LF_ERROR;
+}
+
 LfStatus lf_set_solver(LfInstance *c, int id) {
     if (id < 1 || id > (int)lf_n_methods) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "solver = %d is not a solver (expected 1..%d)", id,
@@ -232,10 +330,65 @@ LfStatus lf_set_solver(LfInstance *c, int id) {
 /* ---- stepping ------------------------------------------------------------ */
 
 static LfStatus eval_events(LfInstance *c, double t, const double *x, double *e) {
+    LfStatus st;
     if (LF_NE == 0) return LF_OK;
-    if (eval_fn(c, LF_FN_EVT, t, x, e, NULL) != LF_OK || first_nonfinite(e, LF_NE) >= 0) {
+    st = solve_w(c, t, x, c->w_tmp);
+    if (st != LF_OK) return st;
+    if (eval_fn(c, LF_FN_EVT, t, x, c->w_tmp, e, NULL, NULL) != LF_OK ||
+        first_nonfinite(e, LF_NE) >= 0) {
         lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: event indicators not finite", t);
         return LF_DISCARD;
+    }
+    return LF_OK;
+}
+
+/* Choose the value of mode k at (t, x): the first value, in the declared
+ * priority order, that is consistent (validity >= 0) once the states are
+ * reinitialized for it.  x is updated with the reinitialized states. */
+static LfStatus choose_mode(LfInstance *c, int k, double t, double *x) {
+    double old = c->q[k], x_try[LF_DIM(LF_NX)], valid[LF_DIM(LF_NQ)];
+    int j;
+    for (j = lf_model.mode_value_offset[k]; j < lf_model.mode_value_offset[k + 1]; j++) {
+        LfStatus st;
+        c->q[k] = lf_model.mode_values[j];
+        if (eval_fn(c, LF_FN_REINIT, t, x, c->w_cur, x_try, NULL, NULL) != LF_OK)
+            return LF_ERROR;
+        c->quiet++;
+        st = solve_w(c, t, x_try, c->w_tmp);
+        c->quiet--;
+        if (st != LF_OK) continue; /* cannot be solved in this mode */
+        if (eval_fn(c, LF_FN_VALID, t, x_try, c->w_tmp, valid, NULL, NULL) != LF_OK)
+            return LF_ERROR;
+        if (valid[k] >= 0) {
+            memcpy(x, x_try, sizeof(double) * LF_NX);
+            if (c->q[k] != old)
+                lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: mode %s: %g -> %g", t,
+                       lf_model.mode_names[k], old, c->q[k]);
+            return LF_OK;
+        }
+    }
+    c->q[k] = old;
+    lf_log(c, LF_ERROR, LF_LOG_ERROR,
+           "t = %.17g: no value of mode %s is consistent here (the model has no "
+           "solution with any of its declared values)", t, lf_model.mode_names[k]);
+    return LF_ERROR;
+}
+
+/* Make every mode consistent at the start (keep the start value if valid). */
+static LfStatus initial_modes(LfInstance *c) {
+    double valid[LF_DIM(LF_NQ)], *x = &c->r[LF_VR_X0];
+    int k;
+    LfStatus st;
+    for (k = 0; k < LF_NQ; k++) {
+        c->quiet++;
+        st = solve_w(c, c->t, x, c->w_tmp);
+        c->quiet--;
+        if (st == LF_OK &&
+            eval_fn(c, LF_FN_VALID, c->t, x, c->w_tmp, valid, NULL, NULL) == LF_OK &&
+            valid[k] >= 0)
+            continue;
+        st = choose_mode(c, k, c->t, x);
+        if (st != LF_OK) return st;
     }
     return LF_OK;
 }
@@ -254,6 +407,7 @@ LfStatus lf_initialize(LfInstance *c) {
     opt.h_fixed = c->r[LF_SET_H_FIXED];
     opt.max_steps = c->max_steps;
     c->t = c->last_successful_time = c->t_start;
+    if (LF_NQ > 0 && initial_modes(c) != LF_OK) return LF_ERROR;
     st = lf_solver_init(&c->solver, lf_methods[c->solver_id - 1], ode, opt, c->t_start,
                         &c->r[LF_VR_X0], &c->alloc);
     if (st != LF_OK) {
@@ -374,6 +528,14 @@ static LfStatus handle_events(LfInstance *c) {
     }
     st = cross_gap(c, first, s->t, s->x, t_right - s->t + margin);
     if (st != LF_OK) return st;
+    if (lf_model.event_mode[first] >= 0) {
+        memcpy(c->x_tmp, s->x, sizeof(double) * LF_NX);
+        st = choose_mode(c, lf_model.event_mode[first], s->t, c->x_tmp);
+        if (st != LF_OK) return st;
+        lf_solver_reset(s, s->t, c->x_tmp);
+        st = eval_events(c, s->t, s->x, c->e_old);
+        if (st != LF_OK) return st;
+    }
     lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: event %s, solver restarted", s->t,
            lf_model.event_names[first]);
     return LF_OK;

@@ -55,6 +55,18 @@ typedef struct {
     long long *iw;
     double *w;
 
+    double q[LF_DIM(LF_NQ)];      /* discrete modes */
+    double w_cur[LF_DIM(LF_NW)];  /* unknowns at the last solve: Newton's start */
+    double w_tmp[LF_DIM(LF_NW)];
+    /* exact Jacobians: dw/dx (explicit) or dF/dw, dF/dx (implicit) */
+    double jac_wx[LF_DIM(LF_NW * LF_NX)];
+    double jac_ww[LF_IMPLICIT ? LF_DIM(LF_NW * LF_NW) : 1];
+    double jac_wt[LF_DIM(LF_NW)];
+    double res_F[LF_DIM(LF_NW)];
+    size_t piv[LF_DIM(LF_NW)];
+    long n_newton_fail;
+    int quiet;                    /* > 0: trial solves, do not log their failures */
+
     LfSolver solver;
     int solver_ready;
     double e_old[LF_DIM(LF_NE)];
@@ -73,6 +85,7 @@ void lf_log(LfInstance *c, LfStatus status, LfLogCategory cat, const char *fmt, 
 LfStatus lf_set_real(LfInstance *c, unsigned vr, double value);
 LfStatus lf_get_real(LfInstance *c, unsigned vr, double *value);
 LfStatus lf_set_solver(LfInstance *c, int id);
+LfStatus lf_get_integer(LfInstance *c, unsigned vr, int *value);
 
 /* Start the solver at t_start with the current states (exit initialization). */
 LfStatus lf_initialize(LfInstance *c);
