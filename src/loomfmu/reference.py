@@ -23,8 +23,10 @@ from scipy.integrate import solve_ivp
 from .declare import Model
 from .ode import DaeForm, dae_form
 
-#: after an event, integrate this long with that event off before watching it
-#: again (its indicator may restart at zero, which solve_ivp counts as a root)
+#: after a located event, integrate this long (relative to max(1, |t|)) in the
+#: old mode with no event watched, so that the mode is chosen on the root's new
+#: side (the root itself is only known to rounding; an indicator restarting
+#: at zero would also count as a root for solve_ivp)
 EVENT_GAP = 1e-10
 
 
@@ -156,12 +158,13 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
     xs = np.empty((len(t_eval), len(x)))
     qs = np.empty((len(t_eval), len(modes)))
     switches: list[tuple[float, str, int, int]] = []
-    t0, segments, off = 0.0, 0, None
+    t0, segments, pending = 0.0, 0, None
     wall = time.perf_counter()
     while True:
-        gap = off is not None
-        t1_seg = min(t0 + EVENT_GAP * max(1.0, abs(t0)), t_end) if gap else t_end
-        active = [ev for k, ev in enumerate(events) if k != off] if gap else events
+        if pending is None:  # up to the next event or the end
+            t1_seg, active = t_end, events
+        else:  # across the root, in the old mode, with no event watched
+            t1_seg, active = min(t0 + EVENT_GAP * max(1.0, abs(t0)), t_end), []
         sol = solve_ivp(d.rhs, (t0, t1_seg), x, method=method, rtol=rtol, atol=atol,
                         events=active or None, dense_output=True)
         if sol.status < 0:
@@ -174,20 +177,20 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
             xs[sel] = sol.sol(t_eval[sel]).T
             qs[sel] = d.q
         x = sol.y[:, -1]
-        if sol.status == 0:
-            if t1 >= t_end:
-                break
-            t0, off = t1, None  # end of the gap segment: watch every event again
-            continue
-        fired = next(k for k, te in enumerate(sol.t_events) if len(te))
-        k_event = events.index(active[fired])
-        j = mode_of_event[k_event]
-        if j is not None:
-            old = int(d.q[j])
-            x = d.choose_mode(j, model.mode_values[modes[j].name], t1, x)
-            if int(d.q[j]) != old:
-                switches.append((t1, modes[j].name, old, int(d.q[j])))
-        t0, off = t1, k_event
+        if pending is not None:  # on the new side now: re-choose the mode
+            j = mode_of_event[pending]
+            if j is not None:
+                old = int(d.q[j])
+                x = d.choose_mode(j, model.mode_values[modes[j].name], t1, x)
+                if int(d.q[j]) != old:
+                    switches.append((t1, modes[j].name, old, int(d.q[j])))
+            pending = None
+        elif sol.status == 1:
+            fired = next(k for k, te in enumerate(sol.t_events) if len(te))
+            pending = events.index(active[fired])
+        if t1 >= t_end:
+            break
+        t0 = t1
     wall = time.perf_counter() - wall
 
     out = {v.name: xs[:, i] for i, v in enumerate(model.of_kind("state"))}
