@@ -12,6 +12,8 @@ from .declare import Model
 #: model name -> (module in loomfmu.models, build options)
 MODELS: dict[str, tuple[str, dict]] = {
     "heald_frame": ("heald_frame", {}),
+    "backrest": ("backrest", {}),
+    "backrest_regularized": ("backrest", {"friction": "regularized"}),
 }
 
 
