@@ -74,3 +74,23 @@ def slave_factory():
             s.fmu.freeInstance()
         except Exception:
             pass
+
+
+@pytest.fixture(scope="session")
+def heald_frame_planar_fmu(dist):
+    return build_fmu(load_model("heald_frame_planar"), out_dir=dist)
+
+
+@pytest.fixture(scope="session")
+def heald_frame_rigid_fmu(dist):
+    return build_fmu(load_model("heald_frame_rigid"), out_dir=dist)
+
+
+@pytest.fixture(scope="session")
+def spindle_fmu(dist):
+    return build_fmu(load_model("spindle"), out_dir=dist)
+
+
+@pytest.fixture(scope="session")
+def spindle_modal_fmu(dist):
+    return build_fmu(load_model("spindle_modal"), out_dir=dist)

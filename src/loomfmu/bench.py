@@ -112,9 +112,53 @@ def speed(model_name: str = "heald_frame", repeats: int = 5, scale: float = 1.0,
             "curves": curves, "at_target": table}
 
 
+def friction(repeats: int = 3, eps_values=(1e-1, 1e-2, 1e-3, 1e-4, 1e-5),
+             k_static_values=(1.3, 1.0)) -> dict:
+    """Backrest: the regularized friction model (torque ~ tanh(speed / eps))
+    against the event-driven one, error and cost as eps shrinks, with static
+    friction above kinetic (k_static = 1.3, the default) and equal (1.0).
+
+    Error: max over phi1, omega1, omega2, S2 of max |y - y_ref| / range(y_ref)
+    on the 1 ms grid; y_ref: the event-driven model by scipy at rtol 1e-11.
+    Each FMU runs with rtol 1e-8 (dopri5, rodas4) through FMPy; median wall time.
+    """
+    names = ["phi1_out", "omega1_out", "omega2_out", "S2"]
+    event_model = load_model("backrest")
+    rows, switches = [], {}
+    with tempfile.TemporaryDirectory() as tmp:
+        ev_fmu = build_fmu(event_model, out_dir=tmp, validate=False).path
+        reg_fmu = build_fmu(load_model("backrest", friction="regularized"), out_dir=tmp,
+                            validate=False).path
+        grid = simulate(ev_fmu, output=["phi1_out"]).t
+        for k_static in k_static_values:
+            ref = reference(event_model, t_end=grid[-1], t_eval=grid, rtol=1e-11,
+                            atol=1e-13, values={"k_static": k_static})
+            switches[k_static] = len(ref.switches)
+            for solver in ("dopri5", "rodas4"):
+                wall, run = _median_time(lambda: simulate(
+                    ev_fmu, solver=solver, rtol=1e-8, atol=1e-11, output=names,
+                    values={"k_static": k_static}), repeats)
+                rows.append({"k_static": k_static, "model": "event-driven", "eps": None,
+                             "solver": solver, "seconds": wall,
+                             "error": _worst(compare(run, ref, names))})
+                for eps in eps_values:
+                    try:
+                        wall, run = _median_time(lambda: simulate(
+                            reg_fmu, solver=solver, rtol=1e-8, atol=1e-11, output=names,
+                            values={"eps": eps, "k_static": k_static}), repeats)
+                        err = _worst(compare(run, ref, names))
+                    except Exception as exc:  # a failed run is a result here
+                        wall, err = None, f"failed: {exc}"
+                    rows.append({"k_static": k_static, "model": "regularized", "eps": eps,
+                                 "solver": solver, "seconds": wall, "error": err})
+    return {"scene": "backrest, 1 s, built-in shedding at 240 rpm",
+            "error_measure": friction.__doc__.split("Error: ", 1)[1].split("\n\n")[0],
+            "n_switches_reference": switches, "rows": rows}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description="loomfmu benchmarks")
-    ap.add_argument("what", choices=["speed"])
+    ap.add_argument("what", choices=["speed", "friction"])
     ap.add_argument("--model", default="heald_frame")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--scales", type=float, nargs="+", default=[1.0, 10.0],
@@ -123,6 +167,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.repeats < 1:
         raise ValueError(f"--repeats = {args.repeats}; allowed: >= 1")
+    if args.what == "friction":
+        return _main_friction(args)
     results = [speed(args.model, args.repeats, scale) for scale in args.scales]
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(results, indent=2))
@@ -143,6 +189,25 @@ def main(argv=None) -> int:
                   f"{ms(fmu):>10}{ms(sec.get('scipy_RK45')):>10}{ms(sec.get('scipy_DOP853')):>11}"
                   f"{x(sp.get('scipy_RK45')):>9}{x(sp.get('scipy_DOP853')):>11}")
     print(f"written: {args.out}")
+    return 0
+
+
+def _main_friction(args) -> int:
+    res = friction(args.repeats)
+    out = args.out if args.out != Path("docs/speed.json") else Path("docs/friction.json")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(res, indent=2))
+    print(f"{res['scene']}; mode switches in the reference by k_static: "
+          f"{res['n_switches_reference']}")
+    print(f"{'k_static':>8}  {'model':<14}{'eps rad/s':>11}{'solver':>8}{'FMU ms':>10}"
+          f"{'error':>12}")
+    for r in res["rows"]:
+        eps = "-" if r["eps"] is None else f"{r['eps']:.0e}"
+        sec = "-" if r["seconds"] is None else f"{r['seconds'] * 1e3:.1f}"
+        err = r["error"] if isinstance(r["error"], str) else f"{r['error']:.2e}"
+        print(f"{r['k_static']:>8}  {r['model']:<14}{eps:>11}{r['solver']:>8}{sec:>10}"
+              f"{err:>12}")
+    print(f"written: {out}")
     return 0
 
 

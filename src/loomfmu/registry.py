@@ -14,6 +14,10 @@ MODELS: dict[str, tuple[str, dict]] = {
     "heald_frame": ("heald_frame", {}),
     "backrest": ("backrest", {}),
     "backrest_regularized": ("backrest", {"friction": "regularized"}),
+    "heald_frame_planar": ("heald_frame_planar", {}),
+    "heald_frame_rigid": ("heald_frame_rigid", {}),
+    "spindle": ("spindle", {}),
+    "spindle_modal": ("spindle_modal", {}),
 }
 
 

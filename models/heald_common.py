@@ -1,0 +1,302 @@
+"""Declarations shared by the three heald-frame models (rigid, planar, spatial).
+
+Each ``declare_*`` function adds one group of variables to a
+:class:`~loomfmu.declare.Model` and returns the symbols and expressions the
+model modules need.  Nothing here is analysis: the kinetostatic formulas,
+the preset tables and the claims live in :mod:`loomfmu.heald`.
+
+Sources: seed 000 (Pchelin, spatial model: geometry, motion law, warp
+forces, influence coefficients, reduced masses) and seed 002 (Khozina,
+Gavrilov, Makarov: frame and heald masses, hinge load (1)-(5)).
+
+The hinge load (seed 002, (1)-(5), with the frame's actual accelerations).
+N_rem is the force of the frame on one drive hinge, positive upwards (seed
+002's sign).  Newton for the frame with healds (mass m_RR + m_heald), of
+which the reduced masses M_y move with the drive locks plus their elastic
+displacement y_i and the rest moves rigidly:
+
+    n_hinge N_rem = -[ (m_RR + m_heald) (g + h'') + sum_i M_yi y_i'' + f_y ]
+
+f_y > 0 (frame above the shed's centre line) pulls the frame down.  With a
+rigid frame (y_i'' = 0) this is seed 002's (4)-(5): weight, inertia
+(m_RR + M_STR m_G) a and the warp action N_OSN.  It needs the reduced masses
+to be part of the frame: sum M_y <= m_RR (checked by
+:func:`loomfmu.heald.presets.preset_values`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+
+from loomfmu.declare import Model
+
+SEED0 = "seed 000"
+SEED2 = "seed 002"
+DEG = math.pi / 180.0
+#: Dwell boundaries of the motion law in one revolution (seed 000, phi_a cases).
+BREAKPOINTS_DEG = (0.0, 40.0, 320.0)
+#: Standard gravity (seed 002 writes G = m g).
+G_STD = 9.80665
+
+
+def influence(d11, d22):
+    """The 3x3 influence matrix delta of (3): same structure for x and y."""
+    return ca.vertcat(ca.horzcat(d11, d11 / 2, 0), ca.horzcat(d11 / 2, d22, d11 / 2),
+                      ca.horzcat(0, d11 / 2, d11))
+
+
+def stiffness(d11, d22):
+    """C = delta^-1 in the seed's closed form (text after (2))."""
+    r = d22 / d11 - 0.25
+    m = ca.vertcat(ca.horzcat(r, -0.5, 0.25), ca.horzcat(-0.5, 1, -0.5),
+                   ca.horzcat(0.25, -0.5, r))
+    return m / (d22 - d11 / 2)
+
+
+def box_inertia(height, width, wall):
+    """Second moment of area of a rectangular box about the axis parallel to ``width``."""
+    return (width * height**3 - (width - 2 * wall) * (height - 2 * wall) ** 3) / 12
+
+
+def motion_law(phi, h_m, k_H, end_dwell="corrected"):
+    """Frame displacement H(phi) of the drive locks (seed 000, motion law).
+
+    phi_r = phi mod 2 pi; the sign (-1)^(k_f+1) alternates each revolution
+    (up in odd, down in even revolutions: one frame cycle = two revolutions).
+    Works on CasADi symbols and on floats.
+    """
+    rev = ca.floor(phi / (2 * math.pi))
+    phi_r = phi - 2 * math.pi * rev
+    rising = phi_r - 40 * DEG
+    if end_dwell == "corrected":
+        phi_a = ca.fmin(ca.fmax(rising, 0), 280 * DEG)
+    elif end_dwell == "printed":
+        phi_a = ca.if_else(phi_r <= 320 * DEG, ca.fmax(rising, 0), 0)
+    else:
+        raise ValueError(f"end_dwell = {end_dwell!r}; allowed: 'corrected', 'printed'")
+    sign = 1 - 2 * (rev - 2 * ca.floor(rev / 2))
+    theta = k_H * phi_a
+    return h_m * ((theta - ca.sin(theta)) / math.pi - 1) * sign
+
+
+def warp_geometry(H, l_1, l_2):
+    """Shed geometry of seed 000, fig. 2: thread elongation dl and the
+    direction sums s_y = sin a1 + sin a2, s_x = cos a2 - cos a1."""
+    L1, L2 = ca.sqrt(l_1**2 + H**2), ca.sqrt(l_2**2 + H**2)
+    return L1 + L2 - (l_1 + l_2), H / L1 + H / L2, l_2 / L2 - l_1 / L1
+
+
+@dataclass
+class Motion:
+    phi: ca.SX
+    omega: ca.SX
+    h_m: ca.SX
+    H: ca.SX
+    h_dot: ca.SX
+    h_ddot: ca.SX
+
+
+def declare_motion(m: Model, *, end_dwell: str) -> Motion:
+    """Parameters h_m, k_H; input omega; state phi; motion law and its events."""
+    P = m.parameter
+    k_H = P("k_H", 9 / 7, description="motion-law coefficient (phi_a scale)",
+            source=SEED0 + ", motion law: printed 1.2, corrected to 360/280 = 9/7 (defect D1)",
+            min=1.0, max=1.5)
+    h_m = P("h_m", 0.029, unit="m", description="largest frame displacement from the middle",
+            source=SEED0, min=0.001, max=0.2)
+    omega = m.input("omega", 60.0, unit="rad/s", description="main-shaft angular speed "
+                    "(held constant over a communication step; its derivative is taken "
+                    "as zero in the frame acceleration)", min=0.0, max=500.0)
+    phi = m.state("phi", 0.0, unit="rad", description="main-shaft angle (0: start of the "
+                  "bottom dwell)")
+    m.eq(m.der(phi), omega)
+    H = motion_law(phi, h_m, k_H, end_dwell)
+    H1 = ca.jacobian(H, phi)
+    H2 = ca.jacobian(H1, phi)
+    for deg in BREAKPOINTS_DEG:
+        m.event(f"dwell_{int(deg)}deg", ca.sin((phi - deg * DEG) / 2),
+                description=f"main shaft passes {deg:g} deg (dwell boundary)")
+    return Motion(phi, omega, h_m, H, H1 * omega, H2 * omega**2)
+
+
+@dataclass
+class Warp:
+    T: ca.SX
+    dl: ca.SX
+    f_x: ca.SX
+    f_y: ca.SX
+
+
+def declare_warp(m: Model, mo: Motion) -> Warp:
+    """Shed and warp parameters (seed 000, fig. 2) and the warp loads."""
+    P = m.parameter
+    l_1 = P("l_1", 0.05, unit="m", description="depth of the front shed", source=SEED0,
+            min=0.005, max=1.0)
+    k_z = P("k_z", 5.0, description="shed asymmetry l_2/l_1 (1: symmetric shed)",
+            source=SEED0, min=0.1, max=50.0)
+    n_n = P("n_n", 1000.0, description="number of warp threads in the frame",
+            source=SEED0 + "; presets: " + SEED2 + " table 2 (threads per frame)",
+            min=1.0, max=1e5)
+    T_min = P("T_min", 0.3, unit="N", description="least working tension of one thread",
+              source=SEED0 + " (read as per-thread values: total T = n_n x per-thread); "
+              "presets: 0.3/0.8 of T_max", min=0.0, max=100.0)
+    T_max = P("T_max", 0.8, unit="N", description="greatest working tension of one thread",
+              source=SEED0 + "; presets: " + SEED2 + " table 2 note, F_T by yarn / "
+              "(sin a1 + sin a2) at the open shed", min=0.0, max=100.0)
+    l_2 = k_z * l_1
+    dl, s_y, s_x = warp_geometry(mo.H, l_1, l_2)
+    dl_max = warp_geometry(mo.h_m, l_1, l_2)[0]
+    T = n_n * (T_min + (T_max - T_min) * dl / dl_max)
+    return Warp(T, dl, T * s_x, T * s_y)
+
+
+def declare_warp_outputs(m: Model, w: Warp) -> None:
+    m.output("T", w.T, unit="N", description="total working tension of the warp in the frame")
+    m.output("dl", w.dl, unit="m", description="warp elongation by the shed")
+    m.output("f_x", w.f_x, unit="N", description="horizontal warp load on the top slat")
+    m.output("f_y", w.f_y, unit="N", description="vertical warp load on the top slat "
+             "(positive: towards the shed's centre line)")
+
+
+def declare_motion_outputs(m: Model, mo: Motion) -> None:
+    m.output("h", mo.H, unit="m", description="frame displacement from the middle position")
+    m.output("h_dot", mo.h_dot, unit="m/s", description="frame velocity")
+    m.output("h_ddot", mo.h_ddot, unit="m/s2", description="frame acceleration")
+
+
+@dataclass
+class Loads:
+    m_RR: ca.SX
+    m_heald: ca.SX
+    n_hinge: ca.SX
+    g: ca.SX
+
+
+def declare_loads(m: Model) -> Loads:
+    """Frame and heald masses, hinge count, gravity (seed 002, (1)-(5))."""
+    P = m.parameter
+    m_RR = P("m_RR", 4.6, unit="kg", description="mass of the heald frame without healds",
+             source=SEED2 + " table 1 (STB-180, aluminium frames 3.6-5.2 kg; 4.6 kg: Texo "
+             "and Remiz B); presets: table 1 by maker and width", min=0.1, max=100.0)
+    m_heald = P("m_heald", 9.0 / G_STD, unit="kg", description="mass of the healds in the "
+                "frame (M_STR m_G)", source=SEED2 + " table 2 (STB-180: 9.0 N); presets: "
+                "table 2 by width", min=0.0, max=50.0)
+    n_hinge = P("n_hinge", 2.0, description="number of drive hinges of the frame (n_OSh)",
+                source="assumption: seed 002 leaves n_OSh open; two lifting points per "
+                "frame is the usual cam-shedding layout", min=1.0, max=8.0)
+    g = P("g", G_STD, unit="m/s2", description="gravitational acceleration",
+          source=SEED2 + " (1): G = m g; standard gravity", min=0.0, max=20.0)
+    return Loads(m_RR, m_heald, n_hinge, g)
+
+
+def hinge_load(ld: Loads, mo: Motion, w: Warp, elastic=0.0):
+    """N_rem: force of the frame on one drive hinge, positive up (see module doc).
+
+    elastic: sum_i M_yi y_i'' of the elastic coordinates (0 for a rigid frame).
+    """
+    mass = ld.m_RR + ld.m_heald
+    return -(mass * (ld.g + mo.h_ddot) + elastic + w.f_y) / ld.n_hinge
+
+
+def declare_hinge_outputs(m: Model, ld: Loads, mo: Motion, w: Warp, elastic=0.0) -> None:
+    m.output("N_rem", hinge_load(ld, mo, w, elastic), unit="N",
+             description="force of the frame on one drive hinge, positive up (seed 002 "
+             "N_REM, from the actual accelerations and warp load)")
+    m.output("G_rem", (ld.m_RR + ld.m_heald) * ld.g, unit="N",
+             description="weight of the frame with its healds (seed 002 (1))")
+
+
+@dataclass
+class Section:
+    """Slat and side-stay geometry and the quantities derived from it."""
+
+    l: ca.SX
+    h_B: ca.SX
+    E: ca.SX
+    mu: ca.SX
+    J_x: ca.SX      # vertical bending of the slats
+    J_y: ca.SX      # horizontal bending of the slats
+    J_z: ca.SX      # side stay across the frame
+    m_l: ca.SX      # one slat
+    m_h: ca.SX      # one side stay
+    rho_stay: ca.SX  # side-stay mass per length
+    l_n: ca.SX
+
+
+def declare_section(m: Model, *, horizontal: bool) -> Section:
+    """Frame geometry and material (seed 000, numeric example); ``horizontal``
+    adds the side-stay cantilever h_B (out-of-plane bending only)."""
+    P = m.parameter
+    l = P("l", 1.8, unit="m", description="length of the top slat", source=SEED0 +
+          "; presets: nominal loom width (seed 000 takes 1.8 m for the 180 cm loom)",
+          min=0.3, max=6.0)
+    l_n = P("l_n", 0.45, unit="m", description="length of the lower slat's cantilever "
+            "parts (outside the lifting hooks)", source=SEED0, min=0.01, max=2.0)
+    E = P("E", 0.7e11, unit="Pa", description="Young's modulus of the slats (aluminium)",
+          source=SEED0 + " (printed unit kg m^-2 is a defect; 0.7e11 Pa is aluminium)",
+          min=1e9, max=5e11)
+    rho = P("gamma", 2700.0, unit="kg/m3", description="density of the slat material",
+            source=SEED0, min=100.0, max=20000.0)
+    h1 = P("h1", 0.100, unit="m", description="slat box section: height (in the frame "
+           "plane)", source=SEED0, min=0.005, max=0.5)
+    b1 = P("b1", 0.010, unit="m", description="slat box section: width (across the frame)",
+           source=SEED0, min=0.002, max=0.2)
+    d1 = P("d1", 0.0014, unit="m", description="slat box section: wall thickness",
+           source=SEED0, min=0.0002, max=0.05)
+    h_B = None
+    if horizontal:
+        h_B = P("h_B", 0.15, unit="m", description="cantilever length of the side stays "
+                "above the drive locks (constant, as in the seed, unless the build option "
+                "h_B_law='variable')", source=SEED0, min=0.01, max=1.0)
+    s_w = P("s_w", 0.030, unit="m", description="side stay section: width in the frame "
+            "plane", source="assumption: the seed gives no side-stay section; a 30 x 6 mm "
+            "aluminium strip is a typical heald-frame stay", min=0.002, max=0.2)
+    s_t = P("s_t", 0.006, unit="m", description="side stay section: thickness across the "
+            "frame", source="assumption: see s_w", min=0.001, max=0.1)
+    s_L = P("s_L", 0.35, unit="m", description="side stay length (frame height)",
+            source="assumption: typical heald frame height 330-360 mm", min=0.05, max=2.0)
+    mu = P("mu", 30.0, unit="N.s/m", description="damping coefficient of every coordinate",
+           source=SEED0, min=0.0, max=1e5)
+    m_l = rho * (h1 * b1 - (h1 - 2 * d1) * (b1 - 2 * d1)) * l
+    return Section(l, h_B, E, mu, box_inertia(h1, b1, d1), box_inertia(b1, h1, d1),
+                   s_w * s_t**3 / 12, m_l, rho * s_w * s_t * s_L, rho * s_w * s_t, l_n)
+
+
+def vertical(sec: Section):
+    """In-plane (vertical) influence, stiffness and reduced masses (seed 000)."""
+    l, E, J_x, l_n = sec.l, sec.E, sec.J_x, sec.l_n
+    dy11 = l_n**3 / (3 * E * J_x)
+    dy22 = (l_n**3 + l**3 / 8) / (6 * E * J_x)
+    dy_f = ca.vertcat(dy11 / 2, dy11 / 2 + 5 * l**3 / (384 * E * J_x), dy11 / 2)
+    m_y1 = sec.m_l / 4 + sec.m_h + sec.m_l * (l_n / l) * 33 / 140
+    return stiffness(dy11, dy22), dy_f, ca.vertcat(m_y1, sec.m_l / 2, m_y1)
+
+
+def horizontal(sec: Section, k_B, h_B=None):
+    """Out-of-plane influence, stiffness and reduced masses (seed 000);
+    ``h_B``: the side stays' cantilever length (default: the parameter)."""
+    h_B = sec.h_B if h_B is None else h_B
+    l, E, J_y = sec.l, sec.E, sec.J_y
+    dx11 = h_B**3 / (3 * E * sec.J_z)
+    dx22 = h_B**3 / (6 * E * sec.J_z) + l**3 / (48 * E * J_y)
+    dx_f = ca.vertcat(dx11 / 2, dx11 / 2 + 5 * l**3 / (384 * E * J_y), dx11 / 2)
+    m_B = sec.rho_stay * h_B
+    M_x = ca.vertcat(sec.m_l / 4 + m_B * k_B, sec.m_l / 2, sec.m_l / 4 + m_B * k_B)
+    return stiffness(dx11, dx22), dx_f, M_x
+
+
+def apply_values(m: Model, values: dict[str, float] | None) -> None:
+    """Set parameter start values (e.g. a preset), each checked against its range."""
+    for name, value in (values or {}).items():
+        var = m.var(name)
+        if var.kind != "parameter":
+            raise ValueError(f"preset value {name!r} is not a parameter of {m.name}")
+        var.check_value(float(value))
+        var.start = float(value)
+
+
+def check_option(name: str, value, allowed) -> None:
+    if value not in allowed:
+        raise ValueError(f"{name} = {value!r}; allowed: {', '.join(map(repr, allowed))}")

@@ -1,0 +1,17 @@
+"""Analysis around the heald-frame models (seeds 000 and 002).
+
+* :mod:`.presets`: seed 002's tables 1-2 as named parameter sets
+  (``preset_values("STB-180 Elitex")``);
+* :mod:`.hinge`: the seed's kinetostatic hinge load over the eight phases;
+* :mod:`.claims`: natural frequencies, the seed's claims, the fidelity
+  comparison and the slat-section design function;
+
+    python -m loomfmu.heald claims     # docs/heald_claims.md
+    python -m loomfmu.heald fidelity   # docs/heald_fidelity.md
+    python -m loomfmu.heald design --gap 0.004
+"""
+from .hinge import PHASES, hinge_load_kinetostatic, hinge_load_phases
+from .presets import MAKERS, WIDTHS_CM, YARNS, preset_names, preset_values
+
+__all__ = ["PHASES", "hinge_load_kinetostatic", "hinge_load_phases", "MAKERS",
+           "WIDTHS_CM", "YARNS", "preset_names", "preset_values"]
