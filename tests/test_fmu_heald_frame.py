@@ -213,3 +213,18 @@ def test_instances_side_by_side(heald_frame_fmu, slave_factory):
     (y_alone,) = run([alone])
     np.testing.assert_array_equal(yb, y_alone)
     assert not np.allclose(ya, yb)
+
+
+def test_start_follows_parameters_set_at_run_time(heald_frame_fmu, model, slave_factory):
+    """The static-equilibrium start is recomputed from the parameters set
+    before initialization (not frozen at the build-time values), unless the
+    state itself is set."""
+    ref = reference(model, t_end=1e-3, values={"k_z": 2.0})
+    s = slave_factory(heald_frame_fmu.path)
+    s.start(k_z=2.0)
+    x2 = s.get("x2")[0]
+    assert x2 == pytest.approx(ref.y["x2"][0], rel=1e-12)
+    assert x2 != pytest.approx(model.var("x2").start, rel=1e-3)
+    s2 = slave_factory(heald_frame_fmu.path)
+    s2.start(k_z=2.0, x2=0.0)
+    assert s2.get("x2")[0] == 0.0

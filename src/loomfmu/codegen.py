@@ -115,7 +115,7 @@ def model_guid(model: Model, dae: DaeForm) -> str:
 
 
 #: The generated functions in the order of the runtime's LfFunctionId.
-FUNCTIONS = ("wsol", "wjac", "res", "rjac", "out", "evt", "valid", "reinit")
+FUNCTIONS = ("wsol", "wjac", "res", "rjac", "out", "evt", "valid", "reinit", "init")
 
 
 def casadi_functions(dae: DaeForm) -> list[ca.Function]:
@@ -139,6 +139,7 @@ def casadi_functions(dae: DaeForm) -> list[ca.Function]:
         "res": ([dae.F], ["F"]), "rjac": (rjac, ["dF_dw", "dF_dx", "dF_dt"]),
         "out": ([ca.vertcat(dae.y, zloc)], ["y"]), "evt": ([dae.e], ["e"]),
         "valid": ([dae.valid], ["valid"]), "reinit": ([dae.reinit], ["x_new"]),
+        "init": ([dae.init], ["x_start"]),
     }
     return [dae.function(f"{name}_{f}", *outs[f]) for f in FUNCTIONS]
 

@@ -103,6 +103,7 @@ class Model:
     mode_valid: dict[str, ca.SX] = field(default_factory=dict)
     reinits: dict[str, ca.SX] = field(default_factory=dict)
     event_modes: dict[str, str] = field(default_factory=dict)
+    initials: dict[str, ca.SX] = field(default_factory=dict)
     t: ca.SX = field(default_factory=lambda: ca.SX.sym("time"))
 
     def __post_init__(self):
@@ -213,8 +214,13 @@ class Model:
         self.ports.append(Port(name, kind, dict(roles), description))
 
     def set_starts_from(self, states: ca.SX, exprs: ca.SX) -> None:
-        """Set the start values of ``states`` to ``exprs`` evaluated at the
-        parameters' and the other states' start values (e.g. a static equilibrium)."""
+        """Start ``states`` at ``exprs`` (e.g. a static equilibrium).
+
+        The start values written to the model description are ``exprs`` at
+        the default parameters; the FMU and the reference recompute them at
+        initialization from the parameters actually set, unless the state
+        itself was set.
+        """
         known = [v for v in self.variables if v.kind in ("parameter", "state", "input")]
         f = ca.Function("starts", [ca.vertcat(*[v.sym for v in known])], [exprs])
         values = f(ca.DM([v.start for v in known])).full().ravel()
@@ -222,6 +228,8 @@ class Model:
             var = self.var(sym.name())
             var.check_value(float(value))
             var.start = float(value)
+        for sym, expr in zip(ca.vertsplit(states), ca.vertsplit(exprs)):
+            self.initials[sym.name()] = expr
 
     # -- queries ------------------------------------------------------------
     def var(self, name: str) -> Variable:

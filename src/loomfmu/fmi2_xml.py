@@ -36,14 +36,18 @@ def _depends(expr: ca.SX, syms: ca.SX) -> list[list[int]]:
     return rows
 
 
-def _scalar_variable(parent: ET.Element, row: RealVar) -> None:
+def _scalar_variable(parent: ET.Element, row: RealVar, computed_starts: set[str]) -> None:
     causality = {"setting": "parameter", "parameter": "parameter", "input": "input",
                  "output": "output"}.get(row.kind, "local")
     variability = {"setting": "fixed", "parameter": "fixed"}.get(row.kind, "continuous")
     attrs = {"name": row.name, "valueReference": str(row.vr), "causality": causality,
              "variability": variability, "description": row.description}
     if row.kind == "state":
-        attrs["initial"] = "exact"
+        computed = row.name in computed_starts
+        attrs["initial"] = "approx" if computed else "exact"
+        if computed:
+            attrs["description"] += (" (start computed at initialization from the "
+                                     "parameters, unless set)")
     elif row.kind in ("output", "algebraic"):
         attrs["initial"] = "calculated"
     sv = ET.SubElement(parent, "ScalarVariable", attrs)
@@ -113,7 +117,7 @@ def model_description(model: Model, dae: DaeForm, guid: str, sources: list[str])
 
     mv = ET.SubElement(root, "ModelVariables")
     for row in rows:
-        _scalar_variable(mv, row)
+        _scalar_variable(mv, row, set(model.initials))
     sv = ET.SubElement(mv, "ScalarVariable", {
         "name": "solver", "valueReference": "0", "causality": "parameter",
         "variability": "fixed", "description": "embedded solver: " + "; ".join(

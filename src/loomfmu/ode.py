@@ -106,6 +106,7 @@ class DaeForm:
     e: ca.SX
     valid: ca.SX
     reinit: ca.SX
+    init: ca.SX  # start of each state from the parameters (itself where not given)
 
     @property
     def args(self) -> list[ca.SX]:
@@ -155,8 +156,10 @@ def dae_form(model: Model) -> DaeForm:
     valid = ca.vertcat(*[model.mode_valid[v.name] for v in modes]) if modes else ca.SX(0, 1)
     x = model.syms("state")
     reinit = ca.vertcat(*[model.reinits.get(v.name, v.sym) for v in xs]) if xs else ca.SX(0, 1)
-    if ca.depends_on(reinit, w):
-        raise ValueError(f"model {model.name}: reinit expressions may not use derivatives "
-                         "or algebraic variables")
+    init = ca.vertcat(*[model.initials.get(v.name, v.sym) for v in xs]) if xs else ca.SX(0, 1)
+    for name, expr in (("reinit", reinit), ("initial", init)):
+        if ca.depends_on(expr, w):
+            raise ValueError(f"model {model.name}: {name} expressions may not use "
+                             "derivatives or algebraic variables")
     return DaeForm(model, model.t, x, w, model.syms("input"), model.syms("parameter"), q,
-                   F, wsol, y, e, valid, reinit)
+                   F, wsol, y, e, valid, reinit, init)

@@ -63,6 +63,7 @@ class _Dae:
         self.evt = f("evt", [dae.e], ["e"])
         self.valid = f("valid", [dae.valid], ["v"])
         self.reinit = f("reinit", [dae.reinit], ["x_new"])
+        self.init = f("init", [dae.init], ["x_start"])
         self.w = np.zeros(self.nw)
         self.n_rhs = 0
 
@@ -135,6 +136,11 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
     d = _Dae(dae, _values(model, "input", values), _values(model, "parameter", values),
              np.array([int(v.start) for v in modes], dtype=float))
     x = _values(model, "state", values)
+    # states with a start expression start there for these parameters, unless given
+    x0 = np.asarray(d.init(*d.args(0.0, x))).ravel()
+    for i, v in enumerate(model.of_kind("state")):
+        if v.name not in values:
+            x[i] = x0[i]
     mode_of_event = [next((i for i, v in enumerate(modes)
                            if model.event_modes.get(ev.name) == v.name), None)
                      for ev in model.events]

@@ -43,7 +43,8 @@ enum {
     LF_FN_EVT = 5,    /* -> event indicators */
     LF_FN_VALID = 6,  /* -> >= 0 where the current mode is consistent */
     LF_FN_REINIT = 7, /* -> states after a mode change */
-    LF_N_FN = 8
+    LF_FN_INIT = 8,   /* -> start of the states from the parameters */
+    LF_N_FN = 9
 };
 
 /* Real value references are laid out as

@@ -68,6 +68,7 @@ void lf_reset_values(LfInstance *c) {
     int k;
     for (vr = 0; vr < LF_NREAL; vr++) c->r[vr] = lf_model.real_start[vr];
     for (k = 0; k < LF_NQ; k++) c->q[k] = lf_model.mode_start[k];
+    memset(c->x_set, 0, sizeof c->x_set);
     memset(c->w_cur, 0, sizeof c->w_cur);
     c->solver_id = 1;
     c->t = c->t_start = c->last_successful_time = 0.0;
@@ -277,6 +278,7 @@ LfStatus lf_set_real(LfInstance *c, unsigned vr, double value) {
         return LF_ERROR;
     }
     if (kind == LF_KIND_INPUT && value != c->r[vr]) c->inputs_changed = 1;
+    if (kind == LF_KIND_STATE) c->x_set[vr - LF_VR_X0] = 1;
     c->r[vr] = value;
     c->outputs_valid = 0;
     return LF_OK;
@@ -374,6 +376,27 @@ static LfStatus choose_mode(LfInstance *c, int k, double t, double *x) {
     return LF_ERROR;
 }
 
+/* States declared with a start expression (e.g. a static equilibrium) start
+ * there for the parameters actually set, unless the importer set them. */
+static LfStatus initial_states(LfInstance *c) {
+    double x0[LF_DIM(LF_NX)];
+    int i;
+    if (eval_fn(c, LF_FN_INIT, c->t, &c->r[LF_VR_X0], c->w_cur, x0, NULL, NULL) != LF_OK) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "initial states cannot be evaluated");
+        return LF_ERROR;
+    }
+    for (i = 0; i < LF_NX; i++) {
+        if (c->x_set[i]) continue;
+        if (!isfinite(x0[i])) {
+            lf_log(c, LF_ERROR, LF_LOG_ERROR, "initial value of %s is %g for these parameters",
+                   lf_model.real_names[LF_VR_X0 + i], x0[i]);
+            return LF_ERROR;
+        }
+        c->r[LF_VR_X0 + i] = x0[i];
+    }
+    return LF_OK;
+}
+
 /* Make every mode consistent at the start (keep the start value if valid). */
 static LfStatus initial_modes(LfInstance *c) {
     double valid[LF_DIM(LF_NQ)], *x = &c->r[LF_VR_X0];
@@ -407,6 +430,7 @@ LfStatus lf_initialize(LfInstance *c) {
     opt.h_fixed = c->r[LF_SET_H_FIXED];
     opt.max_steps = c->max_steps;
     c->t = c->last_successful_time = c->t_start;
+    if (initial_states(c) != LF_OK) return LF_ERROR;
     if (LF_NQ > 0 && initial_modes(c) != LF_OK) return LF_ERROR;
     st = lf_solver_init(&c->solver, lf_methods[c->solver_id - 1], ode, opt, c->t_start,
                         &c->r[LF_VR_X0], &c->alloc);

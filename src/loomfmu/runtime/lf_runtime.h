@@ -66,6 +66,7 @@ typedef struct {
     size_t piv[LF_DIM(LF_NW)];
     long n_newton_fail;
     int quiet;                    /* > 0: trial solves, do not log their failures */
+    int x_set[LF_DIM(LF_NX)];     /* state set by the importer before initialization */
 
     LfSolver solver;
     int solver_ready;
