@@ -76,6 +76,18 @@ class Port:
 
 
 @dataclass
+class Delay:
+    """``sym`` stands for ``expr`` evaluated ``tau`` seconds ago."""
+
+    name: str
+    sym: ca.SX
+    expr: ca.SX
+    tau: ca.SX
+    max_delay: float
+    description: str = ""
+
+
+@dataclass
 class EventIndicator:
     """A function whose sign change marks a breakpoint inside a step."""
 
@@ -104,6 +116,7 @@ class Model:
     reinits: dict[str, ca.SX] = field(default_factory=dict)
     event_modes: dict[str, str] = field(default_factory=dict)
     initials: dict[str, ca.SX] = field(default_factory=dict)
+    delays: list[Delay] = field(default_factory=list)
     t: ca.SX = field(default_factory=lambda: ca.SX.sym("time"))
 
     def __post_init__(self):
@@ -151,6 +164,24 @@ class Model:
 
     def algebraic(self, name, *, unit="", description="") -> ca.SX:
         return self._add(name, "algebraic", None, unit, description)
+
+    def delay(self, name, expr, tau, *, max_delay: float, description="") -> ca.SX:
+        """A symbol for ``expr`` delayed by ``tau`` (an expression of parameters).
+
+        expr may use time, states, inputs and parameters (not derivatives,
+        algebraic variables or other delays).  Before the start time the
+        history is constant at the start value.  max_delay: the longest tau
+        the FMU's history is built to hold; a larger tau is rejected at
+        initialization.
+        """
+        if not max_delay > 0:
+            raise ValueError(f"delay {name!r}: max_delay = {max_delay!r}; allowed: > 0")
+        tau = ca.SX(tau)
+        if ca.depends_on(tau, ca.vertcat(self.t, self.syms("state"), self.syms("input"))):
+            raise ValueError(f"delay {name!r}: tau must depend on parameters only")
+        sym = ca.SX.sym(f"delay({name})")
+        self.delays.append(Delay(name, sym, ca.SX(expr), tau, float(max_delay), description))
+        return sym
 
     def mode(self, name, start: int, values, *, description="") -> ca.SX:
         """Declare a discrete mode (an Integer output of the FMU).

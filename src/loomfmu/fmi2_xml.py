@@ -107,6 +107,15 @@ def model_description(model: Model, dae: DaeForm, guid: str, sources: list[str])
         ET.SubElement(en, "Item", {"name": s, "value": str(i),
                                    "description": SOLVER_DESCRIPTIONS[s]})
 
+    if model.delays:
+        st = ET.SubElement(td, "SimpleType", {"name": "DelayInterpolation"})
+        en = ET.SubElement(st, "Enumeration")
+        ET.SubElement(en, "Item", {"name": "hermite", "value": "1", "description":
+                                   "cubic Hermite on the solver's accepted points "
+                                   "(values and exact time derivatives)"})
+        ET.SubElement(en, "Item", {"name": "linear", "value": "2", "description":
+                                   "linear between accepted points (for comparison)"})
+
     lc = ET.SubElement(root, "LogCategories")
     for name, desc in LOG_CATEGORIES:
         ET.SubElement(lc, "Category", {"name": name, "description": desc})
@@ -129,6 +138,14 @@ def model_description(model: Model, dae: DaeForm, guid: str, sources: list[str])
             "variability": "discrete", "initial": "calculated",
             "description": v.description})
         ET.SubElement(sv, "Integer", {"min": str(int(v.min)), "max": str(int(v.max))})
+
+    if model.delays:
+        sv = ET.SubElement(mv, "ScalarVariable", {
+            "name": "delay_interpolation", "valueReference": str(1 + len(model.of_kind("mode"))),
+            "causality": "parameter", "variability": "fixed",
+            "description": "how the history of delayed values is interpolated: "
+                           "1 = hermite, 2 = linear"})
+        ET.SubElement(sv, "Enumeration", {"declaredType": "DelayInterpolation", "start": "1"})
 
     _model_structure(root, model, dae, rows)
     ET.indent(root, "  ")

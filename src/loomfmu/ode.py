@@ -83,14 +83,16 @@ def explicit_ode(model: Model) -> OdeForm:
 
 @dataclass
 class DaeForm:
-    """The model as the runtime sees it, every function of (t, x, w, u, p, q).
+    """The model as the runtime sees it, every function of (t, x, w, u, p, q, d).
 
     w = [der(x); z] are the unknowns, F(t, x, w, u, p, q) = 0 their equations
     and q the discrete modes.  ``wsol`` is the closed-form solution for w when
     F is linear in w (None otherwise: the runtime then solves F = 0 by
     Newton with the exact dF/dw).  Outputs, algebraic locals, event
     indicators and mode validity may use w; ``reinit`` gives the states after
-    a mode change.
+    a mode change.  d are the delayed values: d_k = g_k(t - tau_k); ``g``,
+    its total time derivative ``gdot`` (inputs held) and ``tau`` let the
+    runtime keep their history.
     """
 
     model: Model
@@ -107,10 +109,14 @@ class DaeForm:
     valid: ca.SX
     reinit: ca.SX
     init: ca.SX  # start of each state from the parameters (itself where not given)
+    d: ca.SX
+    g: ca.SX
+    gdot: ca.SX
+    tau: ca.SX
 
     @property
     def args(self) -> list[ca.SX]:
-        return [self.t, self.x, self.w, self.u, self.p, self.q]
+        return [self.t, self.x, self.w, self.u, self.p, self.q, self.d]
 
     @property
     def nx(self) -> int:
@@ -121,7 +127,8 @@ class DaeForm:
         return self.wsol is None
 
     def function(self, name: str, outs: list[ca.SX], out_names: list[str]) -> ca.Function:
-        return ca.Function(name, self.args, outs, ["t", "x", "w", "u", "p", "q"], out_names)
+        return ca.Function(name, self.args, outs, ["t", "x", "w", "u", "p", "q", "d"],
+                           out_names)
 
 
 def _outputs_in_w(model: Model) -> ca.SX:
@@ -161,5 +168,20 @@ def dae_form(model: Model) -> DaeForm:
         if ca.depends_on(expr, w):
             raise ValueError(f"model {model.name}: {name} expressions may not use "
                              "derivatives or algebraic variables")
+    d, g, gdot, tau = _delays(model, x, w)
     return DaeForm(model, model.t, x, w, model.syms("input"), model.syms("parameter"), q,
-                   F, wsol, y, e, valid, reinit, init)
+                   F, wsol, y, e, valid, reinit, init, d, g, gdot, tau)
+
+
+def _delays(model: Model, x: ca.SX, w: ca.SX):
+    dl = model.delays
+    if not dl:
+        z = ca.SX(0, 1)
+        return z, z, z, z
+    d = ca.vertcat(*[v.sym for v in dl])
+    g = ca.vertcat(*[v.expr for v in dl])
+    if ca.depends_on(g, ca.vertcat(w, d, model.syms("mode"))):
+        raise ValueError(f"model {model.name}: a delayed expression may use time, states, "
+                         "inputs and parameters only")
+    gdot = ca.jacobian(g, x) @ w[: x.numel(), 0] + ca.jacobian(g, model.t)
+    return d, g, gdot, ca.vertcat(*[v.tau for v in dl])

@@ -1,5 +1,10 @@
 """The scipy reference: the same declaration, integrated by ``solve_ivp``.
 
+Delays are integrated by the method of steps: the integration is split at
+multiples of the shortest delay, so that every delayed value comes from
+intervals already solved, read from their dense output (for t before the
+start, the history is constant at the start value).
+
 The right-hand side is the model's :class:`~loomfmu.ode.DaeForm` evaluated
 from Python: the unknowns w = [der(x); z] in closed form, or by a Newton
 iteration written here (independent of the C runtime's) for models whose
@@ -64,11 +69,17 @@ class _Dae:
         self.valid = f("valid", [dae.valid], ["v"])
         self.reinit = f("reinit", [dae.reinit], ["x_new"])
         self.init = f("init", [dae.init], ["x_start"])
+        self.hist = f("hist", [dae.g], ["g"])
         self.w = np.zeros(self.nw)
+        self.d = np.zeros(dae.d.numel())
+        self.tau = np.asarray(f("tau", [dae.tau], ["tau"])(*self.args(0.0, np.zeros(dae.nx)))
+                              ).ravel() if dae.d.numel() else np.zeros(0)
+        self.segments: list = []  # (t_a, t_b, dense output) of solved intervals
+        self.g0 = None
         self.n_rhs = 0
 
     def args(self, t, x, w=None):
-        return (t, x, self.w if w is None else w, self.u, self.p, self.q)
+        return (t, x, self.w if w is None else w, self.u, self.p, self.q, self.d)
 
     def solve(self, t, x) -> np.ndarray:
         if self.wsol is not None:
@@ -84,8 +95,27 @@ class _Dae:
                 return w
         raise RuntimeError(f"reference: Newton did not converge at t = {t}")
 
+    def delayed(self, t, x):
+        """The delayed values d_k = g_k(t - tau_k) from the solved intervals."""
+        if not len(self.tau):
+            return
+        now = np.asarray(self.hist(*self.args(t, x))).ravel()
+        for k, tau in enumerate(self.tau):
+            s = t - tau
+            if tau == 0:
+                self.d[k] = now[k]
+            elif self.g0 is None:
+                self.d[k] = now[k]
+            elif not self.segments or s <= self.segments[0][0]:
+                self.d[k] = self.g0[k]  # constant history before the start
+            else:
+                ta, tb, sol = next(seg for seg in reversed(self.segments) if seg[0] <= s)
+                self.d[k] = float(np.asarray(self.hist(*self.args(s, sol(min(s, tb))))
+                                             ).ravel()[k])
+
     def rhs(self, t, x):
         self.n_rhs += 1
+        self.delayed(t, x)
         return self.solve(t, x)[: self.nx]
 
     def outputs(self, t, x):
@@ -161,14 +191,20 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
         return ev
 
     events = [make_event(k) for k in range(dae.e.numel())]
+    if len(d.tau) and events:
+        raise ValueError(f"reference for {model.name}: delays together with events are not "
+                         "supported")
+    step_limit = min((tau for tau in d.tau if tau > 0), default=np.inf)
+    if len(d.tau):
+        d.g0 = np.asarray(d.hist(*d.args(0.0, x))).ravel()
     xs = np.empty((len(t_eval), len(x)))
     qs = np.empty((len(t_eval), len(modes)))
     switches: list[tuple[float, str, int, int]] = []
     t0, segments, pending = 0.0, 0, None
     wall = time.perf_counter()
     while True:
-        if pending is None:  # up to the next event or the end
-            t1_seg, active = t_end, events
+        if pending is None:  # up to the next event, delay multiple or the end
+            t1_seg, active = min(t_end, t0 + step_limit), events
         else:  # across the root, in the old mode, with no event watched
             t1_seg, active = min(t0 + EVENT_GAP * max(1.0, abs(t0)), t_end), []
         sol = solve_ivp(d.rhs, (t0, t1_seg), x, method=method, rtol=rtol, atol=atol,
@@ -183,6 +219,8 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
             xs[sel] = sol.sol(t_eval[sel]).T
             qs[sel] = d.q
         x = sol.y[:, -1]
+        if len(d.tau):
+            d.segments.append((t0, t1, sol.sol))
         if pending is not None:  # on the new side now: re-choose the mode
             j = mode_of_event[pending]
             if j is not None:
@@ -205,6 +243,7 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
     ys = []
     for t, xi, qi in zip(t_eval, xs, qs):
         d.q[:] = qi
+        d.delayed(t, xi)
         ys.append(d.outputs(t, xi))
     ys = np.array(ys).reshape(len(t_eval), len(names))
     out.update({name: ys[:, i] for i, name in enumerate(names)})

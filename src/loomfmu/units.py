@@ -6,8 +6,9 @@ dimensionless (no ``unit`` attribute is written).
 """
 from __future__ import annotations
 
-#: unit name -> BaseUnit exponents (kg, m, s, A, K, mol, cd, rad)
-UNITS: dict[str, dict[str, int]] = {
+#: unit name -> BaseUnit exponents (kg, m, s, A, K, mol, cd, rad) and, for
+#: non-SI units, "factor" (value in SI = factor * value in this unit)
+UNITS: dict[str, dict[str, float]] = {
     "m": {"m": 1},
     "m2": {"m": 2},
     "m4": {"m": 4},
@@ -29,6 +30,10 @@ UNITS: dict[str, dict[str, int]] = {
     "rad/s": {"rad": 1, "s": -1},
     "rad/s2": {"rad": 1, "s": -2},
     "Hz": {"s": -1},
+    "rpm": {"rad": 1, "s": -1, "factor": 0.10471975511965977},
+    "V": {"kg": 1, "m": 2, "s": -3, "A": -1},
+    "V/m": {"kg": 1, "m": 1, "s": -3, "A": -1},
+    "rpm/V": {"rad": 1, "kg": -1, "m": -2, "s": 2, "A": 1, "factor": 0.10471975511965977},
     "1/s": {"s": -1},
 }
 

@@ -200,10 +200,8 @@ fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
                           const fmi2Integer value[]) {
     size_t i;
     CHECK("fmi2SetInteger", LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING);
-    for (i = 0; i < nvr; i++) {
-        if (vr[i] != LF_VR_SOLVER) return no_such((LfInstance *)c, "fmi2SetInteger", "Integer", vr[i]);
-        if (lf_set_solver((LfInstance *)c, value[i]) != LF_OK) return fmi2Error;
-    }
+    for (i = 0; i < nvr; i++)
+        if (lf_set_integer((LfInstance *)c, vr[i], value[i]) != LF_OK) return fmi2Error;
     return fmi2OK;
 }
 

@@ -44,7 +44,9 @@ enum {
     LF_FN_VALID = 6,  /* -> >= 0 where the current mode is consistent */
     LF_FN_REINIT = 7, /* -> states after a mode change */
     LF_FN_INIT = 8,   /* -> start of the states from the parameters */
-    LF_N_FN = 9
+    LF_FN_HIST = 9,   /* -> delayed expressions g and their time derivative */
+    LF_FN_TAU = 10,   /* -> the delays (from the parameters) */
+    LF_N_FN = 11
 };
 
 /* Real value references are laid out as
@@ -55,9 +57,11 @@ enum {
 #define LF_VR_Y0 (LF_VR_U0 + LF_NU)
 #define LF_VR_Z0 (LF_VR_Y0 + LF_NY)
 #define LF_NREAL (LF_VR_Z0 + LF_NZ)
-/* Integer value references: the `solver` enumeration, then the modes */
+/* Integer value references: the `solver` enumeration, the modes, then (with
+ * delays) the `delay_interpolation` enumeration */
 #define LF_VR_SOLVER 0
 #define LF_VR_Q0 1
+#define LF_VR_DINTERP (LF_VR_Q0 + LF_NQ)
 
 typedef struct {
     const char *identifier;
@@ -74,6 +78,8 @@ typedef struct {
     const int *mode_start;
     const int *mode_value_offset;    /* values of mode k: [offset[k], offset[k+1]) */
     const double *mode_values;       /* in priority order */
+    const char *const *delay_names;
+    const double *delay_max;         /* longest delay the history is built for */
     const char *const *solver_names; /* must match lf_methods[] */
     LfFunction fn[LF_N_FN];
 } LfModel;

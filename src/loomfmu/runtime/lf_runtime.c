@@ -59,6 +59,7 @@ void lf_free(LfInstance *c) {
     c->alloc.free(c->res);
     c->alloc.free(c->iw);
     c->alloc.free(c->w);
+    c->alloc.free(c->hist);
     c->alloc.free(c->name);
     c->alloc.free(c);
 }
@@ -69,6 +70,10 @@ void lf_reset_values(LfInstance *c) {
     for (vr = 0; vr < LF_NREAL; vr++) c->r[vr] = lf_model.real_start[vr];
     for (k = 0; k < LF_NQ; k++) c->q[k] = lf_model.mode_start[k];
     memset(c->x_set, 0, sizeof c->x_set);
+    memset(c->hist_count, 0, sizeof c->hist_count);
+    memset(c->hist_start, 0, sizeof c->hist_start);
+    c->n_bp = 0;
+    c->delay_interp = LF_DELAY_HERMITE;
     memset(c->w_cur, 0, sizeof c->w_cur);
     c->solver_id = 1;
     c->t = c->t_start = c->last_successful_time = 0.0;
@@ -96,7 +101,8 @@ LfInstance *lf_instantiate(const char *name, LfLogFn log, void *log_env,
     c->log = log;
     c->log_env = log_env;
     c->name = (char *)alloc.calloc(len + 1, 1);
-    if (!c->name || !alloc_casadi_work(c)) {
+    if (LF_ND > 0) c->hist = (double *)alloc.calloc((size_t)LF_ND * LF_HIST_CAP * 3, sizeof(double));
+    if (!c->name || !alloc_casadi_work(c) || (LF_ND > 0 && !c->hist)) {
         lf_free(c);
         return NULL;
     }
@@ -107,18 +113,24 @@ LfInstance *lf_instantiate(const char *name, LfLogFn log, void *log_env,
 
 /* ---- evaluating the generated functions ------------------------------- */
 
-/* Call generated function `fn` at (t, x, w) with the instance's u, p, q. */
+static LfStatus delayed_values(LfInstance *c, double t, const double *x);
+
+/* Call generated function `fn` at (t, x, w) with the instance's u, p, q and
+ * the delayed values at t. */
 static LfStatus eval_fn(LfInstance *c, int fn, double t, const double *x, const double *w,
                         double *out0, double *out1, double *out2) {
+    if (LF_ND > 0 && fn != LF_FN_HIST && fn != LF_FN_TAU && delayed_values(c, t, x) != LF_OK)
+        return LF_ERROR;
+    c->arg[6] = c->dval;
     c->arg[0] = &t;
     c->arg[1] = x;
     c->arg[2] = w;
     c->arg[3] = &c->r[LF_VR_U0];
     c->arg[4] = &c->r[LF_VR_P0];
     c->arg[5] = c->q;
-    c->res[0] = out0;
-    if (fn == LF_FN_WJAC || fn == LF_FN_RJAC) c->res[1] = out1;
-    if (fn == LF_FN_RJAC) c->res[2] = out2;
+    c->res[0] = out0; /* functions with fewer outputs do not read the rest */
+    c->res[1] = out1;
+    c->res[2] = out2;
     return lf_model.fn[fn].eval(c->arg, c->res, c->iw, c->w, 0) ? LF_ERROR : LF_OK;
 }
 
@@ -187,6 +199,189 @@ static LfStatus solve_w(LfInstance *c, double t, const double *x, double *w) {
         return LF_DISCARD;
     }
     memcpy(c->w_cur, w, sizeof(double) * LF_NW);
+    return LF_OK;
+}
+
+/* ---- delays: history of the delayed expressions ----------------------- */
+
+#define HT(c, k, i) (c)->hist[(((size_t)(k) * LF_HIST_CAP + (size_t)(((c)->hist_start[k] + (i)) % LF_HIST_CAP)) * 3)]
+#define HG(c, k, i) (&HT(c, k, i))[1]
+#define HD(c, k, i) (&HT(c, k, i))[2]
+
+/* g_k at time s from the history: constant before the first sample, the
+ * last sample's Taylor line after it (not reached with steps <= tau), else
+ * cubic Hermite (or linear) between the samples around s.  At a jump (two
+ * samples at one time) the later one holds from then on. */
+static double hist_interp(const LfInstance *c, int k, double s) {
+    long lo = 0, hi = c->hist_count[k] - 1, n = c->hist_count[k];
+    double t0, t1, h, th, g0, g1;
+    if (s <= HT(c, k, 0)) return HG(c, k, 0);
+    if (s >= HT(c, k, n - 1)) return HG(c, k, n - 1) + HD(c, k, n - 1) * (s - HT(c, k, n - 1));
+    while (hi - lo > 1) { /* largest lo with t_lo <= s, t_hi > s */
+        long mid = (lo + hi) / 2;
+        if (HT(c, k, mid) <= s) lo = mid;
+        else hi = mid;
+    }
+    t0 = HT(c, k, lo);
+    t1 = HT(c, k, hi);
+    g0 = HG(c, k, lo);
+    g1 = HG(c, k, hi);
+    h = t1 - t0;
+    th = (s - t0) / h;
+    if (c->delay_interp == LF_DELAY_LINEAR) return g0 + (g1 - g0) * th;
+    return (2 * th * th * th - 3 * th * th + 1) * g0 + (th * th * th - 2 * th * th + th) * h * HD(c, k, lo) +
+           (3 * th * th - 2 * th * th * th) * g1 + (th * th * th - th * th) * h * HD(c, k, hi);
+}
+
+static LfStatus delayed_values(LfInstance *c, double t, const double *x) {
+    double g[LF_DIM(2 * LF_ND)];
+    int k, need_now = 0;
+    for (k = 0; k < LF_ND; k++)
+        if (c->tau[k] == 0 || c->hist_count[k] == 0) need_now = 1;
+    if (need_now) { /* zero delay, or no history yet: the value now */
+        c->arg[6] = c->dval;
+        if (eval_fn(c, LF_FN_HIST, t, x, c->w_cur, g, &g[LF_ND], NULL) != LF_OK) return LF_ERROR;
+    }
+    for (k = 0; k < LF_ND; k++)
+        c->dval[k] = (c->tau[k] == 0 || c->hist_count[k] == 0) ? g[k]
+                                                                : hist_interp(c, k, t - c->tau[k]);
+    return LF_OK;
+}
+
+static void add_breakpoint(LfInstance *c, double t) {
+    if (c->n_bp < LF_MAX_BP) c->bp[c->n_bp++] = t;
+}
+
+/* The next pending breakpoint after t (and forget those passed). */
+static double next_breakpoint(LfInstance *c, double t, double t_end) {
+    double next = t_end;
+    int i, j = 0;
+    for (i = 0; i < c->n_bp; i++) {
+        if (c->bp[i] <= t) continue;
+        c->bp[j++] = c->bp[i];
+        if (c->bp[i] < next) next = c->bp[i];
+    }
+    c->n_bp = j;
+    return next;
+}
+
+static LfStatus solve_w(LfInstance *c, double t, const double *x, double *w);
+
+/* Append (t, g, dg/dt) at an accepted point; `jump`: the history is
+ * discontinuous here (input change, reinit), so its values reach the
+ * equations tau later: a breakpoint. */
+static LfStatus hist_append(LfInstance *c, double t, const double *g, int jump) {
+    int k;
+    for (k = 0; k < LF_ND; k++) {
+        double oldest_needed = t - c->tau[k] - c->solver.opt.h_max;
+        /* drop samples no query can reach any more */
+        while (c->hist_count[k] >= 2 && HT(c, k, 1) <= oldest_needed) {
+            c->hist_start[k] = (c->hist_start[k] + 1) % LF_HIST_CAP;
+            c->hist_count[k]--;
+        }
+        if (c->hist_count[k] == LF_HIST_CAP) {
+            lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
+                   "t = %.17g: history of delay %s is full: %d samples cover only %g s of "
+                   "the %g s needed (the steps are too small for this delay)", t,
+                   lf_model.delay_names[k], LF_HIST_CAP, t - HT(c, k, 0), c->tau[k]);
+            return LF_DISCARD;
+        }
+        HT(c, k, c->hist_count[k]) = t;
+        HG(c, k, c->hist_count[k]) = g[k];
+        HD(c, k, c->hist_count[k]) = g[LF_ND + k];
+        c->hist_count[k]++;
+        if (jump && c->tau[k] > 0) add_breakpoint(c, t + c->tau[k]);
+    }
+    return LF_OK;
+}
+
+static LfStatus hist_sample(LfInstance *c, double t, const double *x, double *g);
+
+static LfStatus hist_push(LfInstance *c, double t, const double *x, int jump) {
+    double g[LF_DIM(2 * LF_ND)];
+    LfStatus st;
+    if (LF_ND == 0) return LF_OK;
+    st = hist_sample(c, t, x, g);
+    if (st != LF_OK) return st;
+    return hist_append(c, t, g, jump);
+}
+
+/* After an accepted step: the history up to its end, sampled on the dense
+ * output (hermite) or only at the step's end (linear, the naive way). */
+static LfStatus hist_step(LfInstance *c);
+
+#define LF_HIST_MAX_DEPTH 12
+
+/* g and dg/dt at (t, x), for the history. */
+static LfStatus hist_sample(LfInstance *c, double t, const double *x, double *g) {
+    LfStatus st = solve_w(c, t, x, c->w_tmp);
+    if (st != LF_OK) return st;
+    return eval_fn(c, LF_FN_HIST, t, x, c->w_tmp, g, &g[LF_ND], NULL);
+}
+
+/* Sample the history inside the accepted step (ta, tb] on the solver's dense
+ * output: bisect while the cubic Hermite through the end samples misses g
+ * at the midpoint by more than the solver's tolerance, then push the
+ * samples in time order (tb last).  ga, gb: samples at ta, tb. */
+static LfStatus hist_refine(LfInstance *c, double ta, const double *ga, double tb,
+                            const double *gb, int depth) {
+    double gm[LF_DIM(2 * LF_ND)], xm[LF_DIM(LF_NX)], tm = 0.5 * (ta + tb), h = tb - ta;
+    int k, fine = 1;
+    LfStatus st;
+    if (depth < LF_HIST_MAX_DEPTH) {
+        c->solver.method->dense(&c->solver, tm, xm);
+        st = hist_sample(c, tm, xm, gm);
+        if (st != LF_OK) return st;
+        for (k = 0; k < LF_ND; k++) {
+            double herm = 0.5 * (ga[k] + gb[k]) + 0.125 * h * (ga[LF_ND + k] - gb[LF_ND + k]);
+            if (fabs(herm - gm[k]) > c->r[LF_SET_ATOL] + c->r[LF_SET_RTOL] * fabs(gm[k])) fine = 0;
+        }
+        if (!fine) {
+            st = hist_refine(c, ta, ga, tm, gm, depth + 1);
+            if (st != LF_OK) return st;
+            return hist_refine(c, tm, gm, tb, gb, depth + 1);
+        }
+    }
+    return hist_append(c, tb, gb, 0);
+}
+
+static LfStatus hist_step(LfInstance *c) {
+    double ga[LF_DIM(2 * LF_ND)], gb[LF_DIM(2 * LF_ND)];
+    LfSolver *s = &c->solver;
+    long n = c->hist_count[0];
+    LfStatus st;
+    if (c->delay_interp == LF_DELAY_LINEAR || !(s->t > s->t_old) || n == 0 ||
+        HT(c, 0, n - 1) != s->t_old)
+        return hist_push(c, s->t, s->x, 0);
+    st = hist_sample(c, s->t_old, s->x_old, ga);
+    if (st == LF_OK) st = hist_sample(c, s->t, s->x, gb);
+    if (st != LF_OK) return st;
+    return hist_refine(c, s->t_old, ga, s->t, gb, 0);
+}
+
+/* Delays from the parameters; each must fit the history the FMU holds. */
+static LfStatus init_delays(LfInstance *c, LfSolverOptions *opt) {
+    int k;
+    if (LF_ND == 0) return LF_OK;
+    if (eval_fn(c, LF_FN_TAU, c->t, &c->r[LF_VR_X0], c->w_cur, c->tau, NULL, NULL) != LF_OK)
+        return LF_ERROR;
+    for (k = 0; k < LF_ND; k++) {
+        if (!(c->tau[k] >= 0) || c->tau[k] > lf_model.delay_max[k]) {
+            lf_log(c, LF_ERROR, LF_LOG_ERROR,
+                   "delay %s = %g s: allowed 0 ... %g s, the longest delay this FMU's "
+                   "history was built to hold (rebuild with a larger max_delay)",
+                   lf_model.delay_names[k], c->tau[k], lf_model.delay_max[k]);
+            return LF_ERROR;
+        }
+        /* a step longer than the delay would need history not yet computed */
+        if (c->tau[k] > 0 && opt->h_max > c->tau[k]) opt->h_max = c->tau[k];
+        if (c->tau[k] > 0 && opt->h_fixed > c->tau[k]) {
+            lf_log(c, LF_WARNING, LF_LOG_WARNING,
+                   "solver_h_fixed = %g s is longer than delay %s = %g s: rk4 steps are "
+                   "limited to the delay", opt->h_fixed, lf_model.delay_names[k], c->tau[k]);
+            opt->h_fixed = c->tau[k];
+        }
+    }
     return LF_OK;
 }
 
@@ -308,9 +503,35 @@ LfStatus lf_get_integer(LfInstance *c, unsigned vr, int *value) {
         *value = (int)c->q[vr - LF_VR_Q0];
         return LF_OK;
     }
+    if (LF_ND > 0 && vr == LF_VR_DINTERP) {
+        *value = c->delay_interp;
+        return LF_OK;
+    }
     lf_log(c, LF_ERROR, LF_LOG_ERROR,
            "fmi2GetInteger: value reference %u is not an Integer (expected < %d)", vr,
-           LF_VR_Q0 + LF_NQ);
+           LF_VR_Q0 + LF_NQ + (LF_ND > 0));
+    return LF_ERROR;
+}
+
+LfStatus lf_set_integer(LfInstance *c, unsigned vr, int value) {
+    if (vr == LF_VR_SOLVER) return lf_set_solver(c, value);
+    if (LF_ND > 0 && vr == LF_VR_DINTERP) {
+        if (value != LF_DELAY_HERMITE && value != LF_DELAY_LINEAR) {
+            lf_log(c, LF_ERROR, LF_LOG_ERROR,
+                   "delay_interpolation = %d: allowed 1 (hermite) or 2 (linear)", value);
+            return LF_ERROR;
+        }
+        if (!(c->state & (LF_ST_INSTANTIATED | LF_ST_INIT))) {
+            lf_log(c, LF_ERROR, LF_LOG_ERROR,
+                   "delay_interpolation can only be set before fmi2ExitInitializationMode");
+            return LF_ERROR;
+        }
+        c->delay_interp = value;
+        return LF_OK;
+    }
+    lf_log(c, LF_ERROR, LF_LOG_ERROR,
+           "fmi2SetInteger: value reference %u cannot be set (solver: %d%s)", vr, LF_VR_SOLVER,
+           LF_ND > 0 ? ", delay_interpolation" : "");
     return LF_ERROR;
 }
 
@@ -431,6 +652,7 @@ LfStatus lf_initialize(LfInstance *c) {
     opt.max_steps = c->max_steps;
     c->t = c->last_successful_time = c->t_start;
     if (initial_states(c) != LF_OK) return LF_ERROR;
+    if (init_delays(c, &opt) != LF_OK) return LF_ERROR;
     if (LF_NQ > 0 && initial_modes(c) != LF_OK) return LF_ERROR;
     st = lf_solver_init(&c->solver, lf_methods[c->solver_id - 1], ode, opt, c->t_start,
                         &c->r[LF_VR_X0], &c->alloc);
@@ -442,6 +664,7 @@ LfStatus lf_initialize(LfInstance *c) {
     c->solver_ready = 1;
     c->inputs_changed = 0;
     c->outputs_valid = 0;
+    if (hist_push(c, c->t, &c->r[LF_VR_X0], 1) != LF_OK) return LF_ERROR;
     st = eval_events(c, c->t, &c->r[LF_VR_X0], c->e_old);
     if (st != LF_OK) return LF_ERROR;
     return lf_update_outputs(c);
@@ -562,7 +785,7 @@ static LfStatus handle_events(LfInstance *c) {
     }
     lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: event %s, solver restarted", s->t,
            lf_model.event_names[first]);
-    return LF_OK;
+    return hist_push(c, s->t, s->x, lf_model.event_mode[first] >= 0);
 }
 
 static LfStatus fail_step(LfInstance *c, LfStatus st, const char *what) {
@@ -593,17 +816,26 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
     }
     if (c->inputs_changed) {
         lf_solver_reset(s, s->t, s->x);
+        st = hist_push(c, s->t, s->x, 1);
+        if (st != LF_OK) return fail_step(c, st, "history update failed");
         st = eval_events(c, s->t, s->x, c->e_old);
         if (st != LF_OK) return fail_step(c, st, "event indicators not finite");
         c->inputs_changed = 0;
     }
     while (s->t < t_end) {
+        double t_bound = LF_ND > 0 ? next_breakpoint(c, s->t, t_end) : t_end;
         s->message[0] = '\0';
-        st = s->method->step(s, t_end);
+        st = s->method->step(s, t_bound);
         if (st != LF_OK) return fail_step(c, st, s->message);
         if (LF_NE > 0) {
             st = handle_events(c);
             if (st != LF_OK) return fail_step(c, st, "event handling failed");
+        }
+        if (LF_ND > 0) {
+            int at_bp = s->t == t_bound && t_bound < t_end;
+            st = hist_step(c);
+            if (st != LF_OK) return fail_step(c, st, "history update failed");
+            if (at_bp) lf_solver_reset(s, s->t, s->x); /* a delayed value jumps here */
         }
         if (++steps > c->max_steps)
             return fail_step(c, LF_DISCARD, "too many internal steps in one communication step");

@@ -8,6 +8,12 @@
 #include "lf_solver.h"
 
 #define LF_DIM(n) ((n) > 0 ? (n) : 1)
+/* samples of history kept per delayed expression */
+#define LF_HIST_CAP 65536
+/* pending discontinuities of delayed values (history jumps + tau) */
+#define LF_MAX_BP 256
+
+enum { LF_DELAY_HERMITE = 1, LF_DELAY_LINEAR = 2 };
 
 /* FMI interface states, as bits so that each call can check a mask. */
 typedef enum {
@@ -68,6 +74,17 @@ typedef struct {
     int quiet;                    /* > 0: trial solves, do not log their failures */
     int x_set[LF_DIM(LF_NX)];     /* state set by the importer before initialization */
 
+    /* delays: per delayed expression a ring of accepted samples (t, g, dg/dt),
+     * interpolated by cubic Hermite (or linearly, for comparison) */
+    double dval[LF_DIM(LF_ND)];   /* delayed values passed to the functions */
+    double tau[LF_DIM(LF_ND)];
+    double *hist;                 /* LF_ND x LF_HIST_CAP x 3 */
+    long hist_start[LF_DIM(LF_ND)];
+    long hist_count[LF_DIM(LF_ND)];
+    int delay_interp;
+    double bp[LF_MAX_BP];
+    int n_bp;
+
     LfSolver solver;
     int solver_ready;
     double e_old[LF_DIM(LF_NE)];
@@ -87,6 +104,7 @@ LfStatus lf_set_real(LfInstance *c, unsigned vr, double value);
 LfStatus lf_get_real(LfInstance *c, unsigned vr, double *value);
 LfStatus lf_set_solver(LfInstance *c, int id);
 LfStatus lf_get_integer(LfInstance *c, unsigned vr, int *value);
+LfStatus lf_set_integer(LfInstance *c, unsigned vr, int value);
 
 /* Start the solver at t_start with the current states (exit initialization). */
 LfStatus lf_initialize(LfInstance *c);

@@ -1,0 +1,107 @@
+"""Spindle drive of a ring-spinning frame: first-order lag with pure delay,
+driven by the layer (builder) cam.
+
+Source: seed 001 (Razumeev, Movshovich), (3), (4), (9):
+W(s) = K e^(-s tau) / (T s + 1), corrected from the printed
+K exp(-S t)/(TS + 1) (defect D9: the delay is tau, t is time).
+
+    T n' + n = K u(t - tau)                      the drive (9)
+    u = U_z + cam_on k_g (r(phi) - r_min) + u_ext  drive input signal (3)
+    phi' = f_rad n                               cam geared to the spindles (4)
+    r(phi) = A_0 + sum_j A_j cos(j phi) + B_j sin(j phi)   cam profile table
+
+U_z = n_min / K is the set point (r = r_min gives n_min statically, defect
+D10 of the spec).  The cam turns with the spindles, so its angle depends on
+the realised speed: the delayed signal depends on the state phi and the
+FMU keeps its history (cubic Hermite between accepted steps by default).
+"""
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+
+from loomfmu.declare import Model
+
+SEED = "seed 001"
+A = "assumption: the seed gives no numbers; "
+
+
+def cam_table(cam: str, harmonics: int, m: int) -> tuple[float, list[float], list[float]]:
+    """Default cam table (A_0, A_j, B_j) from the speed-law analysis."""
+    if cam == "none":
+        return 0.05, [0.0] * harmonics, [0.0] * harmonics
+    from loomfmu.drive import DriveParams, cam_profile_phi
+    A0, Aj, Bj = cam_profile_phi(DriveParams(), m, compensate=(cam == "compensated"),
+                                 n_phi=harmonics)
+    return float(A0), [float(v) for v in Aj], [float(v) for v in Bj]
+
+
+def build(*, cam: str = "compensated", harmonics: int = 64, m: int = 40,
+          max_delay: float = 5.0) -> Model:
+    """cam: default cam table, "compensated" (m-term inverse of W),
+    "uncompensated" (proportional to the speed law) or "none" (flat, r_min);
+    harmonics: size of the cam table in phi; max_delay: longest tau (s) the
+    FMU's history holds."""
+    if cam not in ("compensated", "uncompensated", "none"):
+        raise ValueError(f"cam = {cam!r}; allowed: 'compensated', 'uncompensated', 'none'")
+    if not (isinstance(harmonics, int) and 1 <= harmonics <= 512):
+        raise ValueError(f"harmonics = {harmonics!r}; allowed: integers 1 ... 512")
+    if not 0 < max_delay <= 3600:
+        raise ValueError(f"max_delay = {max_delay!r}; allowed: (0, 3600] s")
+    m_ = Model("drive", description="Ring-spinning spindle drive: first-order lag with pure "
+               "delay, fed by the layer cam geared to the spindles (seed 001)",
+               stop_time=30.0, step_size=0.01, h_fixed=1e-3,
+               options={"cam": cam, "harmonics": harmonics, "m": m, "max_delay": max_delay})
+    P = m_.parameter
+    K = P("K", 1800.0, unit="rpm/V", description="static gain of the drive", min=1.0,
+          max=1e6, source=SEED + " (9); value " + A + "0-10 V <-> 0-18000 rpm")
+    T = P("T", 2.0, unit="s", description="time constant of the drive", min=1e-6, max=100.0,
+          source=SEED + " (9); value " + A + "ring-frame inertia, inverter ramps")
+    tau = P("tau", 0.5, unit="s", description="pure delay of the drive", min=0.0,
+            max=max_delay, source=SEED + " (9), printed as t (defect D9); value " + A +
+            "regulator dead time and belt slip")
+    k_g = P("k_g", 100.0, unit="V/m", description="gain of the layer sensor W_g", min=1e-3,
+            max=1e6, source=SEED + " (3), W_g not given: assumption W_g = k_g")
+    r_min = P("r_min", 0.05, unit="m", description="cam datum radius (signal zero, n = n_min)",
+              min=0.0, max=1.0, source=SEED + " (3), read as a datum (defect D10); value " + A)
+    n_min = P("n_min", 12000.0, unit="rpm", description="spindle speed at the set point U_z",
+              min=1.0, max=1e5, source=A + "10-20 krpm as in seed 003")
+    f_rad = P("f_rad", 1.8448e-3, unit="rad", description="cam angle per spindle revolution",
+              min=0.0, max=1.0, source=SEED + " (4), units fixed (defect D11): 2 pi / "
+              "(mean speed x double-stroke period) for the assumed law")
+    cam_on = P("cam_on", 1.0 if cam != "none" else 0.0, description="1: the cam drives the "
+               "speed; 0: only U_z + u_ext (open loop)", min=0.0, max=1.0,
+               source="model option")
+    A0, Aj, Bj = cam_table(cam, harmonics, m)
+    a0 = P("cam_A0", A0, unit="m", description="cam profile: mean radius", min=0.0, max=1.0,
+           source="loomfmu.drive.cam_profile_phi (seed 001 (3), (8))")
+    coeffs = []
+    for j in range(1, harmonics + 1):
+        coeffs.append((P(f"cam_A{j}", Aj[j - 1], unit="m", min=-1.0, max=1.0,
+                         description=f"cam profile: cos({j} phi) coefficient",
+                         source="loomfmu.drive.cam_profile_phi"),
+                       P(f"cam_B{j}", Bj[j - 1], unit="m", min=-1.0, max=1.0,
+                         description=f"cam profile: sin({j} phi) coefficient",
+                         source="loomfmu.drive.cam_profile_phi")))
+    u_ext = m_.input("u_ext", 0.0, unit="V", description="external control signal added to "
+                     "the drive input", min=-100.0, max=100.0)
+    n = m_.state("n", 12000.0, unit="rpm", description="spindle speed")
+    phi = m_.state("phi", 0.0, unit="rad", description="cam angle")
+
+    r = a0 + sum(a * ca.cos(j * phi) + b * ca.sin(j * phi)
+                 for j, (a, b) in enumerate(coeffs, 1))
+    u = n_min / K + cam_on * k_g * (r - r_min) + u_ext
+    u_delayed = m_.delay("u", u, tau, max_delay=max_delay,
+                         description="drive input signal, tau ago")
+    m_.eq(T * m_.der(n), K * u_delayed - n)
+    m_.eq(m_.der(phi), f_rad * n / 60.0)
+    m_.set_starts_from(n, K * u)  # steady state of the initial signal
+
+    m_.output("n_out", n, unit="rpm", description="spindle speed")
+    m_.output("u", u, unit="V", description="drive input signal")
+    m_.output("u_delayed", u_delayed, unit="V", description="drive input signal, tau ago")
+    m_.output("r", r, unit="m", description="cam radius at the follower")
+    m_.output("phi_out", phi, unit="rad", description="cam angle")
+    m_.port("spindles", "shaft", speed="n_out", description="spindle speed to the spindles")
+    return m_

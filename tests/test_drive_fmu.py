@@ -1,0 +1,113 @@
+"""The drive FMU: first-order lag with pure delay whose history lives in the
+FMU.  Against the exact step response, the pure lag for tau = 0, the
+method-of-steps scipy reference (state delay: the cam turns with the
+spindles), and the interpolation of the history."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from fmpy.fmi1 import FMICallException
+
+from loomfmu import build_fmu
+from loomfmu.models.drive import build
+from loomfmu.reference import reference
+from loomfmu.verify import compare, simulate
+
+K, T, N_MIN = 1800.0, 2.0, 12000.0
+#: a small cam, fast enough that the delayed signal varies within solver steps
+CAM = {"cam_on": 1.0, "cam_A0": 0.06, "cam_A1": 0.01, "cam_B2": 0.004, "cam_A3": 0.002,
+       "f_rad": 0.02}
+
+
+@pytest.fixture(scope="module")
+def model():
+    return build(cam="none", harmonics=3, max_delay=2.0)
+
+
+@pytest.fixture(scope="module")
+def drive_fmu(model, tmp_path_factory):
+    return build_fmu(model, out_dir=tmp_path_factory.mktemp("drive"))
+
+
+def test_drive_fmu_validates(drive_fmu):
+    assert drive_fmu.problems == []
+
+
+def _step_response(path, slave_factory, solver, tau, U=0.5, t_end=5.0, comm=0.01):
+    s = slave_factory(path)
+    s.start(solver=solver, tau=tau, solver_rtol=1e-10, solver_atol=1e-8)
+    s.set(u_ext=U)  # the input steps at t = 0: the history holds 0 before
+    t, err = 0.0, 0.0
+    for _ in range(int(round(t_end / comm))):
+        s.fmu.doStep(t, comm)
+        t += comm
+        exact = N_MIN + (K * U * (1 - math.exp(-(t - tau) / T)) if t >= tau else 0.0)
+        err = max(err, abs(s.get("n_out")[0] - exact))
+    return err
+
+
+@pytest.mark.parametrize("solver", [1, 2, 3])
+@pytest.mark.parametrize("tau", [0.5, 0.37, 0.0])
+def test_step_response_is_exact(drive_fmu, slave_factory, solver, tau):
+    """T n' + n = K u(t - tau): n = n_min + K U (1 - exp(-(t - tau)/T)) after tau;
+    tau = 0 is the pure lag.  (tau = 0.37 does not fall on a communication
+    point: the jump must be found inside the step.)"""
+    assert _step_response(drive_fmu.path, slave_factory, solver, tau) < 1e-6
+
+
+def test_negative_delay_and_time_constant_are_rejected(drive_fmu, slave_factory):
+    s = slave_factory(drive_fmu.path)
+    s.fmu.setupExperiment(startTime=0.0)
+    for name in ("tau", "T"):
+        with pytest.raises(FMICallException):
+            s.set(**{name: -0.1})
+        assert any(f"{name} = -0.1" in m for _, _, m in s.log)
+
+
+def test_delay_beyond_the_history_is_rejected_at_initialization(model, tmp_path):
+    """The FMU's history holds max_delay = 2 s: tau = 3 s is refused at
+    initialization with the limit in the message (a larger build needs a
+    larger max_delay)."""
+    from conftest import Slave
+    small = build_fmu(build(cam="none", harmonics=3, max_delay=2.0), out_dir=tmp_path).path
+    s = Slave(small)
+    s.fmu.setupExperiment(startTime=0.0)
+    with pytest.raises(FMICallException):
+        s.set(tau=3.0)
+    assert any("[0, 2]" in m for _, _, m in s.log)
+    s.fmu.freeInstance()
+    with pytest.raises(ValueError, match="max_delay"):
+        build(cam="none", max_delay=-1.0)
+
+
+@pytest.fixture(scope="module")
+def ref(model, drive_fmu):
+    grid = simulate(drive_fmu.path, output=["n_out"], values=CAM, stop_time=10.0).t
+    return reference(model, t_end=grid[-1], t_eval=grid, rtol=1e-11, atol=1e-9, values=CAM)
+
+
+@pytest.mark.parametrize("solver", ["dopri5", "rk4"])
+def test_state_delay_matches_method_of_steps_reference(drive_fmu, ref, solver):
+    run = simulate(drive_fmu.path, solver=solver, rtol=1e-8, atol=1e-8, stop_time=10.0,
+                   output=["n_out", "phi_out", "u_delayed"],
+                   values={**CAM, "solver_h_fixed": 2e-3})
+    errs = compare(run, ref, ["n_out", "phi_out", "u_delayed"])
+    assert errs["n_out"]["max_abs"] < 1e-3  # rpm, on a 2300 rpm swing
+    assert errs["phi_out"]["max_abs"] < 1e-6
+
+
+def test_linear_history_is_not_accurate_enough(drive_fmu, ref):
+    """The cam signal varies within the solver's steps: the history sampled
+    on the dense output converges with the tolerance; linear interpolation
+    between accepted steps does not."""
+    errs = {}
+    for interp in (1, 2):
+        for rtol in (1e-6, 1e-9):
+            run = simulate(drive_fmu.path, solver="dopri5", rtol=rtol, atol=1e-8,
+                           stop_time=10.0, output=["n_out"],
+                           values={**CAM, "delay_interpolation": interp})
+            errs[interp, rtol] = compare(run, ref, ["n_out"])["n_out"]["max_abs"]
+    assert errs[1, 1e-9] < errs[1, 1e-6] / 5 and errs[1, 1e-9] < 1e-3
+    assert errs[2, 1e-9] > 0.01 and errs[2, 1e-9] > 100 * errs[1, 1e-9]
