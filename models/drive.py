@@ -22,22 +22,23 @@ import math
 import casadi as ca
 
 from loomfmu.declare import Model
+from loomfmu.drive import DriveParams, cam_profile_phi, f_rad as cam_ratio
 
 SEED = "seed 001"
 A = "assumption: the seed gives no numbers; "
 
 
 def cam_table(cam: str, harmonics: int, m: int) -> tuple[float, list[float], list[float]]:
-    """Default cam table (A_0, A_j, B_j) from the speed-law analysis."""
+    """Default cam table (A_0, A_j, B_j) from the speed-law analysis
+    (loomfmu.drive: seed 001 (5)-(8), (3)-(4), the assumed machine values)."""
+    p = DriveParams()
     if cam == "none":
-        return 0.05, [0.0] * harmonics, [0.0] * harmonics
-    from loomfmu.drive import DriveParams, cam_profile_phi
-    A0, Aj, Bj = cam_profile_phi(DriveParams(), m, compensate=(cam == "compensated"),
-                                 n_phi=harmonics)
+        return p.r_min, [0.0] * harmonics, [0.0] * harmonics
+    A0, Aj, Bj = cam_profile_phi(p, m, compensate=(cam == "compensated"), M=harmonics)
     return float(A0), [float(v) for v in Aj], [float(v) for v in Bj]
 
 
-def build(*, cam: str = "compensated", harmonics: int = 64, m: int = 40,
+def build(*, cam: str = "compensated", harmonics: int = 96, m: int = 40,
           max_delay: float = 5.0) -> Model:
     """cam: default cam table, "compensated" (m-term inverse of W),
     "uncompensated" (proportional to the speed law) or "none" (flat, r_min);
@@ -54,20 +55,21 @@ def build(*, cam: str = "compensated", harmonics: int = 64, m: int = 40,
                stop_time=30.0, step_size=0.01, h_fixed=1e-3,
                options={"cam": cam, "harmonics": harmonics, "m": m, "max_delay": max_delay})
     P = m_.parameter
-    K = P("K", 1800.0, unit="rpm/V", description="static gain of the drive", min=1.0,
+    dp = DriveParams()  # the assumed machine values, documented in loomfmu.drive.params
+    K = P("K", dp.K * 60.0, unit="rpm/V", description="static gain of the drive", min=1.0,
           max=1e6, source=SEED + " (9); value " + A + "0-10 V <-> 0-18000 rpm")
-    T = P("T", 2.0, unit="s", description="time constant of the drive", min=1e-6, max=100.0,
+    T = P("T", dp.T, unit="s", description="time constant of the drive", min=1e-6, max=100.0,
           source=SEED + " (9); value " + A + "ring-frame inertia, inverter ramps")
-    tau = P("tau", 0.5, unit="s", description="pure delay of the drive", min=0.0,
+    tau = P("tau", dp.tau, unit="s", description="pure delay of the drive", min=0.0,
             max=max_delay, source=SEED + " (9), printed as t (defect D9); value " + A +
             "regulator dead time and belt slip")
-    k_g = P("k_g", 100.0, unit="V/m", description="gain of the layer sensor W_g", min=1e-3,
+    k_g = P("k_g", dp.k_g, unit="V/m", description="gain of the layer sensor W_g", min=1e-3,
             max=1e6, source=SEED + " (3), W_g not given: assumption W_g = k_g")
-    r_min = P("r_min", 0.05, unit="m", description="cam datum radius (signal zero, n = n_min)",
+    r_min = P("r_min", dp.r_min, unit="m", description="cam datum radius (signal zero, n = n_min)",
               min=0.0, max=1.0, source=SEED + " (3), read as a datum (defect D10); value " + A)
-    n_min = P("n_min", 12000.0, unit="rpm", description="spindle speed at the set point U_z",
+    n_min = P("n_min", dp.n_min * 60.0, unit="rpm", description="spindle speed at the set point U_z",
               min=1.0, max=1e5, source=A + "10-20 krpm as in seed 003")
-    f_rad = P("f_rad", 1.8448e-3, unit="rad", description="cam angle per spindle revolution",
+    f_rad = P("f_rad", cam_ratio(dp), unit="rad", description="cam angle per spindle revolution",
               min=0.0, max=1.0, source=SEED + " (4), units fixed (defect D11): 2 pi / "
               "(mean speed x double-stroke period) for the assumed law")
     cam_on = P("cam_on", 1.0 if cam != "none" else 0.0, description="1: the cam drives the "

@@ -14,10 +14,9 @@ MODELS: dict[str, tuple[str, dict]] = {
     "heald_frame": ("heald_frame", {}),
     "backrest": ("backrest", {}),
     "backrest_regularized": ("backrest", {"friction": "regularized"}),
+    "drive": ("drive", {}),
     "heald_frame_planar": ("heald_frame_planar", {}),
     "heald_frame_rigid": ("heald_frame_rigid", {}),
-    "spindle": ("spindle", {}),
-    "spindle_modal": ("spindle_modal", {}),
 }
 
 

@@ -1,0 +1,40 @@
+"""python -m loomfmu.drive {table, charts, tracking}: see loomfmu.drive.report
+and loomfmu.drive.tracking."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from . import report
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m loomfmu.drive")
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    t = sub.add_parser("table", help="law constants, Fourier coefficients, cam -> docs/drive_law.md")
+    t.add_argument("--out", type=Path, default=Path("docs/drive_law.md"))
+    c = sub.add_parser("charts", help="speed law, cam profile, error vs m -> docs/drive/*.png")
+    c.add_argument("--out-dir", type=Path, default=Path("docs/drive"))
+    k = sub.add_parser("tracking", help="drive FMU with compensated / uncompensated cam "
+                       "-> docs/drive_tracking.md")
+    k.add_argument("--out", type=Path, default=Path("docs/drive_tracking.md"))
+    args = ap.parse_args(argv)
+    if args.cmd == "tracking":
+        from .tracking import write_tracking
+        print(write_tracking(args.out))
+        print(f"written: {args.out}")
+    elif args.cmd == "table":
+        text = report.law_markdown()
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(text)
+        print(text)
+        print(f"written: {args.out}")
+    else:
+        for path in report.write_charts(args.out_dir):
+            print(f"written: {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
