@@ -122,22 +122,26 @@ FUNCTIONS = ("wsol", "wjac", "res", "rjac", "out", "evt", "valid", "reinit", "in
 def casadi_functions(dae: DaeForm) -> list[ca.Function]:
     """The functions the runtime calls, all with arguments (t, x, w, u, p, q).
 
-    Explicit models: wsol -> w, wjac -> (dw/dx, dw/dt); res/rjac are the
-    residual and its Jacobians (used only by tests).  Implicit models: res ->
-    F, rjac -> (dF/dw, dF/dx, dF/dt); wsol/wjac return zeros (never called).
+    Explicit models: wsol -> w, wjac -> (dw/dx, dw/dt); res/rjac return
+    zeros (never called).  Implicit models: res -> F, rjac -> (dF/dw, dF/dx,
+    dF/dt); wsol/wjac return zeros (never called).  The stubs keep one
+    function table for every model at no build cost.
     """
     name = dae.model.name
     nw, nx = dae.w.numel(), dae.nx
     if dae.implicit:
         wsol, wjac = ca.SX.zeros(nw), [ca.SX.zeros(nw, nx), ca.SX.zeros(nw)]
+        F = dae.F
+        rjac = [ca.densify(ca.jacobian(dae.F, v)) for v in (dae.w, dae.x, dae.t)]
     else:
         wsol = dae.wsol
         wjac = [ca.densify(ca.jacobian(wsol, dae.x)), ca.densify(ca.jacobian(wsol, dae.t))]
-    rjac = [ca.densify(ca.jacobian(dae.F, v)) for v in (dae.w, dae.x, dae.t)]
+        F = ca.SX.zeros(nw)
+        rjac = [ca.SX.zeros(nw, nw), ca.SX.zeros(nw, nx), ca.SX.zeros(nw)]
     zloc = dae.w[nx:, 0]
     outs = {
         "wsol": ([wsol], ["w_sol"]), "wjac": (wjac, ["dw_dx", "dw_dt"]),
-        "res": ([dae.F], ["F"]), "rjac": (rjac, ["dF_dw", "dF_dx", "dF_dt"]),
+        "res": ([F], ["F"]), "rjac": (rjac, ["dF_dw", "dF_dx", "dF_dt"]),
         "out": ([ca.vertcat(dae.y, zloc)], ["y"]), "evt": ([dae.e], ["e"]),
         "valid": ([dae.valid], ["valid"]), "reinit": ([dae.reinit], ["x_new"]),
         "init": ([dae.init], ["x_start"]),

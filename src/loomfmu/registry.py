@@ -17,6 +17,8 @@ MODELS: dict[str, tuple[str, dict]] = {
     "drive": ("drive", {}),
     "heald_frame_planar": ("heald_frame_planar", {}),
     "heald_frame_rigid": ("heald_frame_rigid", {}),
+    "spindle": ("spindle", {}),
+    "spindle_modal": ("spindle_modal", {}),
 }
 
 
