@@ -24,13 +24,13 @@ def build_one(name: str, out_dir: Path, rtol: float) -> dict:
 
 
 def summary(reports: dict[str, dict]) -> str:
-    lines = [f"{'model':<16}{'solver':<8}{'worst output':<14}{'max abs err':>13}"
+    lines = [f"{'model':<22}{'solver':<8}{'worst output':<14}{'max abs err':>13}"
              f"{'rel. to range':>15}{'FMU s':>9}{'scipy s':>9}{'problems':>10}"]
     for name, rep in reports.items():
         for solver, res in rep["solvers"].items():
             worst = max(res["errors"], key=lambda k: res["errors"][k]["max_rel_range"])
             e = res["errors"][worst]
-            lines.append(f"{name:<16}{solver:<8}{worst:<14}{e['max_abs']:>13.3e}"
+            lines.append(f"{name:<22}{solver:<8}{worst:<14}{e['max_abs']:>13.3e}"
                          f"{e['max_rel_range']:>15.3e}{res['wall_seconds']:>9.3f}"
                          f"{rep['reference_wall_seconds']:>9.3f}"
                          f"{len(rep['validation_problems']):>10d}")

@@ -55,7 +55,8 @@ def build(*, friction: str = "events", eps: float = 1e-3) -> Model:
               description="Loom backrest (whip roll): lever and roller with Coulomb "
               "friction in both pivots, stick-slip (seed 004)",
               stop_time=1.0, step_size=1e-3, h_fixed=2e-5,
-              options={"friction": friction, "eps": eps})
+              options={"friction": friction, "eps": eps},
+              reference_method="DOP853" if friction == "events" else "Radau")
     P = m.parameter
     r1 = P("r1", 0.15, unit="m", description="lever length O1O2", min=0.02, max=1.0,
            source=A + "backrest swing levers are 0.1-0.2 m")

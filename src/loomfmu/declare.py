@@ -106,6 +106,7 @@ class Model:
     step_size: float = 1e-3
     h_max: float = math.inf     # default largest internal solver step
     h_fixed: float = 1e-4       # default step of the fixed-step solver
+    reference_method: str = "DOP853"  # solve_ivp method of the scipy reference (stiff: Radau)
     variables: list[Variable] = field(default_factory=list)
     equations: list[ca.SX] = field(default_factory=list)
     events: list[EventIndicator] = field(default_factory=list)

@@ -85,7 +85,8 @@ def verify(fmu: Path | str, model: Model, *, solvers=SOLVERS, rtol: float = 1e-6
     names = [v.name for v in model.of_kind("output")]
     runs = {s: simulate(fmu, solver=s, rtol=rtol, atol=atol, output=names) for s in solvers}
     grid = next(iter(runs.values())).t  # FMPy's communication points
-    ref = reference(model, t_end=grid[-1], t_eval=grid, rtol=ref_rtol, atol=ref_atol)
+    ref = reference(model, t_end=grid[-1], t_eval=grid, rtol=ref_rtol, atol=ref_atol,
+                    method=model.reference_method)
     return {"reference_wall_seconds": ref.wall_seconds, "reference_rhs_calls": ref.n_rhs,
             "solvers": {s: {"wall_seconds": run.wall_seconds, "log": run.log[-5:],
                             "errors": compare(run, ref, names)} for s, run in runs.items()}}
