@@ -200,7 +200,13 @@ def hinge_load(ld: Loads, mo: Motion, w: Warp, elastic=0.0):
     return -(mass * (ld.g + mo.h_ddot) + elastic + w.f_y) / ld.n_hinge
 
 
-def declare_hinge_outputs(m: Model, ld: Loads, mo: Motion, w: Warp, elastic=0.0) -> None:
+def declare_hinge_outputs(m: Model, ld: Loads, mo: Motion, w: Warp, elastic=0.0,
+                          reduced_mass=None) -> None:
+    """reduced_mass: the slats' reduced vertical masses, which are part of the
+    frame: m_RR >= their sum is required (seed 002's m_RR is the whole frame)."""
+    if reduced_mass is not None:
+        m.constraint("reduced_mass_in_frame", ld.m_RR - reduced_mass,
+                     "the slats' reduced vertical masses exceed the frame mass m_RR")
     m.output("N_rem", hinge_load(ld, mo, w, elastic), unit="N",
              description="force of the frame on one drive hinge, positive up (seed 002 "
              "N_REM, from the actual accelerations and warp load)")

@@ -45,7 +45,7 @@ def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
     m.output("y2_out", Y[1], unit="m", description="vertical displacement of the top "
              "slat's mid-section")
     declare_warp_outputs(m, w)
-    declare_hinge_outputs(m, ld, mo, w, elastic=ca.dot(M_y, AY))
+    declare_hinge_outputs(m, ld, mo, w, elastic=ca.dot(M_y, AY), reduced_mass=ca.sum1(M_y))
     if preset is not None:
         from loomfmu.heald.presets import preset_values
         apply_values(m, preset_values(preset))

@@ -228,3 +228,17 @@ def test_start_follows_parameters_set_at_run_time(heald_frame_fmu, model, slave_
     s2 = slave_factory(heald_frame_fmu.path)
     s2.start(k_z=2.0, x2=0.0)
     assert s2.get("x2")[0] == 0.0
+
+
+def test_cross_parameter_constraint_is_checked(heald_frame_fmu, model, slave_factory):
+    """The slats' reduced masses must fit in the frame mass m_RR: no single
+    range can say so; the FMU refuses to initialize, Python raises."""
+    s = slave_factory(heald_frame_fmu.path)
+    s.fmu.setupExperiment(startTime=0.0)
+    s.set(m_RR=0.5)  # in range, but lighter than the slats
+    s.fmu.enterInitializationMode()
+    with pytest.raises(FMICallException):
+        s.fmu.exitInitializationMode()
+    assert any("reduced_mass_in_frame" in m for _, _, m in s.log)
+    with pytest.raises(ValueError, match="reduced_mass_in_frame"):
+        reference(model, t_end=0.01, values={"m_RR": 0.5})

@@ -116,7 +116,7 @@ def model_guid(model: Model, dae: DaeForm) -> str:
 
 #: The generated functions in the order of the runtime's LfFunctionId.
 FUNCTIONS = ("wsol", "wjac", "res", "rjac", "out", "evt", "valid", "reinit", "init",
-             "hist", "tau")
+             "hist", "tau", "cons")
 
 
 def casadi_functions(dae: DaeForm) -> list[ca.Function]:
@@ -146,6 +146,7 @@ def casadi_functions(dae: DaeForm) -> list[ca.Function]:
         "valid": ([dae.valid], ["valid"]), "reinit": ([dae.reinit], ["x_new"]),
         "init": ([dae.init], ["x_start"]),
         "hist": ([dae.g, dae.gdot], ["g", "g_dot"]), "tau": ([dae.tau], ["tau"]),
+        "cons": ([dae.cons], ["c"]),
     }
     return [dae.function(f"{name}_{f}", *outs[f]) for f in FUNCTIONS]
 
@@ -190,6 +191,7 @@ def declaration_header(model: Model, dae: DaeForm) -> str:
         f"#define LF_NQ {len(model.of_kind('mode'))}",
         f"#define LF_IMPLICIT {1 if dae.implicit else 0}",
         f"#define LF_ND {len(model.delays)}",
+        f"#define LF_NC {len(model.constraints)}",
         f"#define LF_N_SOLVERS {len(SOLVERS)}",
     ]
     lines += [f"#define {s.macro} {i}" for i, s in enumerate(SETTINGS)]
@@ -223,6 +225,8 @@ def declaration_source(model: Model, dae: DaeForm, guid: str) -> str:
     out.append(_c_array("int", "event_mode", [
         str(mode_index.get(model.event_modes.get(e.name), -1)) for e in model.events]))
     out.append(_c_array("double", "delay_max", [repr(v.max_delay) for v in model.delays]))
+    out.append(_c_array("char *const", "constraint_messages",
+                        [_c_str(f"{c.name}: {c.message}") for c in model.constraints]))
     out.append(_c_array("char *const", "delay_names", [_c_str(v.name) for v in model.delays]))
     fns = ", ".join(f"{{{name}_{f}, {name}_{f}_work}}" for f in FUNCTIONS)
     out.append(f"""const LfModel lf_model = {{
@@ -233,6 +237,7 @@ def declaration_source(model: Model, dae: DaeForm, guid: str) -> str:
     event_names, event_mode,
     mode_names, mode_start, mode_value_offset, mode_values,
     delay_names, delay_max,
+    constraint_messages,
     solver_names,
     {{{fns}}}
 }};

@@ -88,6 +88,15 @@ class Delay:
 
 
 @dataclass
+class Constraint:
+    """``expr`` >= 0 must hold for the parameters (checked at initialization)."""
+
+    name: str
+    expr: ca.SX
+    message: str
+
+
+@dataclass
 class EventIndicator:
     """A function whose sign change marks a breakpoint inside a step."""
 
@@ -118,6 +127,7 @@ class Model:
     event_modes: dict[str, str] = field(default_factory=dict)
     initials: dict[str, ca.SX] = field(default_factory=dict)
     delays: list[Delay] = field(default_factory=list)
+    constraints: list[Constraint] = field(default_factory=list)
     t: ca.SX = field(default_factory=lambda: ca.SX.sym("time"))
 
     def __post_init__(self):
@@ -183,6 +193,30 @@ class Model:
         sym = ca.SX.sym(f"delay({name})")
         self.delays.append(Delay(name, sym, ca.SX(expr), tau, float(max_delay), description))
         return sym
+
+    def constraint(self, name: str, expr, message: str) -> None:
+        """Require ``expr`` >= 0, an expression of parameters only: a condition
+        no single parameter range can express (e.g. the slats' mass must not
+        exceed the frame's).  The FMU refuses to initialize with fmi2Error and
+        a log line; Python raises ValueError (``check_constraints``)."""
+        expr = ca.SX(expr)
+        if ca.depends_on(expr, ca.vertcat(self.t, self.syms("state"), self.syms("input"))):
+            raise ValueError(f"constraint {name!r} must depend on parameters only")
+        self.constraints.append(Constraint(name, expr, message))
+
+    def check_constraints(self, values: dict[str, float] | None = None) -> None:
+        """Raise ValueError naming every violated constraint at these parameters."""
+        if not self.constraints:
+            return
+        ps = self.of_kind("parameter")
+        p = [float(dict(values or {}).get(v.name, v.start)) for v in ps]
+        f = ca.Function("c", [self.syms("parameter")],
+                        [ca.vertcat(*[c.expr for c in self.constraints])])
+        got = f(p).full().ravel()
+        bad = [f"{c.name}: {c.message} (value {v:g}, must be >= 0)"
+               for c, v in zip(self.constraints, got) if not v >= 0]
+        if bad:
+            raise ValueError(f"model {self.name}: " + "; ".join(bad))
 
     def mode(self, name, start: int, values, *, description="") -> ca.SX:
         """Declare a discrete mode (an Integer output of the FMU).

@@ -113,6 +113,7 @@ class DaeForm:
     g: ca.SX
     gdot: ca.SX
     tau: ca.SX
+    cons: ca.SX  # constraints on the parameters, each >= 0
 
     @property
     def args(self) -> list[ca.SX]:
@@ -169,8 +170,10 @@ def dae_form(model: Model) -> DaeForm:
             raise ValueError(f"model {model.name}: {name} expressions may not use "
                              "derivatives or algebraic variables")
     d, g, gdot, tau = _delays(model, x, w)
+    cons = ca.vertcat(*[c.expr for c in model.constraints]) if model.constraints \
+        else ca.SX(0, 1)
     return DaeForm(model, model.t, x, w, model.syms("input"), model.syms("parameter"), q,
-                   F, wsol, y, e, valid, reinit, init, d, g, gdot, tau)
+                   F, wsol, y, e, valid, reinit, init, d, g, gdot, tau, cons)
 
 
 def _delays(model: Model, x: ca.SX, w: ca.SX):

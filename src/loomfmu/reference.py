@@ -156,6 +156,7 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
     unknown = set(values) - {v.name for v in model.variables}
     if unknown:
         raise ValueError(f"values: {sorted(unknown)} are not variables of {model.name}")
+    model.check_constraints(values)
     if t_eval is None:
         n = int(round(t_end / model.step_size))
         t_eval = np.linspace(0.0, t_end, n + 1)

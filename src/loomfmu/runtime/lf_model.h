@@ -46,7 +46,8 @@ enum {
     LF_FN_INIT = 8,   /* -> start of the states from the parameters */
     LF_FN_HIST = 9,   /* -> delayed expressions g and their time derivative */
     LF_FN_TAU = 10,   /* -> the delays (from the parameters) */
-    LF_N_FN = 11
+    LF_FN_CONS = 11,  /* -> constraints on the parameters, each >= 0 */
+    LF_N_FN = 12
 };
 
 /* Real value references are laid out as
@@ -80,6 +81,7 @@ typedef struct {
     const double *mode_values;       /* in priority order */
     const char *const *delay_names;
     const double *delay_max;         /* longest delay the history is built for */
+    const char *const *constraint_messages;
     const char *const *solver_names; /* must match lf_methods[] */
     LfFunction fn[LF_N_FN];
 } LfModel;

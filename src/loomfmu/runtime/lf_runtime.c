@@ -597,6 +597,22 @@ static LfStatus choose_mode(LfInstance *c, int k, double t, double *x) {
     return LF_ERROR;
 }
 
+/* Constraints across parameters (each >= 0), which ranges cannot express. */
+static LfStatus check_constraints(LfInstance *c) {
+    double v[LF_DIM(LF_NC)];
+    int k, ok = 1;
+    if (LF_NC == 0) return LF_OK;
+    if (eval_fn(c, LF_FN_CONS, c->t, &c->r[LF_VR_X0], c->w_cur, v, NULL, NULL) != LF_OK)
+        return LF_ERROR;
+    for (k = 0; k < LF_NC; k++)
+        if (!(v[k] >= 0)) {
+            lf_log(c, LF_ERROR, LF_LOG_ERROR, "parameters violate %s (value %g, must be >= 0)",
+                   lf_model.constraint_messages[k], v[k]);
+            ok = 0;
+        }
+    return ok ? LF_OK : LF_ERROR;
+}
+
 /* States declared with a start expression (e.g. a static equilibrium) start
  * there for the parameters actually set, unless the importer set them. */
 static LfStatus initial_states(LfInstance *c) {
@@ -651,6 +667,7 @@ LfStatus lf_initialize(LfInstance *c) {
     opt.h_fixed = c->r[LF_SET_H_FIXED];
     opt.max_steps = c->max_steps;
     c->t = c->last_successful_time = c->t_start;
+    if (check_constraints(c) != LF_OK) return LF_ERROR;
     if (initial_states(c) != LF_OK) return LF_ERROR;
     if (init_delays(c, &opt) != LF_OK) return LF_ERROR;
     if (LF_NQ > 0 && initial_modes(c) != LF_OK) return LF_ERROR;
