@@ -46,39 +46,21 @@ class OdeForm:
 
 
 def explicit_ode(model: Model) -> OdeForm:
-    """Solve the model's equations for der(x) and the algebraic variables."""
-    xs, zs = model.of_kind("state"), model.of_kind("algebraic")
-    w = ca.vertcat(model.ders(), model.syms("algebraic"))
-    F = ca.vertcat(*model.equations) if model.equations else ca.SX(0, 1)
-    if F.numel() != w.numel():
-        raise ValueError(
-            f"model {model.name}: {F.numel()} equations for {w.numel()} unknowns "
-            f"({len(xs)} derivatives + {len(zs)} algebraic variables)")
-    A = ca.jacobian(F, w)
-    nonlinear = [i for i in range(F.numel()) if ca.depends_on(A[i, :], w)]
-    if nonlinear:
+    """The explicit form x' = f(t, x, u, p) of a model without modes or delays
+    whose equations are linear in der(x) and the algebraic variables (from
+    :func:`dae_form`, with w substituted by its closed form)."""
+    dae = dae_form(model)
+    if dae.implicit:
+        nonlinear = [i for i in range(dae.F.numel())
+                     if ca.depends_on(ca.jacobian(dae.F[i], dae.w), dae.w)]
         raise ValueError(f"model {model.name}: equations {nonlinear} are nonlinear in "
-                         "der(x)/algebraic variables; only linear implicit forms are "
-                         "supported by explicit_ode")
-    b = ca.substitute(F, w, ca.DM.zeros(w.numel()))
-    sol = ca.solve(A, -b)
-    xdot, z = sol[: len(xs)], sol[len(xs):]
-    outs = model.of_kind("output")
-    y = ca.vertcat(*[v.expr for v in outs]) if outs else ca.SX(0, 1)
-    e = ca.vertcat(*[ev.expr for ev in model.events]) if model.events else ca.SX(0, 1)
-    # outputs may refer to other outputs (declared earlier) and algebraic variables
-    ysym = model.syms("output")
-    for _ in range(len(outs)):
-        if not ca.depends_on(y, ysym):
-            break
-        y = ca.substitute(y, ysym, y)
-    y, e = (ca.substitute(v, w, sol) for v in (y, e))  # der(x) and z may appear
-    for name, expr in (("outputs", y), ("event indicators", e), ("derivatives", xdot)):
-        if ca.depends_on(expr, w) or (ysym.numel() and ca.depends_on(expr, ysym)):
-            raise ValueError(f"model {model.name}: {name} still depend on unknowns "
-                             "after solving (cyclic definition)")
-    return OdeForm(model, model.t, model.syms("state"), model.syms("input"),
-                   model.syms("parameter"), xdot, y, z, e)
+                         "der(x)/algebraic variables; only linear implicit forms have an "
+                         "explicit form (the FMU solves the others by Newton)")
+    if dae.q.numel() or dae.d.numel():
+        raise ValueError(f"model {model.name}: modes and delays have no explicit ODE form")
+    y, e = (ca.substitute(v, dae.w, dae.wsol) for v in (dae.y, dae.e))
+    return OdeForm(model, dae.t, dae.x, dae.u, dae.p, dae.wsol[: dae.nx, 0], y,
+                   dae.wsol[dae.nx:, 0], e)
 
 
 @dataclass
@@ -137,8 +119,8 @@ def _outputs_in_w(model: Model) -> ca.SX:
     outs = model.of_kind("output")
     y = ca.vertcat(*[v.expr for v in outs]) if outs else ca.SX(0, 1)
     ysym = model.syms("output")
-    for _ in range(len(outs)):
-        if not ca.depends_on(y, ysym):
+    for _ in range(len(outs) + 1):
+        if not ysym.numel() or not ca.depends_on(y, ysym):
             return y
         y = ca.substitute(y, ysym, y)
     raise ValueError(f"model {model.name}: outputs are defined cyclically")
