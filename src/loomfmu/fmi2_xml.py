@@ -87,8 +87,8 @@ def model_description(model: Model, dae: DaeForm, guid: str, sources: list[str])
         "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "false",
         "maxOutputDerivativeOrder": "0", "canRunAsynchronuously": "false",
         "canBeInstantiatedOnlyOncePerProcess": "false",
-        "canNotUseMemoryManagementFunctions": "false", "canGetAndSetFMUstate": "false",
-        "canSerializeFMUstate": "false", "providesDirectionalDerivative": "false"})
+        "canNotUseMemoryManagementFunctions": "false", "canGetAndSetFMUstate": "true",
+        "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false"})
     files = ET.SubElement(cs, "SourceFiles")
     for f in sources:
         if f.endswith(".c"):

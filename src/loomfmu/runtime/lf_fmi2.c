@@ -2,13 +2,14 @@
  *
  * Every function checks the instance pointer and the call order against a
  * mask of allowed states, and logs expected vs actual on failure.  Features
- * the model description declares as absent (FMU state, directional
- * derivatives, input derivatives) return fmi2Error with a log line. */
+ * the model description declares as absent (directional derivatives, input
+ * derivatives) return fmi2Error with a log line. */
 #include <math.h>
 #include <string.h>
 
 #include "fmi2Functions.h"
 #include "lf_runtime.h"
+#include "lf_state.h"
 
 #define ANY_STATE                                                                    \
     (LF_ST_INSTANTIATED | LF_ST_INIT | LF_ST_STEP_COMPLETE | LF_ST_STEP_FAILED |     \
@@ -241,36 +242,98 @@ static fmi2Status unsupported(fmi2Component c, const char *fn) {
     return fmi2Error;
 }
 
-fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s) {
-    (void)s;
-    return unsupported(c, "fmi2GetFMUstate");
+/* ---- FMU state (lf_state.c): a blob of its size and the bytes ----------- */
+
+typedef struct {
+    size_t n;
+    unsigned char data[1];
+} StateBlob;
+
+#define STATE_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING | LF_ST_TERMINATED)
+
+static StateBlob *blob_alloc(LfInstance *c, size_t n) {
+    StateBlob *b = (StateBlob *)c->alloc.calloc(1, sizeof(StateBlob) + n);
+    if (b) b->n = n;
+    else lf_log(c, LF_ERROR, LF_LOG_ERROR, "FMU state: out of memory (%lu bytes)",
+                (unsigned long)n);
+    return b;
 }
-fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s) {
-    (void)s;
-    return unsupported(c, "fmi2SetFMUstate");
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
+    LfInstance *inst = (LfInstance *)c;
+    size_t n;
+    StateBlob *b;
+    CHECK("fmi2GetFMUstate", STATE_STATES);
+    n = lf_state_size(inst);
+    b = (StateBlob *)*state;
+    if (!b || b->n != n) {
+        if (b) inst->alloc.free(b);
+        *state = NULL;
+        b = blob_alloc(inst, n);
+        if (!b) return fmi2Error;
+    }
+    lf_state_write(inst, b->data);
+    *state = b;
+    return fmi2OK;
 }
-fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *s) {
-    (void)s;
-    return unsupported(c, "fmi2FreeFMUstate");
+
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
+    const StateBlob *b = (const StateBlob *)state;
+    CHECK("fmi2SetFMUstate", STATE_STATES);
+    if (!b) {
+        lf_log((LfInstance *)c, LF_ERROR, LF_LOG_ERROR, "fmi2SetFMUstate: state is NULL");
+        return fmi2Error;
+    }
+    return (fmi2Status)lf_state_read((LfInstance *)c, b->data, b->n);
 }
-fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *n) {
-    (void)s;
-    (void)n;
-    return unsupported(c, "fmi2SerializedFMUstateSize");
+
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {
+    CHECK("fmi2FreeFMUstate", STATE_STATES | LF_ST_ERROR);
+    if (state && *state) ((LfInstance *)c)->alloc.free(*state);
+    if (state) *state = NULL;
+    return fmi2OK;
 }
-fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t n) {
-    (void)s;
-    (void)b;
-    (void)n;
-    return unsupported(c, "fmi2SerializeFMUstate");
+
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *n) {
+    CHECK("fmi2SerializedFMUstateSize", STATE_STATES);
+    if (!state) {
+        lf_log((LfInstance *)c, LF_ERROR, LF_LOG_ERROR, "fmi2SerializedFMUstateSize: NULL state");
+        return fmi2Error;
+    }
+    *n = ((const StateBlob *)state)->n;
+    return fmi2OK;
 }
-fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte b[], size_t n,
-                                   fmi2FMUstate *s) {
-    (void)s;
-    (void)b;
-    (void)n;
-    return unsupported(c, "fmi2DeSerializeFMUstate");
+
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte bytes[],
+                                 size_t n) {
+    const StateBlob *b = (const StateBlob *)state;
+    CHECK("fmi2SerializeFMUstate", STATE_STATES);
+    if (!b || n < b->n) {
+        lf_log((LfInstance *)c, LF_ERROR, LF_LOG_ERROR,
+               "fmi2SerializeFMUstate: expected a buffer of %lu bytes but was %lu",
+               (unsigned long)(b ? b->n : 0), (unsigned long)n);
+        return fmi2Error;
+    }
+    memcpy(bytes, b->data, b->n);
+    return fmi2OK;
 }
+
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t n,
+                                   fmi2FMUstate *state) {
+    LfInstance *inst = (LfInstance *)c;
+    StateBlob *b;
+    CHECK("fmi2DeSerializeFMUstate", STATE_STATES);
+    if (state && *state) {
+        inst->alloc.free(*state);
+        *state = NULL;
+    }
+    b = blob_alloc(inst, n);
+    if (!b) return fmi2Error;
+    memcpy(b->data, bytes, n);
+    *state = b; /* checked against this FMU when set */
+    return fmi2OK;
+}
+
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference u[],
                                         size_t nu, const fmi2ValueReference z[], size_t nz,
                                         const fmi2Real dv[], fmi2Real dz[]) {

@@ -653,14 +653,19 @@ static LfStatus initial_modes(LfInstance *c) {
     return LF_OK;
 }
 
-LfStatus lf_initialize(LfInstance *c) {
+LfOde lf_ode_of(LfInstance *c) {
     LfOde ode;
-    LfSolverOptions opt;
-    LfStatus st;
     ode.n = LF_NX;
     ode.ctx = c;
     ode.rhs = rhs_cb;
     ode.jac = jac_cb;
+    return ode;
+}
+
+LfStatus lf_initialize(LfInstance *c) {
+    LfOde ode = lf_ode_of(c);
+    LfSolverOptions opt;
+    LfStatus st;
     opt.rtol = c->r[LF_SET_RTOL];
     opt.atol = c->r[LF_SET_ATOL];
     opt.h_max = c->r[LF_SET_H_MAX];

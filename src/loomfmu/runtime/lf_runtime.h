@@ -106,6 +106,8 @@ LfStatus lf_set_solver(LfInstance *c, int id);
 LfStatus lf_get_integer(LfInstance *c, unsigned vr, int *value);
 LfStatus lf_set_integer(LfInstance *c, unsigned vr, int value);
 
+/* The ODE the solvers integrate (right-hand side and Jacobian of c). */
+LfOde lf_ode_of(LfInstance *c);
 /* Start the solver at t_start with the current states (exit initialization). */
 LfStatus lf_initialize(LfInstance *c);
 /* Advance from c->t by h: integrate, locate events, update outputs. */
