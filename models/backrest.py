@@ -110,7 +110,7 @@ def build(*, friction: str = "events", eps: float = 1e-3) -> Model:
     A_shed = P("A_shed", 0.002, unit="m", description="built-in shedding elongation of the "
                "upper branch, (1 - cos) over each pick", min=0.0, max=0.05,
                source=A + "+-20 % tension swing at c2; set 0 and drive the input instead")
-    n_loom = P("n_loom", 240.0, description="loom speed for the built-in shedding (rpm)",
+    n_loom = P("n_loom", 240.0, unit="rpm", description="loom speed for the built-in shedding",
                min=1.0, max=2000.0, source=A + "200-300 picks/min")
     g = 9.81
 

@@ -176,6 +176,7 @@ def test_out_of_range_parameter_is_rejected_with_a_log_line(heald_frame_fmu, sla
         s.set(E=-1.0)
     assert exc.value.status == 3  # fmi2Error
     assert any("E = -1" in m and "range" in m for _, _, m in s.log)
+    s.fmu.enterInitializationMode()  # values can be read from here on (FMI 2.0, 4.2.4)
     assert s.get("E")[0] == pytest.approx(0.7e11)  # nothing lost
     with pytest.raises(FMICallException):
         s.set(solver_rtol=float("nan"))
@@ -242,3 +243,55 @@ def test_cross_parameter_constraint_is_checked(heald_frame_fmu, model, slave_fac
     assert any("reduced_mass_in_frame" in m for _, _, m in s.log)
     with pytest.raises(ValueError, match="reduced_mass_in_frame"):
         reference(model, t_end=0.01, values={"m_RR": 0.5})
+
+
+def test_outputs_in_initialization_mode_are_those_initialization_starts_from(
+        heald_frame_fmu, slave_factory):
+    s = slave_factory(heald_frame_fmu.path)
+    s.fmu.setupExperiment(startTime=0.0)
+    s.fmu.enterInitializationMode()
+    s.set(k_z=2.0)
+    before = s.get("x2", "x2_out", "f_x")
+    s.fmu.exitInitializationMode()
+    assert s.get("x2", "x2_out", "f_x") == pytest.approx(before, rel=1e-14)
+
+
+def test_call_errors_change_nothing(heald_frame_fmu, slave_factory):
+    """A refused call (bad communication point, step past stopTime) returns
+    fmi2Error and the co-simulation can go on (FMI 2.0: the importer may
+    correct the call)."""
+    s = slave_factory(heald_frame_fmu.path)
+    s.fmu.setupExperiment(startTime=0.0, stopTime=0.05)
+    s.fmu.enterInitializationMode()
+    s.fmu.exitInitializationMode()
+    for t, h in ((0.01, 0.01), (0.0, -0.01), (0.0, 0.06)):
+        with pytest.raises(FMICallException):
+            s.fmu.doStep(t, h)
+    assert any("stopTime" in m for _, _, m in s.log)
+    s.fmu.doStep(0.0, 0.05)  # the valid call still works
+    assert s.get("h")[0] == pytest.approx(-0.029 + 0.0, abs=0.03)
+
+
+def test_importer_tolerance_is_clamped_not_refused(heald_frame_fmu):
+    import fmpy
+    res = fmpy.simulate_fmu(str(heald_frame_fmu.path), relative_tolerance=0.5, stop_time=0.01,
+                            output=["h"], logger=lambda *a: None)
+    assert np.all(np.isfinite(res["h"]))
+
+
+def test_input_outside_its_range_is_a_warning_and_log_messages_are_escaped(
+        heald_frame_fmu, slave_factory):
+    s = slave_factory(heald_frame_fmu.path)
+    s.start()
+    s.fmu.setReal([s.vr["omega"]], [600.0])  # fmi2Warning: FMPy does not raise
+    assert s.get("omega")[0] == 600.0
+    assert any(st == 1 and "omega = 600" in m for st, _, m in s.log)
+    with pytest.raises(FMICallException):
+        s.fmu.setDebugLogging(True, ["50%#"])
+    assert any("50%%##" in m for _, _, m in s.log)  # a printf format, '#' doubled
+
+
+def test_values_cannot_be_read_before_initialization_mode(heald_frame_fmu, slave_factory):
+    s = slave_factory(heald_frame_fmu.path)
+    with pytest.raises(FMICallException):
+        s.get("E")

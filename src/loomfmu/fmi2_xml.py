@@ -66,14 +66,20 @@ def _scalar_variable(parent: ET.Element, row: RealVar, computed_starts: set[str]
 
 
 def _resolved_outputs(dae: DaeForm) -> ca.SX:
-    """Outputs with the unknowns w eliminated, for the dependency analysis:
-    substituted for explicit models; for implicit ones each w is replaced by
-    a stand-in that depends on everything F depends on."""
-    if not dae.implicit:
-        return ca.substitute(dae.y, dae.w, dae.wsol)
-    known = ca.vertsplit(ca.vertcat(dae.x, dae.u, dae.p))
-    stand_in = sum((k for k in known if ca.depends_on(dae.F, k)), ca.SX(0))
-    return ca.substitute(dae.y, dae.w, ca.repmat(stand_in, dae.w.numel(), 1))
+    """Outputs with the unknowns w and the delayed values d eliminated, for the
+    dependency analysis.  w: substituted for explicit models; for implicit ones
+    replaced by a stand-in that depends on everything F depends on.  d: by the
+    delayed expression itself (a delay may be zero: direct feedthrough)."""
+    y = dae.y
+    if dae.implicit:
+        known = ca.vertsplit(ca.vertcat(dae.x, dae.u, dae.p))
+        stand_in = sum((k for k in known if ca.depends_on(dae.F, k)), ca.SX(0))
+        y = ca.substitute(y, dae.w, ca.repmat(stand_in, dae.w.numel(), 1))
+    else:
+        y = ca.substitute(y, dae.w, dae.wsol)
+    if dae.d.numel():
+        y = ca.substitute(y, dae.d, dae.g)
+    return y
 
 
 def model_description(model: Model, dae: DaeForm, guid: str, sources: list[str]) -> str:
@@ -171,9 +177,12 @@ def _model_structure(root: ET.Element, model: Model, dae: DaeForm, rows: list[Re
         ET.SubElement(outputs, "Unknown", {"index": str(index[v.name]), "dependencies": "",
                                            "dependenciesKind": ""})
     init = ET.SubElement(ms, "InitialUnknowns")
+    # states with a computed start (initial="approx") are not known at
+    # initialization: their start expressions stand in for them
+    y0 = ca.substitute(y, dae.x, dae.init)
     known = ca.vertcat(dae.p, dae.x, dae.u)
     known_names = names["parameter"] + names["state"] + names["input"]
-    for r, cols in zip(y_rows, _depends(y, known)):
+    for r, cols in zip(y_rows, _depends(y0, known)):
         deps = sorted(index[known_names[c]] for c in cols)
         ET.SubElement(init, "Unknown", {
             "index": str(index[r.name]), "dependencies": " ".join(map(str, deps)),

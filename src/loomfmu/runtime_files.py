@@ -13,7 +13,8 @@ RUNTIME_HEADERS = ("lf_model.h", "lf_runtime.h", "lf_solver.h", "lf_linalg.h", "
 #: the generated declaration (LF_LOG_CATEGORY_NAMES) and the model description.
 LOG_CATEGORIES = (
     ("logEvents", "event located inside a step, solver restarted"),
-    ("logStatusWarning", "warnings"),
+    ("logStatusWarning", "warnings: values outside their range, adjusted settings "
+     "(always logged)"),
     ("logStatusDiscard", "step not completed: solver failure or non-finite values "
      "(always logged)"),
     ("logStatusError", "invalid calls and values (always logged)"),

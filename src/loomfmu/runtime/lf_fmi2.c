@@ -20,11 +20,19 @@ typedef struct {
     fmi2CallbackFunctions cb;
 } Fmi2Env;
 
+/* The message is the logger's format string (FMI 2.0, 2.1.5): '%' and the
+ * variable-reference marker '#' are escaped, so that it prints as written. */
 static void fmi2_log_bridge(void *env, const char *instance, LfStatus status,
                             const char *category, const char *message) {
     const fmi2CallbackFunctions *cb = (const fmi2CallbackFunctions *)env;
-    /* pre-formatted: importers such as FMPy do not expand the variadic part */
-    cb->logger(cb->componentEnvironment, instance, (fmi2Status)status, category, message);
+    char buf[1100];
+    size_t i = 0;
+    for (; *message && i + 2 < sizeof buf; message++) {
+        if (*message == '%' || *message == '#') buf[i++] = *message;
+        buf[i++] = *message;
+    }
+    buf[i] = '\0';
+    cb->logger(cb->componentEnvironment, instance, (fmi2Status)status, category, buf);
 }
 
 static int allowed(LfInstance *c, const char *fn, int mask) {
@@ -56,19 +64,19 @@ fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t n,
         for (k = 0; k < LF_N_LOG; k++) inst->log_on[k] = loggingOn;
         return fmi2OK;
     }
-    for (i = 0; i < n; i++) {
+    for (i = 0; i < n; i++) { /* all known, or nothing changes */
         int found = 0;
         for (k = 0; k < LF_N_LOG; k++)
-            if (categories[i] && strcmp(categories[i], lf_log_category_names[k]) == 0) {
-                inst->log_on[k] = loggingOn;
-                found = 1;
-            }
+            if (categories[i] && strcmp(categories[i], lf_log_category_names[k]) == 0) found = 1;
         if (!found) {
             lf_log(inst, LF_ERROR, LF_LOG_ERROR, "fmi2SetDebugLogging: unknown category %s",
                    categories[i] ? categories[i] : "(null)");
             return fmi2Error;
         }
     }
+    for (i = 0; i < n; i++)
+        for (k = 0; k < LF_N_LOG; k++)
+            if (strcmp(categories[i], lf_log_category_names[k]) == 0) inst->log_on[k] = loggingOn;
     return fmi2OK;
 }
 
@@ -78,6 +86,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
                               fmi2Boolean loggingOn) {
     LfAllocator alloc;
     LfInstance *c;
+    fmi2CallbackFunctions *cb;
     const char *name = instanceName ? instanceName : "";
     int k;
     (void)resourceLocation;
@@ -97,35 +106,59 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
     }
     alloc.calloc = functions->allocateMemory;
     alloc.free = functions->freeMemory;
-    /* the logger bridge needs the callbacks; they outlive the instance */
-    c = lf_instantiate(name, fmi2_log_bridge, (void *)functions, alloc);
+    /* the instance keeps its own copy of the callbacks */
+    cb = (fmi2CallbackFunctions *)alloc.calloc(1, sizeof *cb);
+    c = cb ? lf_instantiate(name, fmi2_log_bridge, cb, alloc) : NULL;
     if (!c) {
+        if (cb) alloc.free(cb);
         functions->logger(functions->componentEnvironment, name, fmi2Error, "logStatusError",
                           "fmi2Instantiate: out of memory or solver registry mismatch");
         return NULL;
     }
+    *cb = *functions;
+    c->log_on_start = loggingOn;
     for (k = 0; k < LF_N_LOG; k++) c->log_on[k] = loggingOn;
     return c;
 }
 
-void fmi2FreeInstance(fmi2Component c) { lf_free((LfInstance *)c); }
+void fmi2FreeInstance(fmi2Component c) {
+    LfInstance *inst = (LfInstance *)c;
+    void (*release)(void *) = inst ? inst->alloc.free : NULL;
+    void *cb = inst ? inst->log_env : NULL;
+    lf_free(inst);
+    if (cb) release(cb);
+}
 
 fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
                                fmi2Real tolerance, fmi2Real startTime,
                                fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
     LfInstance *inst = (LfInstance *)c;
+    fmi2Status status = fmi2OK;
     CHECK("fmi2SetupExperiment", LF_ST_INSTANTIATED);
-    (void)stopTimeDefined;
-    (void)stopTime;
-    if (!isfinite(startTime)) {
-        lf_log(inst, LF_ERROR, LF_LOG_ERROR, "fmi2SetupExperiment: startTime = %g", startTime);
+    if (!isfinite(startTime) || (stopTimeDefined && !(stopTime >= startTime))) {
+        lf_log(inst, LF_ERROR, LF_LOG_ERROR,
+               "fmi2SetupExperiment: startTime = %g, stopTime = %g (expected finite, start <= "
+               "stop)", startTime, stopTimeDefined ? stopTime : INFINITY);
         return fmi2Error;
     }
     inst->t_start = inst->t = startTime;
-    /* an importer's tolerance overrides solver_rtol (FMI 2.0, 4.2.1) */
-    if (toleranceDefined && lf_set_real(inst, LF_SET_RTOL, tolerance) != LF_OK)
-        return fmi2Error;
-    return fmi2OK;
+    inst->t_stop = stopTimeDefined ? stopTime : INFINITY;
+    /* the importer's tolerance is the solvers' relative tolerance (it wins over
+     * solver_rtol, which keeps its value); it is limited to solver_rtol's range */
+    inst->rtol_importer = 0.0;
+    if (toleranceDefined) {
+        double lo = lf_model.real_min[LF_SET_RTOL], hi = lf_model.real_max[LF_SET_RTOL];
+        double tol = tolerance;
+        if (!(tol >= lo && tol <= hi)) {
+            tol = isfinite(tol) && tol > hi ? hi : lo;
+            lf_log(inst, LF_WARNING, LF_LOG_WARNING,
+                   "fmi2SetupExperiment: tolerance = %g is outside [%g, %g]; using %g", tolerance,
+                   lo, hi, tol);
+            status = fmi2Warning;
+        }
+        inst->rtol_importer = tol;
+    }
+    return status;
 }
 
 fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
@@ -159,12 +192,15 @@ fmi2Status fmi2Reset(fmi2Component c) {
 
 /* ---- values ------------------------------------------------------------ */
 
-#define VALUES_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING | LF_ST_TERMINATED)
+/* FMI 2.0, 4.2.4: values can be read from initialization mode on, and set
+ * before initialization, in it and after a completed step */
+#define GET_STATES (LF_ST_INIT | RUNNING | LF_ST_TERMINATED | LF_ST_ERROR)
+#define SET_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | LF_ST_STEP_COMPLETE)
 
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        fmi2Real value[]) {
     size_t i;
-    CHECK("fmi2GetReal", VALUES_STATES | LF_ST_ERROR);
+    CHECK("fmi2GetReal", GET_STATES);
     for (i = 0; i < nvr; i++)
         if (lf_get_real((LfInstance *)c, vr[i], &value[i]) != LF_OK) return fmi2Error;
     return fmi2OK;
@@ -173,10 +209,14 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        const fmi2Real value[]) {
     size_t i;
-    CHECK("fmi2SetReal", LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING);
-    for (i = 0; i < nvr; i++)
-        if (lf_set_real((LfInstance *)c, vr[i], value[i]) != LF_OK) return fmi2Error;
-    return fmi2OK;
+    fmi2Status worst = fmi2OK;
+    CHECK("fmi2SetReal", SET_STATES);
+    for (i = 0; i < nvr; i++) {
+        LfStatus st = lf_set_real((LfInstance *)c, vr[i], value[i]);
+        if (st > LF_WARNING) return fmi2Error;
+        if (st == LF_WARNING) worst = fmi2Warning;
+    }
+    return worst;
 }
 
 static fmi2Status no_such(LfInstance *c, const char *fn, const char *type, fmi2ValueReference vr) {
@@ -188,7 +228,7 @@ static fmi2Status no_such(LfInstance *c, const char *fn, const char *type, fmi2V
 fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           fmi2Integer value[]) {
     size_t i;
-    CHECK("fmi2GetInteger", VALUES_STATES | LF_ST_ERROR);
+    CHECK("fmi2GetInteger", GET_STATES);
     for (i = 0; i < nvr; i++) {
         int v;
         if (lf_get_integer((LfInstance *)c, vr[i], &v) != LF_OK) return fmi2Error;
@@ -200,7 +240,7 @@ fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
 fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           const fmi2Integer value[]) {
     size_t i;
-    CHECK("fmi2SetInteger", LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING);
+    CHECK("fmi2SetInteger", SET_STATES);
     for (i = 0; i < nvr; i++)
         if (lf_set_integer((LfInstance *)c, vr[i], value[i]) != LF_OK) return fmi2Error;
     return fmi2OK;
@@ -209,28 +249,28 @@ fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
 fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           fmi2Boolean value[]) {
     (void)value;
-    CHECK("fmi2GetBoolean", VALUES_STATES | LF_ST_ERROR);
+    CHECK("fmi2GetBoolean", GET_STATES);
     return nvr ? no_such((LfInstance *)c, "fmi2GetBoolean", "Boolean", vr[0]) : fmi2OK;
 }
 
 fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           const fmi2Boolean value[]) {
     (void)value;
-    CHECK("fmi2SetBoolean", LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING);
+    CHECK("fmi2SetBoolean", SET_STATES);
     return nvr ? no_such((LfInstance *)c, "fmi2SetBoolean", "Boolean", vr[0]) : fmi2OK;
 }
 
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                          fmi2String value[]) {
     (void)value;
-    CHECK("fmi2GetString", VALUES_STATES | LF_ST_ERROR);
+    CHECK("fmi2GetString", GET_STATES);
     return nvr ? no_such((LfInstance *)c, "fmi2GetString", "String", vr[0]) : fmi2OK;
 }
 
 fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                          const fmi2String value[]) {
     (void)value;
-    CHECK("fmi2SetString", LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING);
+    CHECK("fmi2SetString", SET_STATES);
     return nvr ? no_such((LfInstance *)c, "fmi2SetString", "String", vr[0]) : fmi2OK;
 }
 
@@ -360,6 +400,8 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSet
     LfStatus st;
     (void)noSetPrior;
     CHECK("fmi2DoStep", LF_ST_STEP_COMPLETE);
+    /* an invalid call (bad step, past stopTime) is refused and changes nothing */
+    if (lf_check_step(inst, t, h) != LF_OK) return fmi2Error;
     st = lf_do_step(inst, t, h);
     if (st == LF_DISCARD) inst->state = LF_ST_STEP_FAILED;
     else if (st != LF_OK && st != LF_WARNING) inst->state = LF_ST_ERROR;
@@ -371,16 +413,23 @@ fmi2Status fmi2CancelStep(fmi2Component c) {
     return unsupported(c, "fmi2CancelStep (fmi2DoStep never returns fmi2Pending)");
 }
 
+/* FMI 2.0, 4.2.3: a status kind the FMU does not provide gives fmi2Discard */
+static fmi2Status status_kind_unknown(fmi2Component c, const char *fn, fmi2StatusKind s) {
+    lf_log((LfInstance *)c, LF_DISCARD, LF_LOG_DISCARD, "%s: status kind %d is not provided",
+           fn, (int)s);
+    return fmi2Discard;
+}
+
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
     CHECK("fmi2GetStatus", RUNNING | LF_ST_TERMINATED);
-    if (s != fmi2DoStepStatus) return unsupported(c, "fmi2GetStatus for this status kind");
+    if (s != fmi2DoStepStatus) return status_kind_unknown(c, "fmi2GetStatus", s);
     *value = ((LfInstance *)c)->state == LF_ST_STEP_FAILED ? fmi2Discard : fmi2OK;
     return fmi2OK;
 }
 
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
     CHECK("fmi2GetRealStatus", RUNNING | LF_ST_TERMINATED);
-    if (s != fmi2LastSuccessfulTime) return unsupported(c, "fmi2GetRealStatus for this kind");
+    if (s != fmi2LastSuccessfulTime) return status_kind_unknown(c, "fmi2GetRealStatus", s);
     *value = ((LfInstance *)c)->last_successful_time;
     return fmi2OK;
 }
@@ -389,12 +438,12 @@ fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Int
     (void)s;
     (void)value;
     CHECK("fmi2GetIntegerStatus", RUNNING | LF_ST_TERMINATED);
-    return unsupported(c, "fmi2GetIntegerStatus");
+    return status_kind_unknown(c, "fmi2GetIntegerStatus", s);
 }
 
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
     CHECK("fmi2GetBooleanStatus", RUNNING | LF_ST_TERMINATED);
-    if (s != fmi2Terminated) return unsupported(c, "fmi2GetBooleanStatus for this kind");
+    if (s != fmi2Terminated) return status_kind_unknown(c, "fmi2GetBooleanStatus", s);
     *value = fmi2False;
     return fmi2OK;
 }
@@ -403,5 +452,5 @@ fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2Stri
     (void)s;
     (void)value;
     CHECK("fmi2GetStringStatus", RUNNING | LF_ST_TERMINATED);
-    return unsupported(c, "fmi2GetStringStatus");
+    return status_kind_unknown(c, "fmi2GetStringStatus", s);
 }

@@ -82,6 +82,7 @@ typedef struct {
     const char *const *delay_names;
     const double *delay_max;         /* longest delay the history is built for */
     const char *const *constraint_messages;
+    const int *x_computed;           /* state's start computed (initial="approx") */
     const char *const *solver_names; /* must match lf_methods[] */
     LfFunction fn[LF_N_FN];
 } LfModel;

@@ -19,9 +19,11 @@ const char *const lf_log_category_names[LF_N_LOG] = LF_LOG_CATEGORY_NAMES;
 void lf_log(LfInstance *c, LfStatus status, LfLogCategory cat, const char *fmt, ...) {
     char buf[512];
     va_list ap;
-    /* errors and discards are always reported; the rest on request */
+    /* warnings, discards and errors are always reported; the rest on request */
     if (!c || !c->log) return;
-    if (!c->log_on[cat] && cat != LF_LOG_ERROR && cat != LF_LOG_DISCARD) return;
+    if (!c->log_on[cat] && cat != LF_LOG_ERROR && cat != LF_LOG_DISCARD &&
+        cat != LF_LOG_WARNING)
+        return;
     if (c->quiet && cat == LF_LOG_DISCARD) return;
     va_start(ap, fmt);
     vsnprintf(buf, sizeof buf, fmt, ap);
@@ -77,6 +79,9 @@ void lf_reset_values(LfInstance *c) {
     memset(c->w_cur, 0, sizeof c->w_cur);
     c->solver_id = 1;
     c->t = c->t_start = c->last_successful_time = 0.0;
+    c->t_stop = INFINITY;
+    c->rtol_importer = 0.0;
+    for (k = 0; k < LF_N_LOG; k++) c->log_on[k] = c->log_on_start;
     c->outputs_valid = 0;
     c->inputs_changed = 0;
     c->n_events = 0;
@@ -334,7 +339,8 @@ static LfStatus hist_refine(LfInstance *c, double ta, const double *ga, double t
         if (st != LF_OK) return st;
         for (k = 0; k < LF_ND; k++) {
             double herm = 0.5 * (ga[k] + gb[k]) + 0.125 * h * (ga[LF_ND + k] - gb[LF_ND + k]);
-            if (fabs(herm - gm[k]) > c->r[LF_SET_ATOL] + c->r[LF_SET_RTOL] * fabs(gm[k])) fine = 0;
+            if (fabs(herm - gm[k]) > c->solver.opt.atol + c->solver.opt.rtol * fabs(gm[k]))
+                fine = 0;
         }
         if (!fine) {
             st = hist_refine(c, ta, ga, tm, gm, depth + 1);
@@ -420,10 +426,22 @@ static LfStatus jac_cb(void *ctx, double t, const double *x, double *J, double *
     return LF_OK;
 }
 
+static LfStatus initial_states(LfInstance *c);
+static LfStatus initial_modes(LfInstance *c);
+
+/* Before the solver starts, the states and modes read (and the outputs
+ * computed from them) are those initialization will start from. */
+static LfStatus prepare_initial(LfInstance *c) {
+    if (!(c->state & (LF_ST_INSTANTIATED | LF_ST_INIT)) || c->solver_ready) return LF_OK;
+    if (initial_states(c) != LF_OK) return LF_ERROR;
+    return LF_NQ > 0 ? initial_modes(c) : LF_OK;
+}
+
 LfStatus lf_update_outputs(LfInstance *c) {
     double y[LF_DIM(LF_NY + LF_NZ)];
     int bad;
     if (c->outputs_valid || LF_NY + LF_NZ == 0) return LF_OK;
+    if (prepare_initial(c) != LF_OK) return LF_ERROR;
     if (solve_w(c, c->t, &c->r[LF_VR_X0], c->w_tmp) != LF_OK) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: model equations cannot be solved", c->t);
         return LF_ERROR;
@@ -466,6 +484,22 @@ LfStatus lf_set_real(LfInstance *c, unsigned vr, double value) {
                "t = %.17g: %s can only be set before fmi2ExitInitializationMode", c->t, name);
         return LF_ERROR;
     }
+    if (kind == LF_KIND_STATE && lf_model.x_computed[vr - LF_VR_X0] &&
+        !(c->state & LF_ST_INSTANTIATED)) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "%s has initial=\"approx\" (start computed from the "
+               "parameters): it can only be set before fmi2EnterInitializationMode", name);
+        return LF_ERROR;
+    }
+    if (kind == LF_KIND_INPUT && isfinite(value) &&
+        (value < lf_model.real_min[vr] || value > lf_model.real_max[vr])) {
+        lf_log(c, LF_WARNING, LF_LOG_WARNING,
+               "t = %.17g: input %s = %g is outside its range [%g, %g]; the model may not be "
+               "valid there", c->t, name, value, lf_model.real_min[vr], lf_model.real_max[vr]);
+        if (value != c->r[vr]) c->inputs_changed = 1;
+        c->r[vr] = value;
+        c->outputs_valid = 0;
+        return LF_WARNING;
+    }
     if (!isfinite(value) || value < lf_model.real_min[vr] || value > lf_model.real_max[vr]) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR,
                "t = %.17g: %s = %g is outside its range [%g, %g]; value not set", c->t,
@@ -490,6 +524,7 @@ LfStatus lf_get_real(LfInstance *c, unsigned vr, double *value) {
     kind = lf_model.real_kind[vr];
     if ((kind == LF_KIND_OUTPUT || kind == LF_KIND_LOCAL) && lf_update_outputs(c) != LF_OK)
         return LF_ERROR;
+    if (kind == LF_KIND_STATE && prepare_initial(c) != LF_OK) return LF_ERROR;
     *value = c->r[vr];
     return LF_OK;
 }
@@ -666,7 +701,7 @@ LfStatus lf_initialize(LfInstance *c) {
     LfOde ode = lf_ode_of(c);
     LfSolverOptions opt;
     LfStatus st;
-    opt.rtol = c->r[LF_SET_RTOL];
+    opt.rtol = c->rtol_importer > 0 ? c->rtol_importer : c->r[LF_SET_RTOL];
     opt.atol = c->r[LF_SET_ATOL];
     opt.h_max = c->r[LF_SET_H_MAX];
     opt.h_fixed = c->r[LF_SET_H_FIXED];
@@ -821,14 +856,16 @@ static LfStatus fail_step(LfInstance *c, LfStatus st, const char *what) {
     return st;
 }
 
-LfStatus lf_do_step(LfInstance *c, double t0, double h) {
-    LfSolver *s = &c->solver;
-    double t_end = t0 + h;
-    long steps = 0;
-    LfStatus st;
+LfStatus lf_check_step(LfInstance *c, double t0, double h) {
     if (!(h > 0) || !isfinite(h)) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR,
                "fmi2DoStep: communicationStepSize = %g, expected a finite value > 0", h);
+        return LF_ERROR;
+    }
+    if (t0 + h > c->t_stop * (1 + 1e-12) + 1e-12) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR,
+               "fmi2DoStep: step to %.17g goes past stopTime = %.17g of fmi2SetupExperiment",
+               t0 + h, c->t_stop);
         return LF_ERROR;
     }
     if (fabs(t0 - c->t) > 1e-9 * fmax(1.0, fabs(c->t))) {
@@ -836,6 +873,15 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
                "fmi2DoStep: currentCommunicationPoint = %.17g, expected %.17g", t0, c->t);
         return LF_ERROR;
     }
+    return LF_OK;
+}
+
+LfStatus lf_do_step(LfInstance *c, double t0, double h) {
+    LfSolver *s = &c->solver;
+    double t_end = t0 + h;
+    long steps = 0;
+    LfStatus st = lf_check_step(c, t0, h);
+    if (st != LF_OK) return st;
     if (c->inputs_changed) {
         lf_solver_reset(s, s->t, s->x);
         st = hist_push(c, s->t, s->x, 1);

@@ -45,12 +45,15 @@ typedef struct {
     LfLogFn log;
     LfAllocator alloc;
     int log_on[LF_N_LOG];
+    int log_on_start;        /* loggingOn of fmi2Instantiate, restored by reset */
     LfState state;
 
     double r[LF_NREAL];      /* every Real by value reference */
     int solver_id;           /* 1-based index into lf_methods[] */
     double t;                /* current communication time */
     double t_start;
+    double t_stop;           /* stopTime of fmi2SetupExperiment (INFINITY: none) */
+    double rtol_importer;    /* tolerance of fmi2SetupExperiment (0: none) */
     double last_successful_time;
     int outputs_valid;       /* r[] outputs/locals match t, x, u, p */
     int inputs_changed;      /* an input was set since the last step */
@@ -110,6 +113,8 @@ LfStatus lf_set_integer(LfInstance *c, unsigned vr, int value);
 LfOde lf_ode_of(LfInstance *c);
 /* Start the solver at t_start with the current states (exit initialization). */
 LfStatus lf_initialize(LfInstance *c);
+/* Is fmi2DoStep(t0, h) a valid call here?  (logs why not) */
+LfStatus lf_check_step(LfInstance *c, double t0, double h);
 /* Advance from c->t by h: integrate, locate events, update outputs. */
 LfStatus lf_do_step(LfInstance *c, double t0, double h);
 LfStatus lf_update_outputs(LfInstance *c);
