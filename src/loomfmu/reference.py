@@ -215,6 +215,12 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
                                f"{sol.message}")
         segments += 1
         t1 = sol.t[-1]
+        if sol.status == 0 and not np.isclose(t1, t1_seg, rtol=1e-12, atol=1e-15):
+            raise RuntimeError(f"reference for {model.name} ({method}): the segment "
+                               f"[{t0}, {t1_seg}] ended at {t1} without an event")
+        if not np.all(np.isfinite(sol.y[:, -1])):
+            raise RuntimeError(f"reference for {model.name} ({method}): non-finite state at "
+                               f"t = {t1}")
         sel = (t_eval >= t0) & (t_eval <= t1)
         if sel.any():
             xs[sel] = sol.sol(t_eval[sel]).T

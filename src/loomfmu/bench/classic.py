@@ -1,4 +1,5 @@
-"""Benchmarks (scripts, never timed tests).
+"""The first two benchmarks: ``speed`` (heald frame, FMU vs scipy at equal
+error) and ``friction`` (regularized vs event-driven backrest).
 
     python -m loomfmu.bench speed [--model heald_frame] [--repeats 5] [--out docs/speed.json]
 
@@ -12,7 +13,6 @@ work-precision curve, and the ratio scipy / FMU is reported.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import statistics
 import tempfile
@@ -22,12 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .builder import build_fmu
-from .reference import reference
-from .registry import load_model
 from fmpy import read_model_description
 
-from .verify import compare, simulate
+from ..builder import build_fmu
+from ..reference import reference
+from ..registry import load_model
+from ..verify import compare, simulate
 
 FMU_RTOLS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
 SCIPY_RTOLS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9)
@@ -156,19 +156,7 @@ def friction(repeats: int = 3, eps_values=(1e-1, 1e-2, 1e-3, 1e-4, 1e-5),
             "n_switches_reference": switches, "rows": rows}
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description="loomfmu benchmarks")
-    ap.add_argument("what", choices=["speed", "friction"])
-    ap.add_argument("--model", default="heald_frame")
-    ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--scales", type=float, nargs="+", default=[1.0, 10.0],
-                    help="scene lengths as multiples of the model's default experiment")
-    ap.add_argument("--out", type=Path, default=Path("docs/speed.json"))
-    args = ap.parse_args(argv)
-    if args.repeats < 1:
-        raise ValueError(f"--repeats = {args.repeats}; allowed: >= 1")
-    if args.what == "friction":
-        return _main_friction(args)
+def main_speed(args) -> int:
     results = [speed(args.model, args.repeats, scale) for scale in args.scales]
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(results, indent=2))
@@ -192,7 +180,7 @@ def main(argv=None) -> int:
     return 0
 
 
-def _main_friction(args) -> int:
+def main_friction(args) -> int:
     res = friction(args.repeats)
     out = args.out if args.out != Path("docs/speed.json") else Path("docs/friction.json")
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -210,6 +198,3 @@ def _main_friction(args) -> int:
     print(f"written: {out}")
     return 0
 
-
-if __name__ == "__main__":
-    raise SystemExit(main())

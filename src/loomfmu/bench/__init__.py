@@ -1,0 +1,12 @@
+"""Benchmarks (scripts, never timed tests).
+
+    python -m loomfmu.bench charts [--quick] [--models heald_frame drive ...]
+    python -m loomfmu.bench speed [--model heald_frame] [--repeats 5]
+    python -m loomfmu.bench friction
+
+``charts``: work-precision and failure charts for every model in
+:data:`loomfmu.bench.scenes.BENCH` (docs/bench/); ``speed`` and
+``friction``: the first two benchmarks (docs/speed.json, docs/friction.json).
+"""
+from .classic import friction, speed, time_at_error  # noqa: F401
+from .cli import main  # noqa: F401

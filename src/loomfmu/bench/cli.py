@@ -1,0 +1,99 @@
+"""``python -m loomfmu.bench charts|speed|friction``."""
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+import time
+from pathlib import Path
+
+from . import classic, failures, report
+from .scenes import BENCH, load_scene_model
+from .sweep import Plan, prepare, work_precision
+
+
+def charts(models, *, quick: bool, out: Path, readme: Path | None, failures_on: bool,
+           cmd: str) -> dict:
+    """Every chart, the CSV and the summary for ``models`` (scene names)."""
+    wall = time.perf_counter()
+    plan = Plan.make(quick)
+    out.mkdir(parents=True, exist_ok=True)
+    rows, infos, verdicts, cases = [], {}, {}, {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in models:
+            model = load_scene_model(name)
+            if model is None:
+                continue
+            t0 = time.perf_counter()
+            case = prepare(name, BENCH[name], model, plan, quick, Path(tmp))
+            cases[name] = case
+            infos[name] = {"outputs": list(case.scene.outputs), "t_end": float(case.grid[-1]),
+                           "ref": case.ref_note}
+            if case.casadi is None:
+                infos[name]["ref"] += f"; no CasADi: {case.casadi_note.split(': ', 1)[-1]}"
+            pts = work_precision(case, plan)
+            rows += pts
+            report.wp_chart(rows, name, infos[name], out / f"{name}_wp.png")
+            print(f"{name}: {len(pts)} work-precision points, "
+                  f"{time.perf_counter() - t0:.0f} s", flush=True)
+        for name, study in failures.STUDIES.items():
+            if not failures_on or name not in cases:
+                continue
+            t0 = time.perf_counter()
+            extra = {"reg": cases.get("backrest_regularized")} if name == "backrest" else {}
+            pts, verdict = study(cases[name], plan, out, quick, **extra)
+            rows += pts
+            verdicts[name] = verdict
+            print(f"{name}: failure study, {time.perf_counter() - t0:.0f} s\n  {verdict}",
+                  flush=True)
+    report.write_csv(rows, out / "points.csv")
+    table = report.speed_table(rows, list(infos))
+    wall = time.perf_counter() - wall
+    body = report.summary_md(table, verdicts, infos, cmd, wall)
+    (out / "summary.md").write_text("# Speed against accuracy\n\n" + body)
+    (out / "speed_table.json").write_text(json.dumps(
+        {"target_error": report.TARGET, "quick": quick, "wall_seconds": wall,
+         "table": table, "verdicts": verdicts, "scenes": infos}, indent=2, default=str))
+    if readme is not None and report.update_readme(readme, body):
+        print(f"updated: {readme} (between the bench markers)")
+    print(report.speed_table_md(table))
+    print(f"written: {out}/points.csv, summary.md, *.png in {wall:.0f} s")
+    return {"rows": rows, "table": table, "verdicts": verdicts, "wall_seconds": wall}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m loomfmu.bench",
+                                 description="loomfmu benchmarks (never timed tests)")
+    ap.add_argument("what", choices=["charts", "speed", "friction"])
+    ap.add_argument("--model", default="heald_frame", help="speed: the model")
+    ap.add_argument("--models", nargs="+", default=list(BENCH),
+                    help=f"charts: scene names (default: all of {list(BENCH)})")
+    ap.add_argument("--quick", action="store_true", help="charts: coarse sweeps")
+    ap.add_argument("--no-failures", action="store_true", help="charts: skip failure studies")
+    ap.add_argument("--readme", type=Path, default=None,
+                    help="charts: README whose bench section to rewrite "
+                         "(default: README.md next to --out's docs/, full runs only)")
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--scales", type=float, nargs="+", default=[1.0, 10.0],
+                    help="speed: scene lengths as multiples of the model's default experiment")
+    ap.add_argument("--out", type=Path, default=None)
+    args = ap.parse_args(argv)
+    if args.repeats < 1:
+        raise ValueError(f"--repeats = {args.repeats}; allowed: >= 1")
+    if args.what == "friction":
+        args.out = args.out or Path("docs/friction.json")
+        return classic.main_friction(args)
+    if args.what == "speed":
+        args.out = args.out or Path("docs/speed.json")
+        return classic.main_speed(args)
+    unknown = sorted(set(args.models) - set(BENCH))
+    if unknown:
+        raise ValueError(f"--models: {unknown} are not scenes; allowed: {sorted(BENCH)}")
+    out = args.out or Path("docs/bench")
+    readme = args.readme
+    if readme is None and not args.quick and out == Path("docs/bench") and \
+            Path("README.md").exists():
+        readme = Path("README.md")
+    charts(args.models, quick=args.quick, out=out, readme=readme,
+           failures_on=not args.no_failures, cmd="python -m loomfmu.bench charts")
+    return 0
