@@ -256,7 +256,7 @@ def build(*, beam: str = "euler", n_turns: int = 4, damper: str = "corrected",
               stop_time=0.02, step_size=2e-4, h_fixed=2e-6,
               options={"beam": beam, "n_turns": n_turns, "damper": damper,
                        "n_low": n_low, "n_cone": n_cone})
-    n_rpm = m.input("n_rpm", 16000.0, description="spin speed in rev/min, from the drive",
+    n_rpm = m.input("n_rpm", 16000.0, unit="rpm", description="spin speed, from the drive",
                     min=0.0, max=40000.0)
     Omega = n_rpm * RPM
     sp = declare_rotor(m, Omega, beam=beam, n_turns=n_turns, damper=damper,
