@@ -63,7 +63,23 @@ def compile_binary(src: Path, out: Path, generated_c: list[str], cc: str = "gcc"
             _run([cc, *flags, *include, "-c", str(c_file), "-o", str(obj)], src)
             objs.append(str(obj))
         out.parent.mkdir(parents=True, exist_ok=True)
+        _check_symbols(objs, model_identifier=out.stem)
         _run([cc, "-shared", "-o", str(out), *objs, "-lm"], src)
+
+
+def _check_symbols(objs: list[str], model_identifier: str) -> None:
+    """Every global symbol is an FMI function or carries the model's prefix,
+    so the sources of several FMUs can be linked into one program."""
+    proc = subprocess.run(["nm", "-g", "--defined-only", *objs], capture_output=True,
+                          text=True)
+    if proc.returncode != 0:
+        raise BuildError(f"nm failed: {proc.stderr}")
+    bad = sorted({ln.split()[2] for ln in proc.stdout.splitlines() if len(ln.split()) == 3}
+                 - {""})
+    bad = [s for s in bad if not s.startswith(("fmi2", f"{model_identifier}_"))]
+    if bad:
+        raise BuildError(f"global symbols without the prefix {model_identifier}_: {bad} "
+                         "(add them to runtime_files.RUNTIME_SYMBOLS)")
 
 
 def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 2,

@@ -6,6 +6,8 @@
 #ifndef LF_LINALG_H
 #define LF_LINALG_H
 
+#include "lf_prefix.h"
+
 #include <stddef.h>
 
 /* LU factorization with partial (row) pivoting, in place: on return the

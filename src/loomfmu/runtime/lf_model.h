@@ -12,6 +12,8 @@
 #ifndef LF_MODEL_H
 #define LF_MODEL_H
 
+#include "lf_prefix.h"
+
 #include "model_decl.h"
 
 typedef enum {

@@ -13,6 +13,8 @@
 #ifndef LF_SOLVER_H
 #define LF_SOLVER_H
 
+#include "lf_prefix.h"
+
 #include <stddef.h>
 
 /* Values equal fmi2Status / fmi3Status so they can be passed through. */
