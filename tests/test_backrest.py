@@ -182,3 +182,59 @@ def test_bad_options_are_rejected():
         load_model("backrest", friction="viscous")
     with pytest.raises(ValueError, match="eps"):
         load_model("backrest", friction="regularized", eps=0.0)
+
+
+def _run_inputs(path, solver, comm, t_end, schedule):
+    """Step the backrest FMU with warp_pull set from ``schedule`` (time ->
+    value) at the communication points; outputs after every step."""
+    from conftest import Slave
+    s = Slave(path)
+    s.fmu.setDebugLogging(True, ["logEvents"])
+    s.start(solver=solver, solver_rtol=1e-10, solver_atol=1e-12, solver_h_fixed=1e-5,
+            A_shed=0.0)
+    names = ["phi1_out", "omega1_out", "omega2_out", "M1f_out", "M2f_out", "N1", "N2"]
+    ys, qs = [], []
+    for i in range(int(round(t_end / comm))):
+        t = i * comm
+        for ts, value in schedule:
+            if abs(ts - t) < 1e-9:
+                s.set(warp_pull=value)
+        s.fmu.doStep(t, comm)
+        ys.append(s.get(*names))
+        qs.append(s.fmu.getInteger([s.vr["mode_O1"], s.vr["mode_O2"]]))
+    log = [msg for _, _, msg in s.log if ": mode " in msg]
+    s.fmu.terminate()
+    s.fmu.freeInstance()
+    return dict(zip(names, np.array(ys).T)), np.array(qs), log
+
+
+@pytest.mark.parametrize("kind", ["step", "ramp"])
+@pytest.mark.parametrize("solver", [1, 2])
+def test_input_change_makes_stuck_joints_break_away(model, backrest_fmu, solver, kind):
+    """A master pulls the warp through the input warp_pull (built-in shedding
+    off).  At the communication point where the input changes, a stuck
+    joint loaded beyond its static limit must break away (the mode is chosen
+    again there).  Checked against the stick/slip conditions at every
+    communication point (stuck: |M_f| <= r_static N) and against the
+    reference, which changes its inputs at the same times."""
+    from loomfmu.models.backrest import friction_radius
+    comm, t_end = 0.01, 0.6
+    if kind == "step":
+        schedule = [(0.1, 0.01)]
+    else:
+        schedule = [(0.1 + 0.01 * i, 0.001 * (i + 1)) for i in range(20)]
+    ys, qs, log = _run_inputs(backrest_fmu.path, solver, comm, t_end, schedule)
+    assert log, "no joint broke away"
+    p = _params(model)
+    limits = [p["k_static"] * float(friction_radius(p["rho1"], p["mu1"])),
+              p["k_static"] * float(friction_radius(p["rho2"], p["mu2"]))]
+    for j, (M, N) in enumerate((("M1f_out", "N1"), ("M2f_out", "N2"))):
+        stuck = qs[:, j] == 0
+        assert np.all(np.abs(ys[M][stuck]) <= limits[j] * ys[N][stuck] * (1 + 1e-9)), M
+    ref = reference(model, t_end=t_end, t_eval=np.linspace(0, t_end, 61), rtol=1e-11,
+                    atol=1e-13, values={"A_shed": 0.0},
+                    input_steps=[(ts, {"warp_pull": v}) for ts, v in schedule])
+    assert len(ref.switches) == len(log)
+    for name in ("phi1_out", "omega1_out", "omega2_out"):
+        span = np.ptp(ref.y[name]) + 1e-3
+        assert np.abs(ys[name] - ref.y[name][1:]).max() < 1e-6 * span, name

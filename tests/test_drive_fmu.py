@@ -134,3 +134,76 @@ def test_compensated_cam_removes_lag_and_delay_up_to_truncation(tmp_path):
         errs[comp] = tracking_error(run.t, run.y["n_out"] / 60.0, p, 12, phi=run.y["phi_out"])
     assert errs[True] < 1e-2  # rpm
     assert errs[False] > 300
+
+
+def _late_step(path, slave_factory, solver, tau, t_s, comm, h_fixed=1e-3, U=1.0,
+               t_end=4.0):
+    """u_ext steps from 0 to U at t_s > 0 (a communication point), after
+    the history has run at 0 for t_s seconds: max |n - exact| after t_s."""
+    s = slave_factory(path)
+    s.start(solver=solver, tau=tau, solver_rtol=1e-10, solver_atol=1e-8,
+            solver_h_fixed=h_fixed)
+    t, err, n_steps = 0.0, 0.0, int(round(t_end / comm))
+    for i in range(n_steps):
+        if abs(t - t_s) < 1e-12:
+            s.set(u_ext=U)
+        s.fmu.doStep(t, comm)
+        t = (i + 1) * comm
+        lag = t - t_s - tau
+        exact = N_MIN + (K * U * (1 - math.exp(-lag / T)) if lag > 0 else 0.0)
+        err = max(err, abs(s.get("n_out")[0] - exact))
+    return err
+
+
+@pytest.mark.parametrize("solver", [1, 2, 3])
+@pytest.mark.parametrize("tau,t_s,comm", [(0.5, 1.0, 0.01), (0.37, 1.25, 0.05),
+                                          (0.5, 0.5, 0.1)])
+def test_input_step_after_the_start_reaches_the_lag_tau_later(drive_fmu, slave_factory,
+                                                             solver, tau, t_s, comm):
+    """A step of u_ext at t_s > 0: two history samples at t_s (before, after).
+    The steps that end at the breakpoint t_s + tau must read the value before
+    the jump in all their stages (a last stage reading the new value makes
+    rk4 first order: error h/6 K U / T = 0.15 rpm at h = 1e-3), and the
+    solver restarts there.  (0.5, 0.5, 0.1): the breakpoint 1.0 falls on a
+    communication point.)"""
+    err = _late_step(drive_fmu.path, slave_factory, solver, tau, t_s, comm)
+    assert err < 1e-6, err
+
+
+def test_input_step_against_reference_with_input_steps(model, drive_fmu, slave_factory):
+    """The reference's input_steps reproduce the same late step (its own
+    left/right rule at the jump), and agree with the FMU and the closed form."""
+    ref = reference(model, t_end=3.0, t_eval=np.linspace(0, 3.0, 31), rtol=1e-11,
+                    atol=1e-9, values={"tau": 0.37}, input_steps=[(1.0, {"u_ext": 1.0})])
+    lag = np.maximum(ref.t - 1.0 - 0.37, 0.0)
+    exact = N_MIN + K * (1 - np.exp(-lag / T))
+    assert np.max(np.abs(ref.y["n_out"] - exact)) < 1e-6
+    with pytest.raises(ValueError, match="input_steps"):
+        reference(model, t_end=3.0, input_steps=[(5.0, {"u_ext": 1.0})])
+    with pytest.raises(ValueError, match="input_steps"):
+        reference(model, t_end=3.0, input_steps=[(1.0, {"tau": 1.0})])
+
+
+def test_zero_delay_keeps_no_history_on_long_fast_runs(tmp_path):
+    """tau = 0 reads the value now and stores nothing.  A 30 s run with a
+    fast cam (8th harmonic near 190 Hz) at rtol 1e-6 runs through (refined
+    history samples would fill the 65536-sample ring in about 2 s), and at
+    rtol 1e-9 both adaptive solvers match the reference (tau = 0: the
+    delayed value is g(t, x) now) over the first 5 s."""
+    fast = build(cam="none", harmonics=8, max_delay=2.0)
+    path = build_fmu(fast, out_dir=tmp_path, validate=False).path
+    values = {"tau": 0.0, "f_rad": 0.5, "cam_on": 1.0, "cam_A0": 0.06, "cam_A1": 0.02,
+              "cam_B3": 0.01, "cam_A8": 0.004}
+    for solver in ("dopri5", "rodas4"):
+        run = simulate(path, solver=solver, rtol=1e-6, atol=1e-9, stop_time=30.0,
+                       output_interval=0.05, output=["n_out"], values=values)
+        assert not any("full" in m for m in run.log), run.log[-3:]
+        assert run.t[-1] == pytest.approx(30.0)
+    ref = None
+    for solver in ("dopri5", "rodas4"):
+        run = simulate(path, solver=solver, rtol=1e-9, atol=1e-9, stop_time=5.0,
+                       output_interval=0.05, output=["n_out"], values=values)
+        if ref is None:
+            ref = reference(fast, t_end=5.0, t_eval=run.t, rtol=1e-11, atol=1e-9,
+                            values=values)
+        assert np.max(np.abs(run.y["n_out"] - ref.y["n_out"])) < 2e-3, solver  # rpm

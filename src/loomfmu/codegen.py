@@ -116,7 +116,7 @@ def model_guid(model: Model, dae: DaeForm) -> str:
 
 #: The generated functions in the order of the runtime's LfFunctionId.
 FUNCTIONS = ("wsol", "wjac", "res", "rjac", "out", "evt", "valid", "reinit", "init",
-             "hist", "tau", "cons")
+             "hist", "tau", "cons", "djac")
 
 
 def casadi_functions(dae: DaeForm) -> list[ca.Function]:
@@ -126,6 +126,9 @@ def casadi_functions(dae: DaeForm) -> list[ca.Function]:
     zeros (never called).  Implicit models: res -> F, rjac -> (dF/dw, dF/dx,
     dF/dt); wsol/wjac return zeros (never called).  The stubs keep one
     function table for every model at no build cost.
+
+    djac -> (dw/dd or dF/dd, dg/dx, dg/dt): the chain-rule term of the
+    Jacobian for zero delays, where d = g(t, x) now (g taken at fixed w).
     """
     name = dae.model.name
     nw, nx = dae.w.numel(), dae.nx
@@ -147,6 +150,9 @@ def casadi_functions(dae: DaeForm) -> list[ca.Function]:
         "init": ([dae.init], ["x_start"]),
         "hist": ([dae.g, dae.gdot], ["g", "g_dot"]), "tau": ([dae.tau], ["tau"]),
         "cons": ([dae.cons], ["c"]),
+        "djac": ([ca.densify(ca.jacobian(F if dae.implicit else wsol, dae.d)),
+                  ca.densify(ca.jacobian(dae.g, dae.x)), ca.densify(ca.jacobian(dae.g, dae.t))],
+                 ["dW_dd", "dg_dx", "dg_dt"]),
     }
     return [dae.function(f"{name}_{f}", *outs[f]) for f in FUNCTIONS]
 

@@ -14,7 +14,14 @@ indicator of the model (breakpoints, friction switches) is a terminal
 by the same rule as the FMU's (first value in priority order whose validity
 is >= 0 after reinit), written again here, and the integration restarts.
 Inputs are held at constant values, as the FMU holds them over a
-communication step.
+communication step; ``input_steps`` changes them at given times, where every
+mode is made consistent again (the FMU does the same at a communication
+point where an input changed).  After an event, too, every mode made invalid
+by the switch is chosen again, round after round, as in the FMU.
+
+At a jump of a delayed expression (an input step), a query from inside an
+integration segment at exactly the jump time takes the value before it;
+the segment that starts there takes the value after it (the FMU's rule).
 """
 from __future__ import annotations
 
@@ -74,7 +81,8 @@ class _Dae:
         self.d = np.zeros(dae.d.numel())
         self.tau = np.asarray(f("tau", [dae.tau], ["tau"])(*self.args(0.0, np.zeros(dae.nx)))
                               ).ravel() if dae.d.numel() else np.zeros(0)
-        self.segments: list = []  # (t_a, t_b, dense output) of solved intervals
+        self.segments: list = []  # (t_a, t_b, dense output, inputs) of solved intervals
+        self.t_seg = 0.0  # start of the segment being integrated
         self.g0 = None
         self.n_rhs = 0
 
@@ -100,6 +108,8 @@ class _Dae:
         if not len(self.tau):
             return
         now = np.asarray(self.hist(*self.args(t, x))).ravel()
+        left = t > self.t_seg  # inside a segment: the value before a jump at s
+        eps = 8 * np.finfo(float).eps * max(1.0, abs(t))  # t - tau is known to rounding
         for k, tau in enumerate(self.tau):
             s = t - tau
             if tau == 0:
@@ -109,9 +119,11 @@ class _Dae:
             elif not self.segments or s <= self.segments[0][0]:
                 self.d[k] = self.g0[k]  # constant history before the start
             else:
-                ta, tb, sol = next(seg for seg in reversed(self.segments) if seg[0] <= s)
-                self.d[k] = float(np.asarray(self.hist(*self.args(s, sol(min(s, tb))))
-                                             ).ravel()[k])
+                ta, tb, sol, u = next(seg for seg in reversed(self.segments)
+                                      if (seg[0] < s - eps if left else seg[0] <= s + eps)
+                                      or seg is self.segments[0])
+                args = (s, sol(min(s, tb)), self.w, u, self.p, self.q, self.d)
+                self.d[k] = float(np.asarray(self.hist(*args)).ravel()[k])
 
     def rhs(self, t, x):
         self.n_rhs += 1
@@ -120,6 +132,33 @@ class _Dae:
 
     def outputs(self, t, x):
         return np.asarray(self.out(*self.args(t, x, self.solve(t, x)))).ravel()
+
+    def is_valid(self, k: int, t, x) -> bool:
+        try:
+            return float(self.valid(*self.args(t, x, self.solve(t, x)))[k]) >= 0
+        except (RuntimeError, np.linalg.LinAlgError):
+            return False
+
+    def consistent_modes(self, model: Model, t, x, switches, touched=None) -> np.ndarray:
+        """Choose again every mode whose validity is < 0 and, once chosen,
+        again in every later round, until a round changes nothing (the FMU's
+        consistent_modes, written again).  touched: a mode already chosen."""
+        modes = model.of_kind("mode")
+        chosen = [k == touched for k in range(len(modes))]
+        for _ in range(2 * len(modes) + 3):
+            changed = False
+            for k in range(len(modes)):
+                if not chosen[k] and self.is_valid(k, t, x):
+                    continue
+                old = int(self.q[k])
+                x = self.choose_mode(k, model.mode_values[modes[k].name], t, x)
+                chosen[k] = True
+                if int(self.q[k]) != old:
+                    changed = True
+                    switches.append((t, modes[k].name, old, int(self.q[k])))
+            if not changed:
+                return x
+        raise RuntimeError(f"reference: the modes do not settle at t = {t}")
 
     def choose_mode(self, k: int, values: tuple[int, ...], t, x) -> np.ndarray:
         """First value of mode k, in priority order, consistent after reinit."""
@@ -137,7 +176,8 @@ class _Dae:
 
 def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: float = 1e-10,
               atol: float = 1e-12, method: str = "DOP853",
-              values: dict[str, float] | None = None) -> Reference:
+              values: dict[str, float] | None = None,
+              input_steps: list[tuple[float, dict[str, float]]] | None = None) -> Reference:
     """Integrate ``model`` with scipy from t = 0 to ``t_end``.
 
     t_end: final time (> 0; default: the model's stop time).
@@ -145,6 +185,8 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
     rtol, atol: solve_ivp tolerances (> 0).
     method: a solve_ivp method name.
     values: start values of parameters, inputs (held constant) and states.
+    input_steps: [(t_k, {input: value})], times increasing in (0, t_end):
+        from t_k on the inputs named hold the new values.
     """
     values = dict(values or {})
     t_end = model.stop_time if t_end is None else float(t_end)
@@ -157,6 +199,23 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
     if unknown:
         raise ValueError(f"values: {sorted(unknown)} are not variables of {model.name}")
     model.check_constraints(values)
+    input_names = [v.name for v in model.of_kind("input")]
+    steps = []
+    for i, item in enumerate(input_steps or []):
+        try:
+            t_k, new = float(item[0]), dict(item[1])
+        except (TypeError, ValueError, IndexError):
+            raise ValueError(f"input_steps[{i}] = {item!r}; allowed: (time, {{input: value}})")
+        if not 0 < t_k < t_end or (steps and t_k <= steps[-1][0]):
+            raise ValueError(f"input_steps[{i}]: time {t_k!r}; allowed: increasing, in "
+                             f"(0, {t_end})")
+        bad = set(new) - set(input_names)
+        if bad:
+            raise ValueError(f"input_steps[{i}]: {sorted(bad)} are not inputs of {model.name}; "
+                             f"allowed: {input_names}")
+        for name, value in new.items():
+            next(v for v in model.variables if v.name == name).check_value(float(value))
+        steps.append((t_k, {name: float(v) for name, v in new.items()}))
     if t_eval is None:
         n = int(round(t_end / model.step_size))
         t_eval = np.linspace(0.0, t_end, n + 1)
@@ -176,14 +235,8 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
                            if model.event_modes.get(ev.name) == v.name), None)
                      for ev in model.events]
 
-    # consistent initial modes
-    for k, v in enumerate(modes):
-        try:
-            ok = float(d.valid(*d.args(0.0, x, d.solve(0.0, x)))[k]) >= 0
-        except (RuntimeError, np.linalg.LinAlgError):
-            ok = False
-        if not ok:
-            x = d.choose_mode(k, model.mode_values[v.name], 0.0, x)
+    switches: list[tuple[float, str, int, int]] = []
+    x = d.consistent_modes(model, 0.0, x, [])  # consistent initial modes
 
     def make_event(k):
         def ev(t, x):
@@ -200,14 +253,23 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
         d.g0 = np.asarray(d.hist(*d.args(0.0, x))).ravel()
     xs = np.empty((len(t_eval), len(x)))
     qs = np.empty((len(t_eval), len(modes)))
-    switches: list[tuple[float, str, int, int]] = []
+    us = np.empty((len(t_eval), len(d.u)))
     t0, segments, pending = 0.0, 0, None
     wall = time.perf_counter()
     while True:
-        if pending is None:  # up to the next event, delay multiple or the end
-            t1_seg, active = min(t_end, t0 + step_limit), events
+        if steps and t0 >= steps[0][0]:  # the inputs step here
+            for name, value in steps.pop(0)[1].items():
+                d.u[input_names.index(name)] = value
+            n_switches = len(switches)
+            x = d.consistent_modes(model, t0, x, switches)
+            if len(switches) > n_switches:  # indicators may restart at 0: cross the gap
+                pending = -1
+        t_next_step = steps[0][0] if steps else np.inf
+        d.t_seg = t0
+        if pending is None:  # up to the next event, input step, delay multiple or the end
+            t1_seg, active = min(t_end, t0 + step_limit, t_next_step), events
         else:  # across the root, in the old mode, with no event watched
-            t1_seg, active = min(t0 + EVENT_GAP * max(1.0, abs(t0)), t_end), []
+            t1_seg, active = min(t0 + EVENT_GAP * max(1.0, abs(t0)), t_end, t_next_step), []
         sol = solve_ivp(d.rhs, (t0, t1_seg), x, method=method, rtol=rtol, atol=atol,
                         events=active or None, dense_output=True)
         if sol.status < 0:
@@ -225,16 +287,18 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
         if sel.any():
             xs[sel] = sol.sol(t_eval[sel]).T
             qs[sel] = d.q
+            us[sel] = d.u
         x = sol.y[:, -1]
         if len(d.tau):
-            d.segments.append((t0, t1, sol.sol))
+            d.segments.append((t0, t1, sol.sol, d.u.copy()))
         if pending is not None:  # on the new side now: re-choose the mode
-            j = mode_of_event[pending]
+            j = mode_of_event[pending] if pending >= 0 else None
             if j is not None:
                 old = int(d.q[j])
                 x = d.choose_mode(j, model.mode_values[modes[j].name], t1, x)
                 if int(d.q[j]) != old:
                     switches.append((t1, modes[j].name, old, int(d.q[j])))
+            x = d.consistent_modes(model, t1, x, switches, touched=j)
             pending = None
         elif sol.status == 1:
             fired = next(k for k, te in enumerate(sol.t_events) if len(te))
@@ -248,8 +312,8 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
     out.update({v.name: qs[:, i] for i, v in enumerate(modes)})
     names = [v.name for v in model.of_kind("output") + model.of_kind("algebraic")]
     ys = []
-    for t, xi, qi in zip(t_eval, xs, qs):
-        d.q[:] = qi
+    for t, xi, qi, ui in zip(t_eval, xs, qs, us):
+        d.q[:], d.u[:], d.t_seg = qi, ui, t
         d.delayed(t, xi)
         ys.append(d.outputs(t, xi))
     ys = np.array(ys).reshape(len(t_eval), len(names))

@@ -49,7 +49,8 @@ enum {
     LF_FN_HIST = 9,   /* -> delayed expressions g and their time derivative */
     LF_FN_TAU = 10,   /* -> the delays (from the parameters) */
     LF_FN_CONS = 11,  /* -> constraints on the parameters, each >= 0 */
-    LF_N_FN = 12
+    LF_FN_DJAC = 12,  /* -> dw/dd (explicit) or dF/dd (implicit), dg/dx, dg/dt */
+    LF_N_FN = 13
 };
 
 /* Real value references are laid out as

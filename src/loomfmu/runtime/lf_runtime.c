@@ -75,6 +75,7 @@ void lf_reset_values(LfInstance *c) {
     memset(c->hist_count, 0, sizeof c->hist_count);
     memset(c->hist_start, 0, sizeof c->hist_start);
     c->n_bp = 0;
+    c->t_bp_step = INFINITY;
     c->delay_interp = LF_DELAY_HERMITE;
     memset(c->w_cur, 0, sizeof c->w_cur);
     c->solver_id = 1;
@@ -216,17 +217,23 @@ static LfStatus solve_w(LfInstance *c, double t, const double *x, double *w) {
 /* g_k at time s from the history: constant before the first sample, the
  * last sample's Taylor line after it (not reached with steps <= tau), else
  * cubic Hermite (or linear) between the samples around s.  At a jump (two
- * samples at one time) the later one holds from then on. */
-static double hist_interp(const LfInstance *c, int k, double s) {
-    long lo = 0, hi = c->hist_count[k] - 1, n = c->hist_count[k];
+ * samples at one time) `left` selects the value before it (the earlier
+ * sample), otherwise the value after it.  s = t - tau is known to rounding
+ * only (t_jump + tau - tau need not be t_jump): samples within `eps` of s
+ * count as at s.  (Elsewhere the choice is immaterial: the interpolant is
+ * continuous at a sample.) */
+static double hist_interp(const LfInstance *c, int k, double s, int left, double eps) {
+    long lo = -1, hi = c->hist_count[k], n = c->hist_count[k];
     double t0, t1, h, th, g0, g1;
-    if (s <= HT(c, k, 0)) return HG(c, k, 0);
-    if (s >= HT(c, k, n - 1)) return HG(c, k, n - 1) + HD(c, k, n - 1) * (s - HT(c, k, n - 1));
-    while (hi - lo > 1) { /* largest lo with t_lo <= s, t_hi > s */
+    /* lo: the last sample with t_lo < s (left) or t_lo <= s (right) */
+    while (hi - lo > 1) {
         long mid = (lo + hi) / 2;
-        if (HT(c, k, mid) <= s) lo = mid;
+        if (left ? HT(c, k, mid) < s - eps : HT(c, k, mid) <= s + eps) lo = mid;
         else hi = mid;
     }
+    if (lo < 0) return HG(c, k, 0);
+    if (lo == n - 1) return HG(c, k, n - 1) + HD(c, k, n - 1) * (s - HT(c, k, n - 1));
+    hi = lo + 1;
     t0 = HT(c, k, lo);
     t1 = HT(c, k, hi);
     g0 = HG(c, k, lo);
@@ -238,9 +245,17 @@ static double hist_interp(const LfInstance *c, int k, double s) {
            (3 * th * th - 2 * th * th * th) * g1 + (th * th * th - th * th) * h * HD(c, k, hi);
 }
 
+/* The delayed values at t.  Steps end at every breakpoint t_jump + tau
+ * and the solver restarts there.  The stages of the step ending at a
+ * breakpoint that run at its end take the value before the jump; the
+ * restarted solver (t = its last accepted point) takes the value after it.
+ * Only there is s = t - tau taken as equal to a sample within rounding. */
 static LfStatus delayed_values(LfInstance *c, double t, const double *x) {
     double g[LF_DIM(2 * LF_ND)];
-    int k, need_now = 0;
+    int k, need_now = 0, left = c->solver_ready && t > c->solver.t && t >= c->t_bp_step;
+    double eps = (left || (c->solver_ready && t == c->solver.t))
+                     ? 8 * 2.220446049250313e-16 * fmax(1.0, fabs(t))
+                     : 0.0;
     for (k = 0; k < LF_ND; k++)
         if (c->tau[k] == 0 || c->hist_count[k] == 0) need_now = 1;
     if (need_now) { /* zero delay, or no history yet: the value now */
@@ -249,7 +264,7 @@ static LfStatus delayed_values(LfInstance *c, double t, const double *x) {
     }
     for (k = 0; k < LF_ND; k++)
         c->dval[k] = (c->tau[k] == 0 || c->hist_count[k] == 0) ? g[k]
-                                                                : hist_interp(c, k, t - c->tau[k]);
+                                                                : hist_interp(c, k, t - c->tau[k], left, eps);
     return LF_OK;
 }
 
@@ -257,14 +272,19 @@ static void add_breakpoint(LfInstance *c, double t) {
     if (c->n_bp < LF_MAX_BP) c->bp[c->n_bp++] = t;
 }
 
-/* The next pending breakpoint after t (and forget those passed). */
-static double next_breakpoint(LfInstance *c, double t, double t_end) {
+/* The next pending breakpoint after t, or t_end if none comes first (and
+ * forget those passed); *is_bp: a breakpoint falls on the returned time. */
+static double next_breakpoint(LfInstance *c, double t, double t_end, int *is_bp) {
     double next = t_end;
     int i, j = 0;
+    *is_bp = 0;
     for (i = 0; i < c->n_bp; i++) {
         if (c->bp[i] <= t) continue;
         c->bp[j++] = c->bp[i];
-        if (c->bp[i] < next) next = c->bp[i];
+        if (c->bp[i] <= next) {
+            next = c->bp[i];
+            *is_bp = 1;
+        }
     }
     c->n_bp = j;
     return next;
@@ -279,6 +299,7 @@ static LfStatus hist_append(LfInstance *c, double t, const double *g, int jump) 
     int k;
     for (k = 0; k < LF_ND; k++) {
         double oldest_needed = t - c->tau[k] - c->solver.opt.h_max;
+        if (c->tau[k] == 0) continue; /* read at the current time, never from here */
         /* drop samples no query can reach any more */
         while (c->hist_count[k] >= 2 && HT(c, k, 1) <= oldest_needed) {
             c->hist_start[k] = (c->hist_start[k] + 1) % LF_HIST_CAP;
@@ -338,7 +359,9 @@ static LfStatus hist_refine(LfInstance *c, double ta, const double *ga, double t
         st = hist_sample(c, tm, xm, gm);
         if (st != LF_OK) return st;
         for (k = 0; k < LF_ND; k++) {
-            double herm = 0.5 * (ga[k] + gb[k]) + 0.125 * h * (ga[LF_ND + k] - gb[LF_ND + k]);
+            double herm;
+            if (c->tau[k] == 0) continue;
+            herm = 0.5 * (ga[k] + gb[k]) + 0.125 * h * (ga[LF_ND + k] - gb[LF_ND + k]);
             if (fabs(herm - gm[k]) > c->solver.opt.atol + c->solver.opt.rtol * fabs(gm[k]))
                 fine = 0;
         }
@@ -354,10 +377,14 @@ static LfStatus hist_refine(LfInstance *c, double ta, const double *ga, double t
 static LfStatus hist_step(LfInstance *c) {
     double ga[LF_DIM(2 * LF_ND)], gb[LF_DIM(2 * LF_ND)];
     LfSolver *s = &c->solver;
-    long n = c->hist_count[0];
+    long n;
+    int k = 0;
     LfStatus st;
+    while (k < LF_ND && c->tau[k] == 0) k++;
+    if (k == LF_ND) return LF_OK; /* only zero delays: no history is kept */
+    n = c->hist_count[k];
     if (c->delay_interp == LF_DELAY_LINEAR || !(s->t > s->t_old) || n == 0 ||
-        HT(c, 0, n - 1) != s->t_old)
+        HT(c, k, n - 1) != s->t_old)
         return hist_push(c, s->t, s->x, 0);
     st = hist_sample(c, s->t_old, s->x_old, ga);
     if (st == LF_OK) st = hist_sample(c, s->t, s->x, gb);
@@ -399,6 +426,30 @@ static LfStatus rhs_cb(void *ctx, double t, const double *x, double *dx) {
     return LF_OK;
 }
 
+/* A zero delay reads d = g(t, x) now: add dw/dd (dg/dx, dg/dt) to c->jac_wx
+ * and c->jac_wt (for implicit models dw/dd = -(dF/dw)^-1 dF/dd, with dF/dw
+ * factored in c->jac_ww).  Without it Rosenbrock methods lose their order. */
+static LfStatus zero_delay_jacobian(LfInstance *c, double t, const double *x) {
+    double wd[LF_DIM(LF_NW * LF_ND)], gx[LF_DIM(LF_ND * LF_NX)], gt[LF_DIM(LF_ND)];
+    int i, j, k, any = 0;
+    for (k = 0; k < LF_ND; k++)
+        if (c->tau[k] == 0) any = 1;
+    if (!any) return LF_OK;
+    if (eval_fn(c, LF_FN_DJAC, t, x, c->w_cur, wd, gx, gt) != LF_OK) return LF_ERROR;
+    for (k = 0; k < LF_ND; k++) {
+        double *col = &wd[k * LF_NW];
+        if (c->tau[k] != 0) continue;
+        if (LF_IMPLICIT) {
+            lf_lu_solve(c->jac_ww, LF_NW, c->piv, col);
+            for (i = 0; i < LF_NW; i++) col[i] = -col[i];
+        }
+        for (j = 0; j < LF_NX; j++)
+            for (i = 0; i < LF_NW; i++) c->jac_wx[i + j * LF_NW] += col[i] * gx[k + j * LF_ND];
+        for (i = 0; i < LF_NW; i++) c->jac_wt[i] += col[i] * gt[k];
+    }
+    return LF_OK;
+}
+
 /* df/dx and df/dt: the first LF_NX rows of dw/dx, dw/dt, which implicit
  * models get from the implicit function theorem, dw = -(dF/dw)^-1 dF. */
 static LfStatus jac_cb(void *ctx, double t, const double *x, double *J, double *dfdt) {
@@ -415,6 +466,10 @@ static LfStatus jac_cb(void *ctx, double t, const double *x, double *J, double *
         for (i = 0; i < LF_NW; i++) c->jac_wt[i] = -c->jac_wt[i];
     } else if (eval_fn(c, LF_FN_WJAC, t, x, c->w_cur, c->jac_wx, c->jac_wt, NULL) != LF_OK) {
         return LF_ERROR;
+    }
+    if (LF_ND > 0) {
+        st = zero_delay_jacobian(c, t, x);
+        if (st != LF_OK) return st;
     }
     for (j = 0; j < LF_NX; j++)
         for (i = 0; i < LF_NX; i++) J[i + j * LF_NX] = c->jac_wx[i + j * LF_NW];
@@ -669,23 +724,60 @@ static LfStatus initial_states(LfInstance *c) {
     return LF_OK;
 }
 
-/* Make every mode consistent at the start (keep the start value if valid). */
-static LfStatus initial_modes(LfInstance *c) {
-    double valid[LF_DIM(LF_NQ)], *x = &c->r[LF_VR_X0];
-    int k;
+#define LF_MODE_ROUNDS (2 * LF_NQ + 2)
+
+/* Make every mode consistent at (t, x).  A mode is chosen again
+ * (choose_mode: the first valid value in priority order) when its validity
+ * is < 0, and, once chosen, again in every later round: a mode chosen here
+ * sits at its boundary (a joint that just broke away or stuck, its speed
+ * 0), and another mode's change can make a value of higher priority valid
+ * again (coupled friction joints: with joint 2 slipping, joint 1 can stay
+ * stuck).  Rounds repeat until one changes nothing.  `touched`: a mode
+ * already chosen at this point (the event's), or -1.  x is updated with the
+ * reinitialized states.  Used at the start, after an input change and
+ * after every event. */
+static LfStatus consistent_modes(LfInstance *c, double t, double *x, int touched) {
+    double valid[LF_DIM(LF_NQ)];
+    unsigned char chosen[LF_DIM(LF_NQ)];
+    int k, round;
     LfStatus st;
-    for (k = 0; k < LF_NQ; k++) {
-        c->quiet++;
-        st = solve_w(c, c->t, x, c->w_tmp);
-        c->quiet--;
-        if (st == LF_OK &&
-            eval_fn(c, LF_FN_VALID, c->t, x, c->w_tmp, valid, NULL, NULL) == LF_OK &&
-            valid[k] >= 0)
-            continue;
-        st = choose_mode(c, k, c->t, x);
-        if (st != LF_OK) return st;
+    for (k = 0; k < LF_NQ; k++) chosen[k] = (unsigned char)(k == touched);
+    for (round = 0; LF_NQ > 0; round++) {
+        int changed = 0;
+        for (k = 0; k < LF_NQ; k++) {
+            double old = c->q[k];
+            if (!chosen[k]) {
+                c->quiet++;
+                st = solve_w(c, t, x, c->w_tmp);
+                c->quiet--;
+                if (st == LF_OK &&
+                    eval_fn(c, LF_FN_VALID, t, x, c->w_tmp, valid, NULL, NULL) == LF_OK &&
+                    valid[k] >= 0)
+                    continue;
+            }
+            st = choose_mode(c, k, t, x);
+            if (st != LF_OK) return st;
+            chosen[k] = 1;
+            if (c->q[k] != old) changed = 1;
+        }
+        if (!changed) break;
+        if (round == LF_MODE_ROUNDS) {
+            lf_log(c, LF_ERROR, LF_LOG_ERROR,
+                   "t = %.17g: the modes do not settle (%d rounds of choosing them again)", t,
+                   LF_MODE_ROUNDS);
+            return LF_ERROR;
+        }
     }
     return LF_OK;
+}
+
+/* The modes at the start: from their start values, every one made
+ * consistent (a start value that is valid is kept).  Starting from the
+ * start values each time makes the result independent of earlier reads. */
+static LfStatus initial_modes(LfInstance *c) {
+    int k;
+    for (k = 0; k < LF_NQ; k++) c->q[k] = lf_model.mode_start[k];
+    return consistent_modes(c, c->t, &c->r[LF_VR_X0], -1);
 }
 
 LfOde lf_ode_of(LfInstance *c) {
@@ -768,30 +860,46 @@ static LfStatus locate_root(LfInstance *c, int k, double ta, double ga, double t
     return LF_OK;
 }
 
+/* the gap over an event grows (x4) up to this many times, and never beyond
+ * LF_EVENT_GAP_MAX * max(1, |t|) nor the end of the step that saw the root */
+#define LF_EVENT_GAP_TRIES 12
+#define LF_EVENT_GAP_MAX 1e-6
+
 /* Carry the state from the root's old side (t_left, x_left) across the
  * bracket to the new side by an Euler step over a gap that grows until
  * indicator k shows its new sign, and restart the solver there.  The caller
  * makes the gap reach LF_EVENT_GAP * max(1, |t|) past the root: the model's
  * own switch (an fmin, a floor) may sit a few ulps away from the
  * indicator's root, and a restart between the two would put the first stage
- * on the old branch.  The Euler error is O(gap^2). */
+ * on the old branch.  The Euler error is O(gap^2).  The gap stays below
+ * t_limit (the end of the step that saw the sign change) and
+ * LF_EVENT_GAP_MAX * max(1, |t|).  If the indicator keeps its old sign
+ * there (a root it only touches, e.g. (t - 1)^2, or one the redone
+ * trajectory does not reach), *crossed_out = 0: no event; the solver
+ * restarts at the last point tried, with that point's indicators. */
 static LfStatus cross_gap(LfInstance *c, int k, double t_left, const double *x_left,
-                          double gap) {
+                          double gap, double t_limit, int *crossed_out) {
     double f[LF_DIM(LF_NX)], x[LF_DIM(LF_NX)], old = c->e_old[k];
+    double gap_max = fmin(t_limit - t_left, LF_EVENT_GAP_MAX * fmax(1.0, fabs(t_left)));
     int i, j;
     LfStatus st = rhs_cb(c, t_left, x_left, f);
     if (st != LF_OK) return st;
-    for (i = 0; i < 24; i++, gap *= 4.0) {
+    *crossed_out = 0;
+    if (!(gap_max > 0)) gap_max = gap;
+    for (i = 0; i < LF_EVENT_GAP_TRIES; i++, gap *= 4.0) {
+        if (gap > gap_max) gap = gap_max;
         for (j = 0; j < LF_NX; j++) x[j] = x_left[j] + gap * f[j];
         st = eval_events(c, t_left + gap, x, c->e_new);
         if (st != LF_OK) return st;
-        if (crossed(old, c->e_new[k])) break;
+        if (crossed(old, c->e_new[k])) {
+            *crossed_out = 1;
+            break;
+        }
+        if (gap >= gap_max) break;
     }
     lf_solver_reset(&c->solver, t_left + gap, x);
-    st = eval_events(c, c->solver.t, c->solver.x, c->e_old);
-    /* should the sign still be undecided, do not detect this root again */
-    if (!crossed(old, c->e_old[k])) c->e_old[k] = 0.0;
-    return st;
+    memcpy(c->e_old, c->e_new, sizeof(double) * LF_NE);
+    return LF_OK;
 }
 
 /* After an accepted step: find the earliest crossing.  The step is then
@@ -800,8 +908,8 @@ static LfStatus cross_gap(LfInstance *c, int k, double t_left, const double *x_l
  * it), and the solver restarts on the new side. */
 static LfStatus handle_events(LfInstance *c) {
     LfSolver *s = &c->solver;
-    double t_left = s->t, t_right = s->t, margin, t_stop, e_end[LF_DIM(LF_NE)];
-    int k, first = -1;
+    double t_left = s->t, t_right = s->t, margin, t_stop, t_end_step, e_end[LF_DIM(LF_NE)];
+    int k, first = -1, crossed_gap;
     LfStatus st = eval_events(c, s->t, s->x, e_end);
     if (st != LF_OK) return st;
     for (k = 0; k < LF_NE; k++) {
@@ -819,7 +927,7 @@ static LfStatus handle_events(LfInstance *c) {
         memcpy(c->e_old, e_end, sizeof(double) * LF_NE);
         return LF_OK;
     }
-    c->n_events++;
+    t_end_step = s->t;
     /* stop a margin before the root: the stages of the redone step must
      * not reach the model's switch, which rounding can move by a few ulps */
     margin = LF_EVENT_GAP * fmax(1.0, fabs(t_left));
@@ -830,11 +938,21 @@ static LfStatus handle_events(LfInstance *c) {
         st = s->method->step(s, t_stop);
         if (st != LF_OK) return st;
     }
-    st = cross_gap(c, first, s->t, s->x, t_right - s->t + margin);
+    st = cross_gap(c, first, s->t, s->x, t_right - s->t + margin, t_end_step, &crossed_gap);
     if (st != LF_OK) return st;
-    if (lf_model.event_mode[first] >= 0) {
+    if (!crossed_gap) {
+        lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: indicator %s touched zero and kept its "
+               "sign: no event, solver restarted", s->t, lf_model.event_names[first]);
+        return hist_push(c, s->t, s->x, 0);
+    }
+    c->n_events++;
+    if (LF_NQ > 0) {
         memcpy(c->x_tmp, s->x, sizeof(double) * LF_NX);
-        st = choose_mode(c, lf_model.event_mode[first], s->t, c->x_tmp);
+        if (lf_model.event_mode[first] >= 0) {
+            st = choose_mode(c, lf_model.event_mode[first], s->t, c->x_tmp);
+            if (st != LF_OK) return st;
+        }
+        st = consistent_modes(c, s->t, c->x_tmp, lf_model.event_mode[first]);
         if (st != LF_OK) return st;
         lf_solver_reset(s, s->t, c->x_tmp);
         st = eval_events(c, s->t, s->x, c->e_old);
@@ -883,7 +1001,14 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
     LfStatus st = lf_check_step(c, t0, h);
     if (st != LF_OK) return st;
     if (c->inputs_changed) {
-        lf_solver_reset(s, s->t, s->x);
+        /* the held inputs jump here: modes made invalid by the jump (a
+         * stuck joint now loaded beyond its static limit) are chosen again */
+        memcpy(c->x_tmp, s->x, sizeof(double) * LF_NX);
+        if (LF_NQ > 0) {
+            st = consistent_modes(c, s->t, c->x_tmp, -1);
+            if (st != LF_OK) return fail_step(c, st, "no consistent mode after the input change");
+        }
+        lf_solver_reset(s, s->t, c->x_tmp);
         st = hist_push(c, s->t, s->x, 1);
         if (st != LF_OK) return fail_step(c, st, "history update failed");
         st = eval_events(c, s->t, s->x, c->e_old);
@@ -891,16 +1016,19 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
         c->inputs_changed = 0;
     }
     while (s->t < t_end) {
-        double t_bound = LF_ND > 0 ? next_breakpoint(c, s->t, t_end) : t_end;
+        int is_bp = 0;
+        double t_bound = LF_ND > 0 ? next_breakpoint(c, s->t, t_end, &is_bp) : t_end;
         s->message[0] = '\0';
+        c->t_bp_step = is_bp ? t_bound : INFINITY;
         st = s->method->step(s, t_bound);
+        c->t_bp_step = INFINITY;
         if (st != LF_OK) return fail_step(c, st, s->message);
         if (LF_NE > 0) {
             st = handle_events(c);
             if (st != LF_OK) return fail_step(c, st, "event handling failed");
         }
         if (LF_ND > 0) {
-            int at_bp = s->t == t_bound && t_bound < t_end;
+            int at_bp = is_bp && s->t == t_bound;
             st = hist_step(c);
             if (st != LF_OK) return fail_step(c, st, "history update failed");
             if (at_bp) lf_solver_reset(s, s->t, s->x); /* a delayed value jumps here */

@@ -87,6 +87,7 @@ typedef struct {
     int delay_interp;
     double bp[LF_MAX_BP];
     int n_bp;
+    double t_bp_step;   /* end of the step being taken, if a breakpoint; else inf */
 
     LfSolver solver;
     int solver_ready;
