@@ -87,3 +87,27 @@ def test_small_model_fmu_matches_exact_solution(tmp_path):
                        values={"solver_h_fixed": 1e-3})
         exact = [math.exp(-2.0 * t) for t in run.t]
         assert max(abs(a - b) for a, b in zip(run.y["x_out"], exact)) < 1e-7
+
+
+def test_delay_tau_of_parameters_only():
+    m = small_model()
+    x = m.var("x").sym
+    z = m.algebraic("z", description="an algebraic variable")
+    d = m.delay("xd", x, m.var("k").sym, max_delay=1.0, description="x, k ago")
+    for bad in (z, m.der(x), d, x, m.t):
+        with pytest.raises(ValueError, match="parameters only"):
+            m.delay("bad", x, 0.1 + bad, max_delay=1.0)
+
+
+def test_event_reassigned_to_another_mode_and_mode_without_rule_are_rejected():
+    from loomfmu.ode import dae_form
+    m = small_model()
+    x = m.var("x").sym
+    a = m.mode("qa", 0, (0, 1), description="mode a")
+    b = m.mode("qb", 0, (0, 1), description="mode b")
+    m.event("e", x - 0.5, description="x passes 0.5")
+    m.mode_rule(a, 1.0, events=["e"])
+    with pytest.raises(ValueError, match="one mode per event"):
+        m.mode_rule(b, 1.0, events=["e"])
+    with pytest.raises(ValueError, match="no mode_rule"):
+        dae_form(m)

@@ -109,8 +109,13 @@ def model_guid(model: Model, dae: DaeForm) -> str:
         h.update(f"{r.name}|{r.kind}|{r.start}|{r.min}|{r.max}|{r.unit};".encode())
     for v in model.of_kind("mode"):
         h.update(f"{v.name}|{model.mode_values[v.name]}|{v.start};".encode())
-    for expr in (dae.F, dae.y, dae.e, dae.valid, dae.reinit):
+    for expr in (dae.F, dae.y, dae.e, dae.valid, dae.reinit, dae.init, dae.g, dae.gdot,
+                 dae.tau, dae.cons):
         h.update(str(expr).encode())
+    h.update(repr(sorted(model.event_modes.items())).encode())
+    h.update(repr([(e.name, e.description) for e in model.events]).encode())
+    h.update(repr([(d.name, d.max_delay) for d in model.delays]).encode())
+    h.update(repr(SOLVERS).encode())
     return "{" + str(uuid.UUID(bytes=h.digest()[:16], version=4)) + "}"
 
 

@@ -188,7 +188,10 @@ class Model:
         if not max_delay > 0:
             raise ValueError(f"delay {name!r}: max_delay = {max_delay!r}; allowed: > 0")
         tau = ca.SX(tau)
-        if ca.depends_on(tau, ca.vertcat(self.t, self.syms("state"), self.syms("input"))):
+        others = [self.t, self.syms("state"), self.syms("input"), self.syms("mode"),
+                  self.syms("algebraic"), *(d.sym for d in self.delays),
+                  *(s for s in self._der.values() if isinstance(s, ca.SX))]
+        if ca.depends_on(tau, ca.vertcat(*others)):
             raise ValueError(f"delay {name!r}: tau must depend on parameters only")
         sym = ca.SX.sym(f"delay({name})")
         self.delays.append(Delay(name, sym, ca.SX(expr), tau, float(max_delay), description))
@@ -243,6 +246,9 @@ class Model:
         for ev in events:
             if ev not in known:
                 raise ValueError(f"mode_rule: event {ev!r} is not declared")
+            if self.event_modes.get(ev, name) != name:
+                raise ValueError(f"mode_rule: event {ev!r} already re-chooses mode "
+                                 f"{self.event_modes[ev]!r}; allowed: one mode per event")
             self.event_modes[ev] = name
         self.mode_valid[name] = ca.SX(valid)
 

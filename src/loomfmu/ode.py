@@ -143,6 +143,9 @@ def dae_form(model: Model) -> DaeForm:
     y = _outputs_in_w(model)
     e = ca.vertcat(*[ev.expr for ev in model.events]) if model.events else ca.SX(0, 1)
     modes = model.of_kind("mode")
+    missing = [v.name for v in modes if v.name not in model.mode_valid]
+    if missing:
+        raise ValueError(f"model {model.name}: modes {missing} have no mode_rule")
     valid = ca.vertcat(*[model.mode_valid[v.name] for v in modes]) if modes else ca.SX(0, 1)
     x = model.syms("state")
     reinit = ca.vertcat(*[model.reinits.get(v.name, v.sym) for v in xs]) if xs else ca.SX(0, 1)

@@ -163,23 +163,37 @@ static LfStatus factor_dFdw(LfInstance *c, double t, const double *x, const doub
     return LF_OK;
 }
 
-/* Newton on F(t, x, w) = 0 from c->w_cur, with the exact dF/dw. */
+/* Newton on F(t, x, w) = 0 from c->w_cur, with the exact dF/dw.  Converged
+ * when every |dw_i| <= LF_NEWTON_ATOL + LF_NEWTON_RTOL max(|w_i|, |w_cur_i|),
+ * or when the scaled step stops shrinking at rounding level (a component
+ * near 0 coupled to large terms cannot get below its terms' rounding). */
 static LfStatus newton(LfInstance *c, double t, const double *x, double *w) {
     int it, i;
+    double prev = INFINITY;
     LfStatus st;
     memcpy(w, c->w_cur, sizeof(double) * LF_NW);
     for (it = 0; it < LF_NEWTON_MAX_ITER; it++) {
         int done = 1;
+        double size = 0.0;
         if (eval_fn(c, LF_FN_RES, t, x, w, c->res_F, NULL, NULL) != LF_OK) return LF_ERROR;
-        if (first_nonfinite(c->res_F, LF_NW) >= 0) break;
+        if (first_nonfinite(c->res_F, LF_NW) >= 0) {
+            lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: algebraic loop: residual of "
+                   "equation %d is not finite at Newton iteration %d", t,
+                   first_nonfinite(c->res_F, LF_NW), it);
+            return LF_DISCARD;
+        }
         st = factor_dFdw(c, t, x, w);
         if (st != LF_OK) return st;
         lf_lu_solve(c->jac_ww, LF_NW, c->piv, c->res_F);
         for (i = 0; i < LF_NW; i++) {
+            double scale = fmax(fabs(w[i]), fabs(c->w_cur[i]));
             w[i] -= c->res_F[i];
-            if (fabs(c->res_F[i]) > LF_NEWTON_ATOL + LF_NEWTON_RTOL * fabs(w[i])) done = 0;
+            if (fabs(c->res_F[i]) > LF_NEWTON_ATOL + LF_NEWTON_RTOL * scale) done = 0;
+            size = fmax(size, fabs(c->res_F[i]) / (LF_NEWTON_ATOL + scale));
         }
-        if (done && first_nonfinite(w, LF_NW) < 0) return LF_OK;
+        if (first_nonfinite(w, LF_NW) >= 0) break;
+        if (done || (size < 1e-8 && size >= 0.5 * prev)) return LF_OK;
+        prev = size;
     }
     c->n_newton_fail++;
     lf_log(c, LF_DISCARD, LF_LOG_DISCARD,

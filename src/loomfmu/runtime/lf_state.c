@@ -177,7 +177,9 @@ LfStatus lf_state_read(LfInstance *c, const unsigned char *buf, size_t n) {
             if (lf_solver_init(s, lf_methods[h.method], ode, v.s_opt, v.s_t,
                                &v.r[LF_VR_X0], &c->alloc) != LF_OK ||
                 s->work_len != h.work_len) {
+                /* the old solver is gone: this instance cannot step any more */
                 lf_log(c, LF_ERROR, LF_LOG_ERROR, "FMU state: cannot restore the solver");
+                c->state = LF_ST_ERROR;
                 return LF_ERROR;
             }
             c->solver_ready = 1;

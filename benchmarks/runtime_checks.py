@@ -1,0 +1,174 @@
+"""Measure the runtime's behaviour at input changes, delay breakpoints, zero
+delays and touching event indicators, against closed forms and the scipy
+reference, and write docs/runtime_checks.json.
+
+    python benchmarks/runtime_checks.py
+
+The tests (tests/test_drive_fmu.py, tests/test_backrest.py,
+tests/test_events.py) assert bounds on the same quantities; this script
+prints the measured values quoted in the README.
+"""
+from __future__ import annotations
+
+import json
+import math
+import re
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from fmpy import calloc, extract, free, read_model_description
+from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+
+from loomfmu import build_fmu, load_model
+from loomfmu.declare import Model
+from loomfmu.models.drive import build as build_drive
+from loomfmu.reference import reference
+from loomfmu.verify import simulate
+
+ROOT = Path(__file__).resolve().parents[1]
+SOLVERS = {1: "dopri5", 2: "rodas4", 3: "rk4"}
+
+
+class Run:
+    """An FMU instance stepped call by call, with its log kept."""
+
+    def __init__(self, path):
+        self.md = read_model_description(str(path))
+        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.log: list[str] = []
+        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=extract(str(path)),
+                             modelIdentifier=self.md.coSimulation.modelIdentifier,
+                             instanceName="run")
+
+        def logger(env, instance, status, category, message):
+            self.log.append(message.decode())
+
+        self._cb = fmi2CallbackFunctions()
+        self._cb.logger = fmi2CallbackLoggerTYPE(logger)
+        self._cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        self._cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self.fmu.instantiate(callbacks=self._cb)
+        self.fmu.setDebugLogging(True, ["logEvents"])
+
+    def start(self, **values):
+        self.fmu.setupExperiment(startTime=0.0)
+        self.set(**values)
+        self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+
+    def set(self, **values):
+        for name, value in values.items():
+            if name == "solver":
+                self.fmu.setInteger([self.vr[name]], [int(value)])
+            else:
+                self.fmu.setReal([self.vr[name]], [float(value)])
+
+    def get(self, *names):
+        return self.fmu.getReal([self.vr[n] for n in names])
+
+
+def drive_late_step(path, solver, tau, t_s, comm, K=1800.0, T=2.0, n_min=12000.0):
+    r = Run(path)
+    r.start(solver=solver, tau=tau, solver_rtol=1e-10, solver_atol=1e-8, solver_h_fixed=1e-3)
+    t, err = 0.0, 0.0
+    for i in range(int(round(4.0 / comm))):
+        if abs(t - t_s) < 1e-12:
+            r.set(u_ext=1.0)
+        r.fmu.doStep(t, comm)
+        t = (i + 1) * comm
+        lag = t - t_s - tau
+        exact = n_min + (K * (1 - math.exp(-lag / T)) if lag > 0 else 0.0)
+        err = max(err, abs(r.get("n_out")[0] - exact))
+    r.fmu.freeInstance()
+    return err
+
+
+def zero_delay(tmp):
+    fast = build_drive(cam="none", harmonics=8, max_delay=2.0)
+    path = build_fmu(fast, out_dir=tmp, validate=False).path
+    values = {"tau": 0.0, "f_rad": 0.5, "cam_on": 1.0, "cam_A0": 0.06, "cam_A1": 0.02,
+              "cam_B3": 0.01, "cam_A8": 0.004}
+    out = {}
+    for solver in ("dopri5", "rodas4"):
+        run = simulate(path, solver=solver, rtol=1e-6, atol=1e-9, stop_time=30.0,
+                       output_interval=0.05, output=["n_out"], values=values)
+        out[f"{solver}_30s_rtol1e-6_reached_s"] = float(run.t[-1])
+    ref = None
+    for solver in ("dopri5", "rodas4"):
+        run = simulate(path, solver=solver, rtol=1e-9, atol=1e-9, stop_time=5.0,
+                       output_interval=0.05, output=["n_out"], values=values)
+        if ref is None:
+            ref = reference(fast, t_end=5.0, t_eval=run.t, rtol=1e-11, atol=1e-9,
+                            values=values)
+        out[f"{solver}_5s_rtol1e-9_err_rpm"] = float(np.max(np.abs(run.y["n_out"]
+                                                                   - ref.y["n_out"])))
+        out[f"{solver}_5s_rtol1e-9_wall_s"] = run.wall_seconds
+    return out
+
+
+def backrest_inputs(path, model, solver, kind):
+    comm, t_end = 0.01, 0.6
+    schedule = ([(0.1, 0.01)] if kind == "step"
+                else [(0.1 + 0.01 * i, 0.001 * (i + 1)) for i in range(20)])
+    r = Run(path)
+    r.start(solver=solver, solver_rtol=1e-10, solver_atol=1e-12, A_shed=0.0)
+    for i in range(int(round(t_end / comm))):
+        t = i * comm
+        for ts, value in schedule:
+            if abs(ts - t) < 1e-9:
+                r.set(warp_pull=value)
+        r.fmu.doStep(t, comm)
+    times = [float(m.group(1)) for m in (re.match(r"t = (\S+): mode", s) for s in r.log) if m]
+    r.fmu.freeInstance()
+    ref = reference(model, t_end=t_end, rtol=1e-11, atol=1e-13, values={"A_shed": 0.0},
+                    input_steps=[(ts, {"warp_pull": v}) for ts, v in schedule])
+    same = len(times) == len(ref.switches)
+    return {"switches": len(times), "reference_switches": len(ref.switches),
+            "max_switch_time_diff_s": (max(abs(a - b[0]) for a, b in zip(times, ref.switches))
+                                       if same else None)}
+
+
+def touch(tmp, solver):
+    m = Model("touch", stop_time=2.0, step_size=0.25)
+    x = m.state("x", 0.0, unit="m", description="position, moving at 1 m/s")
+    m.eq(m.der(x), 1.0)
+    m.event("touch", (m.t - 1.0) ** 2, description="touches zero at t = 1")
+    m.output("x_out", x, unit="m", description="position")
+    path = build_fmu(m, out_dir=tmp, validate=False).path
+    r = Run(path)
+    r.start(solver=solver, solver_h_fixed=1e-3)
+    err = 0.0
+    for i in range(8):
+        r.fmu.doStep(i * 0.25, 0.25)
+        err = max(err, abs(r.get("x_out")[0] - (i + 1) * 0.25))
+    r.fmu.freeInstance()
+    return err
+
+
+def main() -> int:
+    out: dict = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        drive = build_fmu(build_drive(cam="none", harmonics=3, max_delay=2.0),
+                          out_dir=tmp / "d", validate=False).path
+        out["drive_late_step_max_err_rpm"] = {
+            f"tau={tau} t_s={t_s} comm={comm}": {
+                SOLVERS[s]: drive_late_step(drive, s, tau, t_s, comm) for s in SOLVERS}
+            for tau, t_s, comm in ((0.5, 1.0, 0.01), (0.37, 1.25, 0.05), (0.5, 0.5, 0.1))}
+        out["drive_zero_delay_fast_cam"] = zero_delay(tmp / "z")
+        model = load_model("backrest")
+        br = build_fmu(model, out_dir=tmp / "b", validate=False).path
+        out["backrest_warp_pull"] = {f"{kind} {SOLVERS[s]}": backrest_inputs(br, model, s, kind)
+                                     for kind in ("step", "ramp") for s in (1, 2)}
+        out["touch_x_max_err"] = {SOLVERS[s]: touch(tmp / f"t{s}", s) for s in SOLVERS}
+    text = json.dumps(out, indent=2)
+    (ROOT / "docs" / "runtime_checks.json").write_text(text + "\n")
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
