@@ -111,3 +111,13 @@ def test_event_reassigned_to_another_mode_and_mode_without_rule_are_rejected():
         m.mode_rule(b, 1.0, events=["e"])
     with pytest.raises(ValueError, match="no mode_rule"):
         dae_form(m)
+
+
+def test_delays_with_events_are_refused():
+    from loomfmu.ode import dae_form
+    m = small_model()
+    x = m.var("x").sym
+    m.delay("xd", x, 0.1, max_delay=1.0, description="x, 0.1 s ago")
+    m.event("e", x - 0.5, description="x passes 0.5")
+    with pytest.raises(ValueError, match="delays together with event"):
+        dae_form(m)

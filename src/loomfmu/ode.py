@@ -154,6 +154,11 @@ def dae_form(model: Model) -> DaeForm:
         if ca.depends_on(expr, w):
             raise ValueError(f"model {model.name}: {name} expressions may not use "
                              "derivatives or algebraic variables")
+    if model.delays and model.events:
+        # the runtime does not yet keep the history across the redone step
+        # and the jump of an event (docs/code_review.md, R4)
+        raise ValueError(f"model {model.name}: delays together with event indicators are "
+                         "not supported")
     d, g, gdot, tau = _delays(model, x, w)
     cons = ca.vertcat(*[c.expr for c in model.constraints]) if model.constraints \
         else ca.SX(0, 1)
