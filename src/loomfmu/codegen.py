@@ -2,7 +2,7 @@
 
 A model contributes to the FMU only
 
-* ``<id>_casadi.c/.h``: CasADi-generated functions of (t, x, w, u, p, q):
+* ``<id>_casadi.c/.h``: CasADi-generated functions of (t, x, w, u, p, q, d):
   the closed-form unknowns w = [der(x); z] and their exact Jacobian
   (explicit models), or the residual F and its exact Jacobians (implicit
   models, solved by Newton in the runtime); the outputs, event indicators,
@@ -125,7 +125,8 @@ FUNCTIONS = ("wsol", "wjac", "res", "rjac", "out", "evt", "valid", "reinit", "in
 
 
 def casadi_functions(dae: DaeForm) -> list[ca.Function]:
-    """The functions the runtime calls, all with arguments (t, x, w, u, p, q).
+    """The functions the runtime calls, all with arguments (t, x, w, u, p, q, d)
+    (d: the delayed values).
 
     Explicit models: wsol -> w, wjac -> (dw/dx, dw/dt); res/rjac return
     zeros (never called).  Implicit models: res -> F, rjac -> (dF/dw, dF/dx,

@@ -67,7 +67,7 @@ def explicit_ode(model: Model) -> OdeForm:
 class DaeForm:
     """The model as the runtime sees it, every function of (t, x, w, u, p, q, d).
 
-    w = [der(x); z] are the unknowns, F(t, x, w, u, p, q) = 0 their equations
+    w = [der(x); z] are the unknowns, F(t, x, w, u, p, q, d) = 0 their equations
     and q the discrete modes.  ``wsol`` is the closed-form solution for w when
     F is linear in w (None otherwise: the runtime then solves F = 0 by
     Newton with the exact dF/dw).  Outputs, algebraic locals, event
