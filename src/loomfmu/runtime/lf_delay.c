@@ -1,0 +1,214 @@
+/* loomfmu shared runtime: delays.  Per delayed expression a ring of
+ * accepted samples (t, g, dg/dt), Hermite-interpolated, and the breakpoints
+ * where a jump of the history reaches the equations. */
+#include <math.h>
+#include <string.h>
+
+#include "lf_internal.h"
+
+/* ---- delays: history of the delayed expressions ----------------------- */
+
+#define HT(c, k, i) (c)->hist[(((size_t)(k) * LF_HIST_CAP + (size_t)(((c)->hist_start[k] + (i)) % LF_HIST_CAP)) * 3)]
+#define HG(c, k, i) (&HT(c, k, i))[1]
+#define HD(c, k, i) (&HT(c, k, i))[2]
+
+/* g_k at time s from the history: constant before the first sample, the
+ * last sample's Taylor line after it (not reached with steps <= tau), else
+ * cubic Hermite (or linear) between the samples around s.  At a jump (two
+ * samples at one time) `left` selects the value before it (the earlier
+ * sample), otherwise the value after it.  s = t - tau is known to rounding
+ * only (t_jump + tau - tau need not be t_jump): samples within `eps` of s
+ * count as at s.  (Elsewhere the choice is immaterial: the interpolant is
+ * continuous at a sample.) */
+static double hist_interp(const LfInstance *c, int k, double s, int left, double eps) {
+    long lo = -1, hi = c->hist_count[k], n = c->hist_count[k];
+    double t0, t1, h, th, g0, g1;
+    /* lo: the last sample with t_lo < s (left) or t_lo <= s (right) */
+    while (hi - lo > 1) {
+        long mid = (lo + hi) / 2;
+        if (left ? HT(c, k, mid) < s - eps : HT(c, k, mid) <= s + eps) lo = mid;
+        else hi = mid;
+    }
+    if (lo < 0) return HG(c, k, 0);
+    if (lo == n - 1) return HG(c, k, n - 1) + HD(c, k, n - 1) * (s - HT(c, k, n - 1));
+    hi = lo + 1;
+    t0 = HT(c, k, lo);
+    t1 = HT(c, k, hi);
+    g0 = HG(c, k, lo);
+    g1 = HG(c, k, hi);
+    h = t1 - t0;
+    th = (s - t0) / h;
+    if (c->delay_interp == LF_DELAY_LINEAR) return g0 + (g1 - g0) * th;
+    return (2 * th * th * th - 3 * th * th + 1) * g0 + (th * th * th - 2 * th * th + th) * h * HD(c, k, lo) +
+           (3 * th * th - 2 * th * th * th) * g1 + (th * th * th - th * th) * h * HD(c, k, hi);
+}
+
+/* The delayed values at t.  Steps end at every breakpoint t_jump + tau
+ * and the solver restarts there.  The stages of the step ending at a
+ * breakpoint that run at its end take the value before the jump; the
+ * restarted solver (t = its last accepted point) takes the value after it.
+ * Only there is s = t - tau taken as equal to a sample within rounding. */
+LfStatus lf_delayed_values(LfInstance *c, double t, const double *x) {
+    double g[LF_DIM(2 * LF_ND)];
+    int k, need_now = 0, left = c->solver_ready && t > c->solver.t && t >= c->t_bp_step;
+    double eps = (left || (c->solver_ready && t == c->solver.t))
+                     ? 8 * 2.220446049250313e-16 * fmax(1.0, fabs(t))
+                     : 0.0;
+    for (k = 0; k < LF_ND; k++)
+        if (c->tau[k] == 0 || c->hist_count[k] == 0) need_now = 1;
+    if (need_now) { /* zero delay, or no history yet: the value now */
+        c->arg[6] = c->dval;
+        if (lf_eval_fn(c, LF_FN_HIST, t, x, c->w_cur, g, &g[LF_ND], NULL) != LF_OK) return LF_ERROR;
+    }
+    for (k = 0; k < LF_ND; k++)
+        c->dval[k] = (c->tau[k] == 0 || c->hist_count[k] == 0) ? g[k]
+                                                                : hist_interp(c, k, t - c->tau[k], left, eps);
+    return LF_OK;
+}
+
+static void add_breakpoint(LfInstance *c, double t) {
+    if (c->n_bp < LF_MAX_BP) c->bp[c->n_bp++] = t;
+}
+
+/* The next pending breakpoint after t, or t_end if none comes first (and
+ * forget those passed); *is_bp: a breakpoint falls on the returned time. */
+double lf_next_breakpoint(LfInstance *c, double t, double t_end, int *is_bp) {
+    double next = t_end;
+    int i, j = 0;
+    *is_bp = 0;
+    for (i = 0; i < c->n_bp; i++) {
+        if (c->bp[i] <= t) continue;
+        c->bp[j++] = c->bp[i];
+        if (c->bp[i] <= next) {
+            next = c->bp[i];
+            *is_bp = 1;
+        }
+    }
+    c->n_bp = j;
+    return next;
+}
+
+/* Append (t, g, dg/dt) at an accepted point; `jump`: the history is
+ * discontinuous here (input change, reinit), so its values reach the
+ * equations tau later: a breakpoint. */
+static LfStatus hist_append(LfInstance *c, double t, const double *g, int jump) {
+    int k;
+    for (k = 0; k < LF_ND; k++) {
+        double oldest_needed = t - c->tau[k] - c->solver.opt.h_max;
+        if (c->tau[k] == 0) continue; /* read at the current time, never from here */
+        /* drop samples no query can reach any more */
+        while (c->hist_count[k] >= 2 && HT(c, k, 1) <= oldest_needed) {
+            c->hist_start[k] = (c->hist_start[k] + 1) % LF_HIST_CAP;
+            c->hist_count[k]--;
+        }
+        if (c->hist_count[k] == LF_HIST_CAP) {
+            lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
+                   "t = %.17g: history of delay %s is full: %d samples cover only %g s of "
+                   "the %g s needed (the steps are too small for this delay)", t,
+                   lf_model.delay_names[k], LF_HIST_CAP, t - HT(c, k, 0), c->tau[k]);
+            return LF_DISCARD;
+        }
+        HT(c, k, c->hist_count[k]) = t;
+        HG(c, k, c->hist_count[k]) = g[k];
+        HD(c, k, c->hist_count[k]) = g[LF_ND + k];
+        c->hist_count[k]++;
+        if (jump && c->tau[k] > 0) add_breakpoint(c, t + c->tau[k]);
+    }
+    return LF_OK;
+}
+
+static LfStatus hist_sample(LfInstance *c, double t, const double *x, double *g);
+
+LfStatus lf_hist_push(LfInstance *c, double t, const double *x, int jump) {
+    double g[LF_DIM(2 * LF_ND)];
+    LfStatus st;
+    if (LF_ND == 0) return LF_OK;
+    st = hist_sample(c, t, x, g);
+    if (st != LF_OK) return st;
+    return hist_append(c, t, g, jump);
+}
+
+/* After an accepted step: the history up to its end, sampled on the dense
+ * output (hermite) or only at the step's end (linear, the naive way). */
+
+#define LF_HIST_MAX_DEPTH 12
+
+/* g and dg/dt at (t, x), for the history. */
+static LfStatus hist_sample(LfInstance *c, double t, const double *x, double *g) {
+    LfStatus st = lf_solve_w(c, t, x, c->w_tmp);
+    if (st != LF_OK) return st;
+    return lf_eval_fn(c, LF_FN_HIST, t, x, c->w_tmp, g, &g[LF_ND], NULL);
+}
+
+/* Sample the history inside the accepted step (ta, tb] on the solver's dense
+ * output: bisect while the cubic Hermite through the end samples misses g
+ * at the midpoint by more than the solver's tolerance, then push the
+ * samples in time order (tb last).  ga, gb: samples at ta, tb. */
+static LfStatus hist_refine(LfInstance *c, double ta, const double *ga, double tb,
+                            const double *gb, int depth) {
+    double gm[LF_DIM(2 * LF_ND)], xm[LF_DIM(LF_NX)], tm = 0.5 * (ta + tb), h = tb - ta;
+    int k, fine = 1;
+    LfStatus st;
+    if (depth < LF_HIST_MAX_DEPTH) {
+        c->solver.method->dense(&c->solver, tm, xm);
+        st = hist_sample(c, tm, xm, gm);
+        if (st != LF_OK) return st;
+        for (k = 0; k < LF_ND; k++) {
+            double herm;
+            if (c->tau[k] == 0) continue;
+            herm = 0.5 * (ga[k] + gb[k]) + 0.125 * h * (ga[LF_ND + k] - gb[LF_ND + k]);
+            if (fabs(herm - gm[k]) > c->solver.opt.atol + c->solver.opt.rtol * fabs(gm[k]))
+                fine = 0;
+        }
+        if (!fine) {
+            st = hist_refine(c, ta, ga, tm, gm, depth + 1);
+            if (st != LF_OK) return st;
+            return hist_refine(c, tm, gm, tb, gb, depth + 1);
+        }
+    }
+    return hist_append(c, tb, gb, 0);
+}
+
+LfStatus lf_hist_step(LfInstance *c) {
+    double ga[LF_DIM(2 * LF_ND)], gb[LF_DIM(2 * LF_ND)];
+    LfSolver *s = &c->solver;
+    long n;
+    int k = 0;
+    LfStatus st;
+    while (k < LF_ND && c->tau[k] == 0) k++;
+    if (k == LF_ND) return LF_OK; /* only zero delays: no history is kept */
+    n = c->hist_count[k];
+    if (c->delay_interp == LF_DELAY_LINEAR || !(s->t > s->t_old) || n == 0 ||
+        HT(c, k, n - 1) != s->t_old)
+        return lf_hist_push(c, s->t, s->x, 0);
+    st = hist_sample(c, s->t_old, s->x_old, ga);
+    if (st == LF_OK) st = hist_sample(c, s->t, s->x, gb);
+    if (st != LF_OK) return st;
+    return hist_refine(c, s->t_old, ga, s->t, gb, 0);
+}
+
+/* Delays from the parameters; each must fit the history the FMU holds. */
+LfStatus lf_init_delays(LfInstance *c, LfSolverOptions *opt) {
+    int k;
+    if (LF_ND == 0) return LF_OK;
+    if (lf_eval_fn(c, LF_FN_TAU, c->t, &c->r[LF_VR_X0], c->w_cur, c->tau, NULL, NULL) != LF_OK)
+        return LF_ERROR;
+    for (k = 0; k < LF_ND; k++) {
+        if (!(c->tau[k] >= 0) || c->tau[k] > lf_model.delay_max[k]) {
+            lf_log(c, LF_ERROR, LF_LOG_ERROR,
+                   "delay %s = %g s: allowed 0 ... %g s, the longest delay this FMU's "
+                   "history was built to hold (rebuild with a larger max_delay)",
+                   lf_model.delay_names[k], c->tau[k], lf_model.delay_max[k]);
+            return LF_ERROR;
+        }
+        /* a step longer than the delay would need history not yet computed */
+        if (c->tau[k] > 0 && opt->h_max > c->tau[k]) opt->h_max = c->tau[k];
+        if (c->tau[k] > 0 && opt->h_fixed > c->tau[k]) {
+            lf_log(c, LF_WARNING, LF_LOG_WARNING,
+                   "solver_h_fixed = %g s is longer than delay %s = %g s: rk4 steps are "
+                   "limited to the delay", opt->h_fixed, lf_model.delay_names[k], c->tau[k]);
+            opt->h_fixed = c->tau[k];
+        }
+    }
+    return LF_OK;
+}

@@ -1,0 +1,257 @@
+/* loomfmu shared runtime: event indicators and discrete modes; events are
+ * located inside an accepted step on the solver's dense output. */
+#include <math.h>
+#include <string.h>
+
+#include "lf_internal.h"
+
+#define LF_EVENT_MAX_ITER 200
+/* least step over an event (relative to max(1, |t|)); its Euler error is O(gap^2) */
+#define LF_EVENT_GAP 1e-12
+
+/* ---- stepping ------------------------------------------------------------ */
+
+LfStatus lf_eval_events(LfInstance *c, double t, const double *x, double *e) {
+    LfStatus st;
+    if (LF_NE == 0) return LF_OK;
+    st = lf_solve_w(c, t, x, c->w_tmp);
+    if (st != LF_OK) return st;
+    if (lf_eval_fn(c, LF_FN_EVT, t, x, c->w_tmp, e, NULL, NULL) != LF_OK ||
+        lf_first_nonfinite(e, LF_NE) >= 0) {
+        lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: event indicators not finite", t);
+        return LF_DISCARD;
+    }
+    return LF_OK;
+}
+
+/* Choose the value of mode k at (t, x): the first value, in the declared
+ * priority order, that is consistent (validity >= 0) once the states are
+ * reinitialized for it.  x is updated with the reinitialized states. */
+static LfStatus choose_mode(LfInstance *c, int k, double t, double *x) {
+    double old = c->q[k], x_try[LF_DIM(LF_NX)], valid[LF_DIM(LF_NQ)];
+    int j;
+    for (j = lf_model.mode_value_offset[k]; j < lf_model.mode_value_offset[k + 1]; j++) {
+        LfStatus st;
+        c->q[k] = lf_model.mode_values[j];
+        if (lf_eval_fn(c, LF_FN_REINIT, t, x, c->w_cur, x_try, NULL, NULL) != LF_OK)
+            return LF_ERROR;
+        c->quiet++;
+        st = lf_solve_w(c, t, x_try, c->w_tmp);
+        c->quiet--;
+        if (st != LF_OK) continue; /* cannot be solved in this mode */
+        if (lf_eval_fn(c, LF_FN_VALID, t, x_try, c->w_tmp, valid, NULL, NULL) != LF_OK)
+            return LF_ERROR;
+        if (valid[k] >= 0) {
+            memcpy(x, x_try, sizeof(double) * LF_NX);
+            if (c->q[k] != old)
+                lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: mode %s: %g -> %g", t,
+                       lf_model.mode_names[k], old, c->q[k]);
+            return LF_OK;
+        }
+    }
+    c->q[k] = old;
+    lf_log(c, LF_ERROR, LF_LOG_ERROR,
+           "t = %.17g: no value of mode %s is consistent here (the model has no "
+           "solution with any of its declared values)", t, lf_model.mode_names[k]);
+    return LF_ERROR;
+}
+
+#define LF_MODE_ROUNDS (2 * LF_NQ + 2)
+
+/* Make every mode consistent at (t, x).  A mode is chosen again
+ * (choose_mode: the first valid value in priority order) when its validity
+ * is < 0, and, once chosen, again in every later round: a mode chosen here
+ * sits at its boundary (a joint that just broke away or stuck, its speed
+ * 0), and another mode's change can make a value of higher priority valid
+ * again (coupled friction joints: with joint 2 slipping, joint 1 can stay
+ * stuck).  Rounds repeat until one changes nothing.  `touched`: a mode
+ * already chosen at this point (the event's), or -1.  x is updated with the
+ * reinitialized states.  Used at the start, after an input change and
+ * after every event. */
+LfStatus lf_consistent_modes(LfInstance *c, double t, double *x, int touched) {
+    double valid[LF_DIM(LF_NQ)];
+    unsigned char chosen[LF_DIM(LF_NQ)];
+    int k, round;
+    LfStatus st;
+    for (k = 0; k < LF_NQ; k++) chosen[k] = (unsigned char)(k == touched);
+    for (round = 0; LF_NQ > 0; round++) {
+        int changed = 0;
+        for (k = 0; k < LF_NQ; k++) {
+            double old = c->q[k];
+            if (!chosen[k]) {
+                c->quiet++;
+                st = lf_solve_w(c, t, x, c->w_tmp);
+                c->quiet--;
+                if (st == LF_OK &&
+                    lf_eval_fn(c, LF_FN_VALID, t, x, c->w_tmp, valid, NULL, NULL) == LF_OK &&
+                    valid[k] >= 0)
+                    continue;
+            }
+            st = choose_mode(c, k, t, x);
+            if (st != LF_OK) return st;
+            chosen[k] = 1;
+            if (c->q[k] != old) changed = 1;
+        }
+        if (!changed) break;
+        if (round == LF_MODE_ROUNDS) {
+            lf_log(c, LF_ERROR, LF_LOG_ERROR,
+                   "t = %.17g: the modes do not settle (%d rounds of choosing them again)", t,
+                   LF_MODE_ROUNDS);
+            return LF_ERROR;
+        }
+    }
+    return LF_OK;
+}
+
+/* The modes at the start: from their start values, every one made
+ * consistent (a start value that is valid is kept).  Starting from the
+ * start values each time makes the result independent of earlier reads. */
+LfStatus lf_initial_modes(LfInstance *c) {
+    int k;
+    for (k = 0; k < LF_NQ; k++) c->q[k] = lf_model.mode_start[k];
+    return lf_consistent_modes(c, c->t, &c->r[LF_VR_X0], -1);
+}
+
+static int crossed(double a, double b) { return (a > 0 && b <= 0) || (a < 0 && b >= 0); }
+
+/* Event indicator k on the dense output at time t. */
+static LfStatus event_at(LfInstance *c, int k, double t, double *g) {
+    LfStatus st;
+    c->solver.method->dense(&c->solver, t, c->x_tmp);
+    st = lf_eval_events(c, t, c->x_tmp, c->e_new);
+    *g = c->e_new[k];
+    return st;
+}
+
+/* Illinois (modified regula falsi) on [ta, tb] where indicator k changes
+ * sign; returns the final bracket [*t_left, *t_right]: t_left on the old
+ * side, t_right on the new side of the root. */
+static LfStatus locate_root(LfInstance *c, int k, double ta, double ga, double tb,
+                            double gb, double *t_left, double *t_right) {
+    int side = 0, it;
+    double tol = 8.0 * 2.220446049250313e-16 * fmax(fabs(ta), fabs(tb)) + 1e-15;
+    for (it = 0; it < LF_EVENT_MAX_ITER && tb - ta > tol; it++) {
+        double tm = tb - gb * (tb - ta) / (gb - ga), gm;
+        LfStatus st;
+        if (!(tm > ta && tm < tb)) tm = 0.5 * (ta + tb);
+        st = event_at(c, k, tm, &gm);
+        if (st != LF_OK) return st;
+        if (crossed(ga, gm)) {
+            tb = tm;
+            gb = gm;
+            if (side == -1) ga *= 0.5;
+            side = -1;
+        } else {
+            ta = tm;
+            ga = gm;
+            if (side == 1) gb *= 0.5;
+            side = 1;
+        }
+    }
+    *t_left = ta;
+    *t_right = tb;
+    return LF_OK;
+}
+
+/* the gap over an event grows (x4) up to this many times, and never beyond
+ * LF_EVENT_GAP_MAX * max(1, |t|) nor the end of the step that saw the root */
+#define LF_EVENT_GAP_TRIES 12
+#define LF_EVENT_GAP_MAX 1e-6
+
+/* Carry the state from the root's old side (t_left, x_left) across the
+ * bracket to the new side by an Euler step over a gap that grows until
+ * indicator k shows its new sign, and restart the solver there.  The caller
+ * makes the gap reach LF_EVENT_GAP * max(1, |t|) past the root: the model's
+ * own switch (an fmin, a floor) may sit a few ulps away from the
+ * indicator's root, and a restart between the two would put the first stage
+ * on the old branch.  The Euler error is O(gap^2).  The gap stays below
+ * t_limit (the end of the step that saw the sign change) and
+ * LF_EVENT_GAP_MAX * max(1, |t|).  If the indicator keeps its old sign
+ * there (a root it only touches, e.g. (t - 1)^2, or one the redone
+ * trajectory does not reach), *crossed_out = 0: no event; the solver
+ * restarts at the last point tried, with that point's indicators. */
+static LfStatus cross_gap(LfInstance *c, int k, double t_left, const double *x_left,
+                          double gap, double t_limit, int *crossed_out) {
+    double f[LF_DIM(LF_NX)], x[LF_DIM(LF_NX)], old = c->e_old[k];
+    double gap_max = fmin(t_limit - t_left, LF_EVENT_GAP_MAX * fmax(1.0, fabs(t_left)));
+    int i, j;
+    LfStatus st = lf_rhs(c, t_left, x_left, f);
+    if (st != LF_OK) return st;
+    *crossed_out = 0;
+    if (!(gap_max > 0)) gap_max = gap;
+    for (i = 0; i < LF_EVENT_GAP_TRIES; i++, gap *= 4.0) {
+        if (gap > gap_max) gap = gap_max;
+        for (j = 0; j < LF_NX; j++) x[j] = x_left[j] + gap * f[j];
+        st = lf_eval_events(c, t_left + gap, x, c->e_new);
+        if (st != LF_OK) return st;
+        if (crossed(old, c->e_new[k])) {
+            *crossed_out = 1;
+            break;
+        }
+        if (gap >= gap_max) break;
+    }
+    lf_solver_reset(&c->solver, t_left + gap, x);
+    memcpy(c->e_old, c->e_new, sizeof(double) * LF_NE);
+    return LF_OK;
+}
+
+/* After an accepted step: find the earliest crossing.  The step is then
+ * redone from t_old to the root's old side, so that no stage straddles the
+ * discontinuity (the dense output of the straddling step is contaminated by
+ * it), and the solver restarts on the new side. */
+LfStatus lf_handle_events(LfInstance *c) {
+    LfSolver *s = &c->solver;
+    double t_left = s->t, t_right = s->t, margin, t_stop, t_end_step, e_end[LF_DIM(LF_NE)];
+    int k, first = -1, crossed_gap;
+    LfStatus st = lf_eval_events(c, s->t, s->x, e_end);
+    if (st != LF_OK) return st;
+    for (k = 0; k < LF_NE; k++) {
+        double tl, tr;
+        if (!crossed(c->e_old[k], e_end[k])) continue;
+        st = locate_root(c, k, s->t_old, c->e_old[k], s->t, e_end[k], &tl, &tr);
+        if (st != LF_OK) return st;
+        if (first < 0 || tr < t_right) {
+            t_left = tl;
+            t_right = tr;
+            first = k;
+        }
+    }
+    if (first < 0) {
+        memcpy(c->e_old, e_end, sizeof(double) * LF_NE);
+        return LF_OK;
+    }
+    t_end_step = s->t;
+    /* stop a margin before the root: the stages of the redone step must
+     * not reach the model's switch, which rounding can move by a few ulps */
+    margin = LF_EVENT_GAP * fmax(1.0, fabs(t_left));
+    t_stop = fmax(t_left - margin, s->t_old);
+    memcpy(c->x_tmp, s->x_old, sizeof(double) * LF_NX);
+    lf_solver_reset(s, s->t_old, c->x_tmp);
+    while (s->t < t_stop) {
+        st = s->method->step(s, t_stop);
+        if (st != LF_OK) return st;
+    }
+    st = cross_gap(c, first, s->t, s->x, t_right - s->t + margin, t_end_step, &crossed_gap);
+    if (st != LF_OK) return st;
+    if (!crossed_gap) {
+        lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: indicator %s touched zero and kept its "
+               "sign: no event, solver restarted", s->t, lf_model.event_names[first]);
+        return lf_hist_push(c, s->t, s->x, 0);
+    }
+    c->n_events++;
+    if (LF_NQ > 0) {
+        memcpy(c->x_tmp, s->x, sizeof(double) * LF_NX);
+        if (lf_model.event_mode[first] >= 0) {
+            st = choose_mode(c, lf_model.event_mode[first], s->t, c->x_tmp);
+            if (st != LF_OK) return st;
+        }
+        st = lf_consistent_modes(c, s->t, c->x_tmp, lf_model.event_mode[first]);
+        if (st != LF_OK) return st;
+        lf_solver_reset(s, s->t, c->x_tmp);
+        st = lf_eval_events(c, s->t, s->x, c->e_old);
+        if (st != LF_OK) return st;
+    }
+    lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: event %s, solver restarted", s->t,
+           lf_model.event_names[first]);
+    return lf_hist_push(c, s->t, s->x, lf_model.event_mode[first] >= 0);
+}

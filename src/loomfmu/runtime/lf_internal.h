@@ -1,0 +1,40 @@
+/* loomfmu shared runtime: functions shared between the runtime's own files
+ * (lf_runtime.c, lf_newton.c, lf_delay.c, lf_events.c, lf_step.c).  Not part
+ * of the interface the FMI facade uses (that is lf_runtime.h). */
+#ifndef LF_INTERNAL_H
+#define LF_INTERNAL_H
+
+#include "lf_runtime.h"
+
+#define LF_EPS 2.220446049250313e-16
+
+/* lf_runtime.c: generated function `fn` at (t, x, w) with the instance's u,
+ * p, q and the delayed values at t; index of the first non-finite value. */
+LfStatus lf_eval_fn(LfInstance *c, int fn, double t, const double *x, const double *w,
+                    double *out0, double *out1, double *out2);
+int lf_first_nonfinite(const double *v, size_t n);
+/* before the solver starts: states and modes initialization starts from */
+LfStatus lf_prepare_initial(LfInstance *c);
+
+/* lf_newton.c: the unknowns w = [der(x); z] at (t, x) (closed form or
+ * Newton), and the right-hand side the solvers integrate. */
+LfStatus lf_solve_w(LfInstance *c, double t, const double *x, double *w);
+LfStatus lf_rhs(void *ctx, double t, const double *x, double *dx);
+
+/* lf_delay.c: history of the delayed expressions and its breakpoints. */
+LfStatus lf_delayed_values(LfInstance *c, double t, const double *x);
+double lf_next_breakpoint(LfInstance *c, double t, double t_end, int *is_bp);
+LfStatus lf_hist_push(LfInstance *c, double t, const double *x, int jump);
+LfStatus lf_hist_step(LfInstance *c);
+LfStatus lf_init_delays(LfInstance *c, LfSolverOptions *opt);
+
+/* lf_events.c: event indicators, modes, event location after a step. */
+LfStatus lf_eval_events(LfInstance *c, double t, const double *x, double *e);
+LfStatus lf_consistent_modes(LfInstance *c, double t, double *x, int touched);
+LfStatus lf_initial_modes(LfInstance *c);
+LfStatus lf_handle_events(LfInstance *c);
+
+/* lf_step.c: start values of the states from the parameters. */
+LfStatus lf_initial_states(LfInstance *c);
+
+#endif

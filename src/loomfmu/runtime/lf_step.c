@@ -1,0 +1,157 @@
+/* loomfmu shared runtime: initialization and the co-simulation step loop.
+ *
+ * Inputs are held constant over a communication step (zero-order hold); a
+ * change of an input restarts the solver at the communication point. */
+#include <math.h>
+#include <string.h>
+
+#include "lf_internal.h"
+
+/* Constraints across parameters (each >= 0), which ranges cannot express. */
+static LfStatus check_constraints(LfInstance *c) {
+    double v[LF_DIM(LF_NC)];
+    int k, ok = 1;
+    if (LF_NC == 0) return LF_OK;
+    if (lf_eval_fn(c, LF_FN_CONS, c->t, &c->r[LF_VR_X0], c->w_cur, v, NULL, NULL) != LF_OK)
+        return LF_ERROR;
+    for (k = 0; k < LF_NC; k++)
+        if (!(v[k] >= 0)) {
+            lf_log(c, LF_ERROR, LF_LOG_ERROR, "parameters violate %s (value %g, must be >= 0)",
+                   lf_model.constraint_messages[k], v[k]);
+            ok = 0;
+        }
+    return ok ? LF_OK : LF_ERROR;
+}
+
+/* States declared with a start expression (e.g. a static equilibrium) start
+ * there for the parameters actually set, unless the importer set them. */
+LfStatus lf_initial_states(LfInstance *c) {
+    double x0[LF_DIM(LF_NX)];
+    int i;
+    if (lf_eval_fn(c, LF_FN_INIT, c->t, &c->r[LF_VR_X0], c->w_cur, x0, NULL, NULL) != LF_OK) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "initial states cannot be evaluated");
+        return LF_ERROR;
+    }
+    for (i = 0; i < LF_NX; i++) {
+        if (c->x_set[i]) continue;
+        if (!isfinite(x0[i])) {
+            lf_log(c, LF_ERROR, LF_LOG_ERROR, "initial value of %s is %g for these parameters",
+                   lf_model.real_names[LF_VR_X0 + i], x0[i]);
+            return LF_ERROR;
+        }
+        c->r[LF_VR_X0 + i] = x0[i];
+    }
+    return LF_OK;
+}
+
+LfStatus lf_initialize(LfInstance *c) {
+    LfOde ode = lf_ode_of(c);
+    LfSolverOptions opt;
+    LfStatus st;
+    opt.rtol = c->rtol_importer > 0 ? c->rtol_importer : c->r[LF_SET_RTOL];
+    opt.atol = c->r[LF_SET_ATOL];
+    opt.h_max = c->r[LF_SET_H_MAX];
+    opt.h_fixed = c->r[LF_SET_H_FIXED];
+    opt.max_steps = c->max_steps;
+    c->t = c->last_successful_time = c->t_start;
+    if (check_constraints(c) != LF_OK) return LF_ERROR;
+    if (lf_initial_states(c) != LF_OK) return LF_ERROR;
+    if (lf_init_delays(c, &opt) != LF_OK) return LF_ERROR;
+    if (LF_NQ > 0 && lf_initial_modes(c) != LF_OK) return LF_ERROR;
+    st = lf_solver_init(&c->solver, lf_methods[c->solver_id - 1], ode, opt, c->t_start,
+                        &c->r[LF_VR_X0], &c->alloc);
+    if (st != LF_OK) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "solver %s: %s", lf_methods[c->solver_id - 1]->name,
+               c->solver.message);
+        return LF_ERROR;
+    }
+    c->solver_ready = 1;
+    c->inputs_changed = 0;
+    c->outputs_valid = 0;
+    if (lf_hist_push(c, c->t, &c->r[LF_VR_X0], 1) != LF_OK) return LF_ERROR;
+    st = lf_eval_events(c, c->t, &c->r[LF_VR_X0], c->e_old);
+    if (st != LF_OK) return LF_ERROR;
+    return lf_update_outputs(c);
+}
+
+static LfStatus fail_step(LfInstance *c, LfStatus st, const char *what) {
+    LfSolver *s = &c->solver;
+    memcpy(&c->r[LF_VR_X0], s->x, sizeof(double) * LF_NX);
+    c->t = c->last_successful_time = s->t;
+    c->outputs_valid = 0;
+    lf_log(c, st, st == LF_DISCARD ? LF_LOG_DISCARD : LF_LOG_ERROR,
+           "t = %.17g: solver %s failed: %s; state kept at the last accepted time", s->t,
+           s->method->name, what);
+    return st;
+}
+
+LfStatus lf_check_step(LfInstance *c, double t0, double h) {
+    if (!(h > 0) || !isfinite(h)) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR,
+               "fmi2DoStep: communicationStepSize = %g, expected a finite value > 0", h);
+        return LF_ERROR;
+    }
+    if (t0 + h > c->t_stop * (1 + 1e-12) + 1e-12) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR,
+               "fmi2DoStep: step to %.17g goes past stopTime = %.17g of fmi2SetupExperiment",
+               t0 + h, c->t_stop);
+        return LF_ERROR;
+    }
+    if (fabs(t0 - c->t) > 1e-9 * fmax(1.0, fabs(c->t))) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR,
+               "fmi2DoStep: currentCommunicationPoint = %.17g, expected %.17g", t0, c->t);
+        return LF_ERROR;
+    }
+    return LF_OK;
+}
+
+LfStatus lf_do_step(LfInstance *c, double t0, double h) {
+    LfSolver *s = &c->solver;
+    double t_end = t0 + h;
+    long steps = 0;
+    LfStatus st = lf_check_step(c, t0, h);
+    if (st != LF_OK) return st;
+    if (c->inputs_changed) {
+        /* the held inputs jump here: modes made invalid by the jump (a
+         * stuck joint now loaded beyond its static limit) are chosen again */
+        memcpy(c->x_tmp, s->x, sizeof(double) * LF_NX);
+        if (LF_NQ > 0) {
+            st = lf_consistent_modes(c, s->t, c->x_tmp, -1);
+            if (st != LF_OK) return fail_step(c, st, "no consistent mode after the input change");
+        }
+        lf_solver_reset(s, s->t, c->x_tmp);
+        st = lf_hist_push(c, s->t, s->x, 1);
+        if (st != LF_OK) return fail_step(c, st, "history update failed");
+        st = lf_eval_events(c, s->t, s->x, c->e_old);
+        if (st != LF_OK) return fail_step(c, st, "event indicators not finite");
+        c->inputs_changed = 0;
+    }
+    while (s->t < t_end) {
+        int is_bp = 0;
+        double t_bound = LF_ND > 0 ? lf_next_breakpoint(c, s->t, t_end, &is_bp) : t_end;
+        s->message[0] = '\0';
+        c->t_bp_step = is_bp ? t_bound : INFINITY;
+        st = s->method->step(s, t_bound);
+        c->t_bp_step = INFINITY;
+        if (st != LF_OK) return fail_step(c, st, s->message);
+        if (LF_NE > 0) {
+            st = lf_handle_events(c);
+            if (st != LF_OK) return fail_step(c, st, "event handling failed");
+        }
+        if (LF_ND > 0) {
+            int at_bp = is_bp && s->t == t_bound;
+            st = lf_hist_step(c);
+            if (st != LF_OK) return fail_step(c, st, "history update failed");
+            if (at_bp) lf_solver_reset(s, s->t, s->x); /* a delayed value jumps here */
+        }
+        if (++steps > c->max_steps)
+            return fail_step(c, LF_DISCARD, "too many internal steps in one communication step");
+    }
+    memcpy(&c->r[LF_VR_X0], s->x, sizeof(double) * LF_NX);
+    c->t = t_end;
+    c->outputs_valid = 0;
+    st = lf_update_outputs(c);
+    if (st != LF_OK) return st;
+    c->last_successful_time = t_end;
+    return LF_OK;
+}
