@@ -1,8 +1,8 @@
 """Benchmarks (scripts, never timed tests).
 
-    python -m loomfmu.bench charts [--quick] [--models heald_frame drive ...]
-    python -m loomfmu.bench speed [--model heald_frame] [--repeats 5]
-    python -m loomfmu.bench friction
+    loomfmu bench charts [--quick] [--models heald_frame drive ...]
+    loomfmu bench speed [--model heald_frame] [--repeats 5]
+    loomfmu bench friction
 
 ``charts``: work-precision and failure charts for every model in
 :data:`loomfmu.bench.scenes.BENCH` (docs/bench/); ``speed`` and

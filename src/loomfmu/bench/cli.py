@@ -1,4 +1,4 @@
-"""``python -m loomfmu.bench charts|speed|friction``."""
+"""``loomfmu bench charts|speed|friction``."""
 from __future__ import annotations
 
 import argparse
@@ -7,6 +7,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from ..progress import Progress
 from . import classic, failures, report
 from .scenes import BENCH, load_scene_model
 from .sweep import Plan, prepare, work_precision
@@ -19,10 +20,14 @@ def charts(models, *, quick: bool, out: Path, readme: Path | None, failures_on: 
     plan = Plan.make(quick)
     out.mkdir(parents=True, exist_ok=True)
     rows, infos, verdicts, cases = [], {}, {}, {}
-    with tempfile.TemporaryDirectory() as tmp:
+    n_studies = sum(1 for n in failures.STUDIES if failures_on and n in models)
+    with tempfile.TemporaryDirectory() as tmp, \
+            Progress(total=len(models) + n_studies, desc="bench charts") as bar:
         for name in models:
+            bar.stage(f"{name}: work-precision sweep")
             model = load_scene_model(name)
             if model is None:
+                bar.advance(f"{name}: no model")
                 continue
             t0 = time.perf_counter()
             case = prepare(name, BENCH[name], model, plan, quick, Path(tmp))
@@ -34,18 +39,19 @@ def charts(models, *, quick: bool, out: Path, readme: Path | None, failures_on: 
             pts = work_precision(case, plan)
             rows += pts
             report.wp_chart(rows, name, infos[name], out / f"{name}_wp.png")
-            print(f"{name}: {len(pts)} work-precision points, "
-                  f"{time.perf_counter() - t0:.0f} s", flush=True)
+            bar.advance(f"{name}: {len(pts)} work-precision points, "
+                        f"{time.perf_counter() - t0:.0f} s")
         for name, study in failures.STUDIES.items():
             if not failures_on or name not in cases:
                 continue
             t0 = time.perf_counter()
+            bar.stage(f"{name}: failure study")
             extra = {"reg": cases.get("backrest_regularized")} if name == "backrest" else {}
             pts, verdict = study(cases[name], plan, out, quick, **extra)
             rows += pts
             verdicts[name] = verdict
-            print(f"{name}: failure study, {time.perf_counter() - t0:.0f} s\n  {verdict}",
-                  flush=True)
+            bar.advance(f"{name}: failure study, {time.perf_counter() - t0:.0f} s")
+            print(f"  {verdict}", flush=True)
     report.write_csv(rows, out / "points.csv")
     table = report.speed_table(rows, list(infos))
     wall = time.perf_counter() - wall
@@ -61,8 +67,8 @@ def charts(models, *, quick: bool, out: Path, readme: Path | None, failures_on: 
     return {"rows": rows, "table": table, "verdicts": verdicts, "wall_seconds": wall}
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m loomfmu.bench",
+def main(argv=None, prog: str = "loomfmu bench") -> int:
+    ap = argparse.ArgumentParser(prog=prog,
                                  description="loomfmu benchmarks (never timed tests)")
     ap.add_argument("what", choices=["charts", "speed", "friction"])
     ap.add_argument("--model", default="heald_frame", help="speed: the model")
@@ -71,15 +77,16 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="charts: coarse sweeps")
     ap.add_argument("--no-failures", action="store_true", help="charts: skip failure studies")
     ap.add_argument("--readme", type=Path, default=None,
-                    help="charts: README whose bench section to rewrite "
-                         "(default: README.md next to --out's docs/, full runs only)")
+                    help="charts: page whose marked bench section to rewrite "
+                         "(default: ./docs/speed.md when --out is docs/bench, full runs "
+                         "only)")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--scales", type=float, nargs="+", default=[1.0, 10.0],
                     help="speed: scene lengths as multiples of the model's default experiment")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
     if args.repeats < 1:
-        raise ValueError(f"--repeats = {args.repeats}; allowed: >= 1")
+        ap.error(f"--repeats {args.repeats}: allowed >= 1")
     if args.what == "friction":
         args.out = args.out or Path("docs/friction.json")
         return classic.main_friction(args)
@@ -88,12 +95,12 @@ def main(argv=None) -> int:
         return classic.main_speed(args)
     unknown = sorted(set(args.models) - set(BENCH))
     if unknown:
-        raise ValueError(f"--models: {unknown} are not scenes; allowed: {sorted(BENCH)}")
+        ap.error(f"--models {' '.join(unknown)}: not a scene; allowed: {', '.join(BENCH)}")
     out = args.out or Path("docs/bench")
     readme = args.readme
     if readme is None and not args.quick and out == Path("docs/bench") and \
-            Path("README.md").exists():
-        readme = Path("README.md")
+            Path("docs/speed.md").exists():
+        readme = Path("docs/speed.md")
     charts(args.models, quick=args.quick, out=out, readme=readme,
-           failures_on=not args.no_failures, cmd="python -m loomfmu.bench charts")
+           failures_on=not args.no_failures, cmd="loomfmu bench charts")
     return 0

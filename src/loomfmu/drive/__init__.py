@@ -6,7 +6,7 @@
 * :mod:`.cam`: the compensated cam (3), cam angle (4), profile r(phi) as a
   Fourier table for the drive FMU, periodic steady state of the drive, and
   the tracking error;
-* :mod:`.report`: ``python -m loomfmu.drive {table, charts}``.
+* :mod:`.report`: ``loomfmu drive {table, charts}``.
 
 Speeds are rev/s inside, rpm only at the edges (:data:`RPM`).
 """

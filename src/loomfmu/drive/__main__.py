@@ -1,4 +1,4 @@
-"""python -m loomfmu.drive {table, charts, tracking}: see loomfmu.drive.report
+"""loomfmu drive {table, charts, tracking}: see loomfmu.drive.report
 and loomfmu.drive.tracking."""
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ from pathlib import Path
 from . import report
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m loomfmu.drive")
+def main(argv=None, prog: str = "loomfmu drive") -> int:
+    ap = argparse.ArgumentParser(prog=prog, description="Spindle-drive analyses.")
     sub = ap.add_subparsers(dest="cmd", required=True)
     t = sub.add_parser("table", help="law constants, Fourier coefficients, cam -> docs/drive_law.md")
     t.add_argument("--out", type=Path, default=Path("docs/drive_law.md"))
@@ -21,8 +21,14 @@ def main(argv=None) -> int:
     k.add_argument("--out", type=Path, default=Path("docs/drive_tracking.md"))
     args = ap.parse_args(argv)
     if args.cmd == "tracking":
+        from ..progress import Progress
         from .tracking import write_tracking
-        print(write_tracking(args.out))
+        with Progress(total=1, desc="drive tracking") as bar:
+            bar.stage("building the drive FMU twice (compensated, uncompensated cam) "
+                      "and simulating")
+            text = write_tracking(args.out)
+            bar.advance("done")
+        print(text)
         print(f"written: {args.out}")
     elif args.cmd == "table":
         text = report.law_markdown()

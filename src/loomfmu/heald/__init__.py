@@ -6,9 +6,9 @@
 * :mod:`.claims`: natural frequencies, the seed's claims, the fidelity
   comparison and the slat-section design function;
 
-    python -m loomfmu.heald claims     # docs/heald_claims.md
-    python -m loomfmu.heald fidelity   # docs/heald_fidelity.md
-    python -m loomfmu.heald design --gap 0.004
+    loomfmu heald claims     # docs/heald_claims.md
+    loomfmu heald fidelity   # docs/heald_fidelity.md
+    loomfmu heald design --gap 0.004
 """
 from .hinge import PHASES, hinge_load_kinetostatic, hinge_load_phases
 from .presets import MAKERS, WIDTHS_CM, YARNS, preset_names, preset_values

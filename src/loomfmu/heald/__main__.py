@@ -1,4 +1,4 @@
-"""python -m loomfmu.heald {claims, fidelity, design}: see loomfmu.heald.claims."""
+"""loomfmu heald {claims, fidelity, design}: see loomfmu.heald.claims."""
 from __future__ import annotations
 
 import argparse
@@ -10,29 +10,57 @@ from pathlib import Path
 from . import claims as cl
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m loomfmu.heald")
+def main(argv=None, prog: str = "loomfmu heald") -> int:
+    ap = argparse.ArgumentParser(prog=prog, description="Heald-frame analyses.")
     sub = ap.add_subparsers(dest="cmd", required=True)
     c = sub.add_parser("claims", help="check the seeds' claims -> docs/heald_claims.md")
-    c.add_argument("--out", type=Path, default=Path("docs/heald_claims.md"))
+    c.add_argument("--out", type=Path, default=Path("docs/heald_claims.md"),
+                   help="output file (default: ./docs/heald_claims.md)")
     f = sub.add_parser("fidelity", help="rigid/planar vs spatial -> docs/heald_fidelity.md")
-    f.add_argument("--out", type=Path, default=Path("docs/heald_fidelity.md"))
+    f.add_argument("--out", type=Path, default=Path("docs/heald_fidelity.md"),
+                   help="output file (default: ./docs/heald_fidelity.md)")
     d = sub.add_parser("design", help="slat width b1 for a given gap to the next frame")
-    d.add_argument("--gap", type=float, required=True, help="clearance (m)")
-    d.add_argument("--d1", type=float, default=None, help="wall thickness (m)")
+    d.add_argument("--gap", type=float, required=True,
+                   help="clearance to the neighbouring frame, m (> 0)")
+    d.add_argument("--d1", type=float, default=None,
+                   help="slat wall thickness, m (default: the model's)")
+    d.add_argument("--json", action="store_true", help="print the result as JSON")
     args = ap.parse_args(argv)
+    from ..progress import Progress
     if args.cmd == "claims":
-        text = cl.claims_markdown(cl.claims())
+        with Progress(total=1, desc="heald claims") as bar:
+            bar.stage("simulating the seeds' scenes")
+            text = cl.claims_markdown(cl.claims())
+            bar.advance("done")
     elif args.cmd == "fidelity":
         from ..builder import build_fmu
         from ..registry import load_model
-        with tempfile.TemporaryDirectory() as tmp:
-            fmus = {f: build_fmu(load_model(n), out_dir=tmp).path for f, n in (
-                ("spatial", "heald_frame"), ("planar", "heald_frame_planar"),
-                ("rigid", "heald_frame_rigid"))}
+        levels = (("spatial", "heald_frame"), ("planar", "heald_frame_planar"),
+                  ("rigid", "heald_frame_rigid"))
+        with tempfile.TemporaryDirectory() as tmp, \
+                Progress(total=len(levels) + 1, desc="heald fidelity") as bar:
+            fmus = {}
+            for level, name in levels:
+                bar.stage(f"building {name}")
+                fmus[level] = build_fmu(load_model(name), out_dir=tmp).path
+                bar.advance(f"{name} built")
+            bar.stage("simulating and comparing the three levels")
             text = cl.fidelity_markdown(cl.fidelity(fmus))
+            bar.advance("compared")
     else:
-        print(json.dumps(cl.design_section(args.gap, d1=args.d1)))
+        try:
+            with Progress(total=1, desc="heald design") as bar:
+                bar.stage(f"searching the slat width b1 for gap {args.gap:g} m "
+                          "(one spatial simulation per trial)")
+                res = cl.design_section(args.gap, d1=args.d1)
+                bar.advance("done")
+        except ValueError as exc:
+            print(f"{prog} design: {exc}", file=sys.stderr)
+            return 2
+        if args.json:
+            print(json.dumps(res))
+        else:
+            _print_design(res)
         return 0
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(text)
@@ -41,5 +69,13 @@ def main(argv=None) -> int:
     return 0
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+def _print_design(res: dict) -> None:
+    """The design result with units (lengths in mm)."""
+    labels = {"b1": "slat width b1", "d1": "wall thickness d1",
+              "max_x2": "largest mid-section displacement max |x2|",
+              "gap": "clearance to the next frame"}
+    for key, value in res.items():
+        if key in labels and isinstance(value, (int, float)):
+            print(f"{labels[key]:<44}{value * 1e3:10.3f} mm")
+        else:
+            print(f"{key:<44}{value}")

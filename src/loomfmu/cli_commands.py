@@ -1,0 +1,333 @@
+"""The work behind ``loomfmu list|build|simulate|verify`` (parsing is in cli.py)."""
+from __future__ import annotations
+
+import difflib
+import importlib
+import inspect
+import json
+import math
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+
+from .progress import Progress
+from .registry import FIDELITY, MODELS, load_model
+
+
+class UsageError(Exception):
+    """A command line that names something that does not exist or is out of range."""
+
+
+# ---------------------------------------------------------------- arguments
+def parse_value(text: str):
+    """'3' -> 3, '2.5' -> 2.5, 'true' -> True, 'none' -> None, else the string."""
+    low = text.strip().lower()
+    if low in ("true", "false"):
+        return low == "true"
+    if low == "none":
+        return None
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
+def parse_assignments(items: list[str], flag: str) -> dict:
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise UsageError(f"{flag} {item!r}: expected NAME=VALUE")
+        out[key.strip()] = parse_value(value)
+    return out
+
+
+def _suggest(name: str, allowed) -> str:
+    close = difflib.get_close_matches(name, list(allowed), n=3)
+    return f" (did you mean {', '.join(close)}?)" if close else ""
+
+
+def option_defaults(name: str) -> dict[str, object]:
+    """The build options of model ``name`` with their defaults."""
+    module, fixed = MODELS[name]
+    sig = inspect.signature(importlib.import_module(f"loomfmu.models.{module}").build)
+    return {k: fixed.get(k, p.default) for k, p in sig.parameters.items() if k not in fixed}
+
+
+def check_model(name: str) -> None:
+    if name not in MODELS:
+        raise UsageError(f"model {name!r} is unknown{_suggest(name, MODELS)}; "
+                         f"allowed: {', '.join(sorted(MODELS))}")
+
+
+def declare(name: str, options: dict):
+    """load_model with the options checked against the model's build()."""
+    check_model(name)
+    allowed = option_defaults(name)
+    for key in options:
+        if key not in allowed:
+            raise UsageError(f"--option {key}: model {name} has no such build option"
+                             f"{_suggest(key, allowed)}; allowed: "
+                             f"{', '.join(allowed) or 'none'}")
+    return load_model(name, **options)
+
+
+def check_range(flag: str, value: float, lo: float, hi: float | None = None) -> None:
+    ok = math.isfinite(value) and value > lo and (hi is None or value < hi)
+    if not ok:
+        span = f"({lo:g}, {hi:g})" if hi is not None else f"> {lo:g}"
+        raise UsageError(f"{flag} {value!r}: allowed {span}")
+
+
+# ---------------------------------------------------------------- list
+def cmd_list(args) -> int:
+    rows = {name: {"mechanism": next((m for m, lv in FIDELITY.items() if name in lv), "-"),
+                   "options": option_defaults(name)} for name in sorted(MODELS)}
+    if args.json:
+        print(json.dumps({"models": rows, "fidelity": FIDELITY}, indent=2, default=str))
+        return 0
+    print(f"{'model':<22}{'mechanism':<16}build options (default)")
+    for name, row in rows.items():
+        opts = ", ".join(f"{k}={v!r}" for k, v in row["options"].items()) or "-"
+        print(f"{name:<22}{row['mechanism']:<16}{opts}")
+    print("\nfidelity levels, lowest first:")
+    for mech, levels in FIDELITY.items():
+        print(f"  {mech:<14}{' < '.join(levels)}")
+    return 0
+
+
+# ---------------------------------------------------------------- build
+def _worst(res: dict) -> tuple[str, dict]:
+    name = max(res["errors"], key=lambda k: res["errors"][k]["max_rel_range"])
+    return name, res["errors"][name]
+
+
+def summary(reports: dict[str, dict]) -> str:
+    lines = [f"{'model':<22}{'solver':<8}{'worst output':<14}{'max abs err':>13}"
+             f"{'rel. to range':>15}{'FMU s':>9}{'scipy s':>9}{'problems':>10}"]
+    for name, rep in reports.items():
+        for solver, res in rep.get("solvers", {}).items():
+            worst, e = _worst(res)
+            lines.append(f"{name:<22}{solver:<8}{worst:<14}{e['max_abs']:>13.3e}"
+                         f"{e['max_rel_range']:>15.3e}{res['wall_seconds']:>9.3f}"
+                         f"{rep['reference_wall_seconds']:>9.3f}"
+                         f"{len(rep['validation_problems']):>10d}")
+        if "solvers" not in rep:
+            lines.append(f"{name:<22}{'-':<8}{'not verified':<14}{'':>13}{'':>15}"
+                         f"{'':>9}{'':>9}{len(rep['validation_problems']):>10d}")
+    return "\n".join(lines)
+
+
+def failures(reports: dict[str, dict], max_error: float) -> list[str]:
+    out = [f"{name}: {len(r['validation_problems'])} validation problems: "
+           f"{r['validation_problems'][0]}" for name, r in reports.items()
+           if r["validation_problems"]]
+    for name, r in reports.items():
+        for solver, res in r.get("solvers", {}).items():
+            worst = max(e["max_rel_range"] for e in res["errors"].values())
+            if not worst <= max_error:
+                out.append(f"{name} {solver}: error {worst:.3g} of the range > "
+                           f"--max-error {max_error:g}")
+    return out
+
+
+def _verify_with_progress(fmu, model, bar: Progress, **kw) -> dict:
+    from .verify import verify
+    return verify(fmu, model, on_stage=lambda text: bar.stage(f"{model.name}: {text}"), **kw)
+
+
+def cmd_build(args) -> int:
+    check_range("--rtol", args.rtol, 0.0, 1.0)
+    check_range("--max-error", args.max_error, 0.0)
+    names = args.models or sorted(MODELS)
+    for name in names:
+        check_model(name)
+    options = parse_assignments(args.option, "--option")
+    models = {name: declare(name, options) for name in names}
+    from .builder import build_fmu
+    from .fmu_doc import write_documentation
+    out_dir: Path = args.out_dir
+    reports: dict[str, dict] = {}
+    with Progress(total=len(models), desc="build") as bar:
+        for name, model in models.items():
+            bar.stage(f"{name}: generating C, compiling, validating")
+            result = build_fmu(model, out_dir=out_dir, fmi_version=args.fmi_version)
+            rep = {"fmu": str(result.path), "guid": result.guid,
+                   "build_seconds": result.build_seconds,
+                   "validation_problems": result.problems, "options": options}
+            if not args.no_verify:
+                rep |= {"rtol": args.rtol, **_verify_with_progress(
+                    result.path, model, bar, rtol=args.rtol)}
+                write_documentation(result.path, model, verification=rep)
+            reports[name] = rep
+            bar.advance(f"{name}: done")
+    report_path = out_dir / "report.json"
+    old = {}
+    if report_path.exists():
+        try:
+            old = json.loads(report_path.read_text())
+        except json.JSONDecodeError:
+            old = {}
+    report_path.write_text(json.dumps({**old, **reports}, indent=2, default=str))
+    print(summary(reports))
+    print(f"report: {report_path}")
+    bad = failures(reports, args.max_error)
+    for line in bad:
+        print(f"FAILED {line}", file=sys.stderr)
+    return 1 if bad else 0
+
+
+# ---------------------------------------------------------------- simulate
+def _fmu_for(target: str, options: dict, tmp: Path) -> tuple[Path, object]:
+    """An .fmu path as given, or the model built into ``tmp``."""
+    path = Path(target)
+    if target.endswith(".fmu"):
+        if not path.is_file():
+            raise UsageError(f"FMU {target!r} does not exist")
+        if options:
+            raise UsageError("--option applies to a MODEL, not to a built FMU")
+        return path, None
+    from .builder import build_fmu
+    model = declare(target, options)
+    with Progress(total=1, desc="build") as bar:
+        bar.stage(f"{target}: generating C, compiling")
+        path = build_fmu(model, out_dir=tmp, validate=False).path
+        bar.advance(f"{target}: built")
+    return path, model
+
+
+def _variables(md) -> dict:
+    return {v.name: v for v in md.modelVariables}
+
+
+def _settable(md) -> set[str]:
+    return {v.name for v in md.modelVariables
+            if v.causality in ("parameter", "input")
+            or (v.initial in ("exact", "approx") and v.variability == "continuous")}
+
+
+def _unit(var) -> str:
+    unit = getattr(var, "unit", None) or (var.declaredType.unit if getattr(
+        var, "declaredType", None) is not None else None)
+    return unit or ""
+
+
+def cmd_simulate(args) -> int:
+    import fmpy
+    options = parse_assignments(args.option, "--option")
+    start = parse_assignments(args.set, "--set")
+    check_range("--rtol", args.rtol, 0.0, 1.0)
+    for flag, value in (("--stop", args.stop), ("--step", args.step)):
+        if value is not None:
+            check_range(flag, value, 0.0)
+    with tempfile.TemporaryDirectory() as tmp:
+        fmu, _ = _fmu_for(args.target, options, Path(tmp))
+        md = fmpy.read_model_description(str(fmu))
+        variables = _variables(md)
+        settable = _settable(md)
+        for name in start:
+            if name not in settable:
+                raise UsageError(f"--set {name}: not a parameter, input or state of "
+                                 f"{md.modelName}{_suggest(name, settable)}; see the "
+                                 f"FMU's documentation/index.html for the list")
+        outputs = args.output or [v.name for v in md.modelVariables
+                                  if v.causality == "output"]
+        for name in outputs:
+            if name not in variables:
+                raise UsageError(f"--output {name}: {md.modelName} has no such variable"
+                                 f"{_suggest(name, variables)}")
+        log: list[str] = []
+
+        def logger(component, instance, status, category, message):
+            log.append(f"[{status}] {category.decode()}: {message.decode()}")
+
+        start = {"solver": args.solver, **start}
+        start["solver"] = ["dopri5", "rodas4", "rk4"].index(start["solver"]) + 1 \
+            if isinstance(start["solver"], str) else start["solver"]
+        try:
+            res = fmpy.simulate_fmu(str(fmu), validate=False, stop_time=args.stop,
+                                    output_interval=args.step, relative_tolerance=args.rtol,
+                                    start_values=start, output=outputs, logger=logger)
+        except Exception as exc:  # FMPy raises on fmi2Error/fmi2Discard
+            print(f"loomfmu simulate: the FMU refused: {exc}", file=sys.stderr)
+            for line in log[-10:]:
+                print(f"  {line}", file=sys.stderr)
+            return 1
+    t = res["time"]
+    print(f"{md.modelName}: {len(t)} points, t = {t[0]:g} .. {t[-1]:g} s, "
+          f"solver {args.solver}, rtol {args.rtol:g}")
+    print(f"{'variable':<16}{'final':>14}{'min':>14}{'max':>14}  unit")
+    for name in outputs:
+        y = res[name]
+        print(f"{name:<16}{y[-1]:>14.6g}{y.min():>14.6g}{y.max():>14.6g}  "
+              f"{_unit(variables[name])}")
+    for line in log:
+        if not line.startswith("[0]"):
+            print(f"  log {line}")
+    if args.csv:
+        _write_csv(args.csv, res, outputs, variables)
+        print(f"written: {args.csv}")
+    if args.plot:
+        _write_plot(args.plot, res, outputs, variables, md.modelName)
+        print(f"written: {args.plot}")
+    return 0
+
+
+def _write_csv(path: Path, res, names: list[str], variables) -> None:
+    import numpy as np
+    path.parent.mkdir(parents=True, exist_ok=True)
+    header = ",".join(["time [s]"] + [f"{n} [{_unit(variables[n])}]" if _unit(variables[n]) else n for n in names])
+    data = np.column_stack([res["time"]] + [res[n] for n in names])
+    np.savetxt(path, data, delimiter=",", header=header, comments="", fmt="%.17g")
+
+
+def _write_plot(path: Path, res, names: list[str], variables, title: str) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    shown = names[:8]
+    fig, axes = plt.subplots(len(shown), 1, sharex=True, squeeze=False,
+                             figsize=(8, 1.6 + 1.5 * len(shown)))
+    for ax, name in zip(axes[:, 0], shown):
+        ax.plot(res["time"], res[name], lw=1.2)
+        unit = _unit(variables[name])
+        ax.set_ylabel(f"{name}\n[{unit}]" if unit else name)
+        ax.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel("time [s]")
+    more = f" (first 8 of {len(names)})" if len(names) > len(shown) else ""
+    fig.suptitle(f"{title}{more}")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+# ---------------------------------------------------------------- verify
+def cmd_verify(args) -> int:
+    import fmpy
+    from .codegen import SOLVERS
+    check_range("--rtol", args.rtol, 0.0, 1.0)
+    check_range("--max-error", args.max_error, 0.0)
+    if not args.fmu.is_file() or not zipfile.is_zipfile(args.fmu):
+        raise UsageError(f"FMU {str(args.fmu)!r} does not exist or is not an FMU (zip)")
+    md = fmpy.read_model_description(str(args.fmu))
+    name = args.model or md.modelName
+    model = declare(name, parse_assignments(args.option, "--option"))
+    solvers = tuple(args.solver or SOLVERS)
+    with Progress(total=1, desc="verify") as bar:
+        rep = {"rtol": args.rtol, "validation_problems": [],
+               **_verify_with_progress(args.fmu, model, bar, rtol=args.rtol,
+                                       solvers=solvers)}
+        bar.advance(f"{name}: done")
+    if args.document:
+        from .fmu_doc import write_documentation
+        write_documentation(args.fmu, model, verification=rep)
+        print(f"written: {args.fmu}!documentation/index.html")
+    print(summary({name: rep}))
+    bad = failures({name: rep}, args.max_error)
+    for line in bad:
+        print(f"FAILED {line}", file=sys.stderr)
+    return 1 if bad else 0

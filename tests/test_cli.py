@@ -1,0 +1,177 @@
+"""The ``loomfmu`` command as a user meets it: help everywhere, usage errors
+in one line with exit code 2, a real build, simulation and verification, and
+progress lines in logs. Every call runs the installed console script in a
+subprocess, as a shell would."""
+from __future__ import annotations
+
+import csv
+import json
+import os
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+from loomfmu.registry import MODELS
+
+BIN = Path(sys.executable).parent
+LOOMFMU = [str(BIN / "loomfmu")] if (BIN / "loomfmu").exists() else \
+    [sys.executable, "-m", "loomfmu"]
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run(*args, cwd=None, env=None, timeout=600) -> subprocess.CompletedProcess:
+    return subprocess.run([*LOOMFMU, *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, timeout=timeout,
+                          env={**os.environ, "LOOMFMU_PROGRESS": "plain", **(env or {})})
+
+
+SUBCOMMANDS = [["list"], ["build"], ["simulate"], ["verify"], ["docs"], ["heald"],
+               ["heald", "claims"], ["heald", "fidelity"], ["heald", "design"], ["drive"],
+               ["drive", "table"], ["drive", "charts"], ["drive", "tracking"], ["rotor"],
+               ["bench"]]
+
+
+def test_console_script_is_installed():
+    assert (BIN / "loomfmu").exists(), "pip install did not create the loomfmu script"
+
+
+@pytest.mark.parametrize("words", [[]] + SUBCOMMANDS, ids=lambda w: " ".join(w) or "top")
+def test_help_works_everywhere(words):
+    res = run(*words, "--help")
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.startswith("usage: loomfmu"), res.stdout[:200]
+
+
+def test_python_dash_m_is_the_same_command():
+    res = subprocess.run([sys.executable, "-m", "loomfmu", "list", "--json"],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert set(json.loads(res.stdout)["models"]) == set(MODELS)
+
+
+def test_list_names_every_model_option_and_fidelity_level():
+    res = run("list")
+    assert res.returncode == 0, res.stderr
+    for name in MODELS:
+        assert f"\n{name} " in "\n" + res.stdout
+    data = json.loads(run("list", "--json").stdout)
+    levels = [m for lv in data["fidelity"].values() for m in lv]
+    assert sorted(levels) == sorted(MODELS)
+    assert "friction" in data["models"]["backrest"]["options"]
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["build", "no_such_model"], "allowed: backrest"),
+    (["build", "heald_frame", "--option", "no_such=1"], "allowed: end_dwell"),
+    (["build", "heald_frame", "--option", "end_dwell=sideways"], "end_dwell"),
+    (["build", "heald_frame", "--option", "end_dwell"], "NAME=VALUE"),
+    (["build", "--rtol", "nan"], "--rtol"),
+    (["build", "--rtol", "2"], "--rtol"),
+    (["build", "--max-error", "-1"], "--max-error"),
+    (["build", "--fmi-version", "5"], "--fmi-version"),
+    (["simulate", "no_such_model"], "allowed:"),
+    (["simulate", "missing.fmu"], "does not exist"),
+    (["simulate", "backrest", "--stop", "-1"], "--stop"),
+    (["simulate", "backrest", "--step", "inf"], "--step"),
+    (["simulate", "backrest", "--solver", "euler"], "--solver"),
+    (["verify", "missing.fmu"], "does not exist"),
+    (["bench", "charts", "--models", "nope"], "allowed"),
+    (["bench", "speed", "--repeats", "0"], "--repeats"),
+    (["rotor", "nope"], "invalid choice"),
+    (["nope"], "invalid choice"),
+])
+def test_usage_errors_say_what_is_allowed_in_one_line_and_exit_2(args, needle):
+    res = run(*args)
+    assert res.returncode == 2, (res.returncode, res.stdout, res.stderr)
+    assert "Traceback" not in res.stderr
+    last = res.stderr.strip().splitlines()[-1]
+    assert needle in last, res.stderr
+
+
+def test_simulate_unknown_variable_is_a_usage_error(tmp_path):
+    res = run("simulate", "backrest", "--set", "no_such_parameter=1", cwd=tmp_path)
+    assert res.returncode == 2 and "no_such_parameter" in res.stderr
+    res = run("simulate", "backrest", "--output", "phi1_outt", cwd=tmp_path)
+    assert res.returncode == 2 and "phi1_out" in res.stderr  # the suggestion
+
+
+def test_design_out_of_range_is_refused_with_the_range():
+    res = run("heald", "design", "--gap", "-0.004")
+    assert res.returncode == 2, res.stdout + res.stderr
+    assert "gap" in res.stderr and "Traceback" not in res.stderr
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    out = tmp_path_factory.mktemp("dist")
+    res = run("build", "backrest_regularized", "--out-dir", out)
+    return out, res
+
+
+def test_build_verifies_reports_documents_and_shows_progress(built):
+    out, res = built
+    assert res.returncode == 0, res.stderr
+    # plain progress lines in a log: counted, with the stage
+    assert "build [0/1] backrest_regularized: generating C" in res.stderr
+    assert "build [1/1] backrest_regularized: done" in res.stderr
+    assert "scipy reference" in res.stderr
+    report = json.loads((out / "report.json").read_text())
+    rep = report["backrest_regularized"]
+    assert set(rep["solvers"]) == {"dopri5", "rodas4", "rk4"}
+    worst = max(e["max_rel_range"] for s in rep["solvers"].values()
+                for e in s["errors"].values())
+    assert worst < 1e-3
+    with zipfile.ZipFile(out / "backrest_regularized.fmu") as z:
+        page = z.read("documentation/index.html").decode()
+    assert "rodas4" in page and "reference" in page.lower()
+
+
+def test_simulate_an_fmu_writes_csv_and_plot(built, tmp_path):
+    out, _ = built
+    fmu = out / "backrest_regularized.fmu"
+    res = run("simulate", fmu, "--stop", "0.2", "--step", "0.01", "--solver", "rodas4",
+              "--set", "warp_pull=0.002", "--output", "phi1_out", "--output", "S1",
+              "--csv", tmp_path / "r.csv", "--plot", tmp_path / "r.png")
+    assert res.returncode == 0, res.stderr
+    assert "phi1_out" in res.stdout and "rad" in res.stdout
+    rows = list(csv.reader((tmp_path / "r.csv").open()))
+    assert rows[0] == ["time [s]", "phi1_out [rad]", "S1 [N]"]
+    assert len(rows) == 1 + 21 and float(rows[-1][0]) == pytest.approx(0.2)
+    assert (tmp_path / "r.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_simulate_reports_a_refusal_with_exit_1(built):
+    out, _ = built
+    res = run("simulate", out / "backrest_regularized.fmu", "--stop", "0.1",
+              "--set", "solver_h_max=-1")
+    assert res.returncode in (1, 2), res.stdout
+    assert "Traceback" not in res.stderr
+
+
+def test_verify_an_fmu(built):
+    out, _ = built
+    res = run("verify", out / "backrest_regularized.fmu", "--solver", "dopri5")
+    assert res.returncode == 0, res.stderr
+    assert "backrest_regularized" in res.stdout and "dopri5" in res.stdout
+    # an impossible bound fails with exit 1, not 2
+    res = run("verify", out / "backrest_regularized.fmu", "--solver", "rk4",
+              "--max-error", "1e-300")
+    assert res.returncode == 1 and "FAILED" in res.stderr
+
+
+def test_build_fmu_py_is_a_thin_wrapper():
+    res = subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--help"],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0 and "usage: loomfmu build" in res.stdout
+    res = subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "nope"],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 2 and "allowed" in res.stderr
+
+
+def test_analysis_outputs_go_where_the_user_says(tmp_path):
+    res = run("drive", "table", "--out", tmp_path / "law.md", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert (tmp_path / "law.md").read_text().startswith("#")
