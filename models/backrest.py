@@ -30,6 +30,7 @@ import math
 
 import casadi as ca
 
+from loomfmu.checks import check_choice, check_number
 from loomfmu.declare import Model
 from loomfmu.friction import coulomb_joint
 from loomfmu.symbolic import generalized_forces, lagrange_equations
@@ -37,6 +38,8 @@ from loomfmu.symbolic import generalized_forces, lagrange_equations
 SEED = "seed 004"
 A = "assumption: the seed gives no numbers; "
 DEG = math.pi / 180
+#: allowed regularization speeds (rad/s): the range of the parameter eps
+EPS_RANGE = (1e-9, 10.0)
 
 
 def friction_radius(rho, mu):
@@ -47,10 +50,8 @@ def friction_radius(rho, mu):
 def build(*, friction: str = "events", eps: float = 1e-3) -> Model:
     """friction: "events" (stick/slip state machine) or "regularized"
     (torque ~ tanh(speed / eps), eps in rad/s)."""
-    if friction not in ("events", "regularized"):
-        raise ValueError(f"friction = {friction!r}; allowed: 'events', 'regularized'")
-    if not eps > 0:
-        raise ValueError(f"eps = {eps!r}; allowed: > 0 (rad/s)")
+    check_choice("friction", friction, ("events", "regularized"))
+    eps = check_number("eps", eps, lo=EPS_RANGE[0], hi=EPS_RANGE[1], unit="rad/s")
     m = Model("backrest" if friction == "events" else "backrest_regularized",
               description="Loom backrest (whip roll): lever and roller with Coulomb "
               "friction in both pivots, stick-slip (seed 004)",
@@ -178,7 +179,7 @@ def build(*, friction: str = "events", eps: float = 1e-3) -> Model:
     eps_arg = None
     if friction == "regularized":
         eps_arg = P("eps", eps, unit="rad/s", description="regularization speed: friction "
-                    "torque = -r_f N tanh(speed / eps)", min=1e-9, max=10.0,
+                    "torque = -r_f N tanh(speed / eps)", min=EPS_RANGE[0], max=EPS_RANGE[1],
                     source="assumption: numerical regularization width, not physics")
     coulomb_joint(m, "O1", speed=w1, torque=M1f, normal=N1, r_kinetic=r_1f,
                   r_static=k_static * r_1f, regularized_eps=eps_arg)

@@ -21,8 +21,10 @@ import math
 
 import casadi as ca
 
+from loomfmu.checks import check_choice, check_int, check_number
 from loomfmu.declare import Model
 from loomfmu.drive import DriveParams, cam_profile_phi, f_rad as cam_ratio
+from loomfmu.drive.law import MAX_HARMONICS
 
 SEED = "seed 001"
 A = "assumption: the seed gives no numbers; "
@@ -42,14 +44,13 @@ def build(*, cam: str = "compensated", harmonics: int = 96, m: int = 40,
           max_delay: float = 5.0) -> Model:
     """cam: default cam table, "compensated" (m-term inverse of W),
     "uncompensated" (proportional to the speed law) or "none" (flat, r_min);
-    harmonics: size of the cam table in phi; max_delay: longest tau (s) the
-    FMU's history holds."""
-    if cam not in ("compensated", "uncompensated", "none"):
-        raise ValueError(f"cam = {cam!r}; allowed: 'compensated', 'uncompensated', 'none'")
-    if not (isinstance(harmonics, int) and 1 <= harmonics <= 512):
-        raise ValueError(f"harmonics = {harmonics!r}; allowed: integers 1 ... 512")
-    if not 0 < max_delay <= 3600:
-        raise ValueError(f"max_delay = {max_delay!r}; allowed: (0, 3600] s")
+    harmonics: size of the cam table in phi (1 ... 512); m: harmonics of the
+    speed law the cam is designed for (1 ... MAX_HARMONICS); max_delay:
+    longest tau (s, (0, 3600]) the FMU's history holds."""
+    check_choice("cam", cam, ("compensated", "uncompensated", "none"))
+    harmonics = check_int("harmonics", harmonics, lo=1, hi=512)
+    m = check_int("m", m, lo=1, hi=MAX_HARMONICS)
+    max_delay = check_number("max_delay", max_delay, lo=0.0, hi=3600.0, lo_open=True, unit="s")
     m_ = Model("drive", description="Ring-spinning spindle drive: first-order lag with pure "
                "delay, fed by the layer cam geared to the spindles (seed 001)",
                stop_time=30.0, step_size=0.01, h_fixed=1e-3,

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
+from loomfmu.checks import check_choice, check_mapping
 from loomfmu.declare import Model
 
 SEED0 = "seed 000"
@@ -145,6 +146,8 @@ def declare_warp(m: Model, mo: Motion) -> Warp:
     T_max = P("T_max", 0.8, unit="N", description="greatest working tension of one thread",
               source=SEED0 + "; presets: " + SEED2 + " table 2 note, F_T by yarn / "
               "(sin a1 + sin a2) at the open shed", min=0.0, max=100.0)
+    m.constraint("tension_order", T_max - T_min, "the least working tension T_min exceeds "
+                 "the greatest T_max")
     l_2 = k_z * l_1
     dl, s_y, s_x = warp_geometry(mo.H, l_1, l_2)
     dl_max = warp_geometry(mo.h_m, l_1, l_2)[0]
@@ -295,14 +298,15 @@ def horizontal(sec: Section, k_B, h_B=None):
 
 def apply_values(m: Model, values: dict[str, float] | None) -> None:
     """Set parameter start values (e.g. a preset), each checked against its range."""
-    for name, value in (values or {}).items():
+    values = check_mapping("values", values, [v.name for v in m.of_kind("parameter")],
+                           what=f"parameters of {m.name}")
+    for name, value in values.items():
         var = m.var(name)
-        if var.kind != "parameter":
-            raise ValueError(f"preset value {name!r} is not a parameter of {m.name}")
-        var.check_value(float(value))
-        var.start = float(value)
+        var.check_value(value)
+        var.start = value
+    m.check_constraints()
 
 
 def check_option(name: str, value, allowed) -> None:
-    if value not in allowed:
-        raise ValueError(f"{name} = {value!r}; allowed: {', '.join(map(repr, allowed))}")
+    """ValueError unless ``value`` is one of ``allowed`` (a build option)."""
+    check_choice(name, value, allowed)

@@ -65,6 +65,7 @@ def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
     h_B_law: 'constant' (the seed) or 'variable' (cantilever length follows the frame).
     preset: a name of :func:`loomfmu.heald.presets.preset_names` (start values).
     """
+    check_option("end_dwell", end_dwell, ("corrected", "printed"))
     check_option("inertia", inertia, ("corrected", "printed"))
     check_option("h_B_law", h_B_law, ("constant", "variable"))
     m = Model("heald_frame", description="Spatial vibrations of a loom heald frame "

@@ -22,6 +22,7 @@ from loomfmu.models.heald_common import (
 def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
           preset: str | None = None) -> Model:
     """The planar heald frame; options as for ``heald_frame.build``."""
+    check_option("end_dwell", end_dwell, ("corrected", "printed"))
     check_option("inertia", inertia, ("corrected",))  # M_x (printed D3) does not exist here
     m = Model("heald_frame_planar", description="Heald frame, in-plane slat bending "
               "(3 DOF) under warp tension and frame inertia, seeds 000 and 002",

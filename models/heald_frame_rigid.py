@@ -12,12 +12,13 @@ import math
 
 from loomfmu.declare import Model
 from loomfmu.models.heald_common import (
-    apply_values, declare_hinge_outputs, declare_loads, declare_motion, declare_motion_outputs,
-    declare_warp, declare_warp_outputs)
+    apply_values, check_option, declare_hinge_outputs, declare_loads, declare_motion,
+    declare_motion_outputs, declare_warp, declare_warp_outputs)
 
 
 def build(*, end_dwell: str = "corrected", preset: str | None = None) -> Model:
     """The rigid heald frame; ``end_dwell`` and ``preset`` as for ``heald_frame.build``."""
+    check_option("end_dwell", end_dwell, ("corrected", "printed"))
     m = Model("heald_frame_rigid", description="Heald frame as a rigid body: motion law, "
               "warp forces and the drive-hinge load, seeds 000 and 002",
               stop_time=4 * math.pi / 60 * 2, step_size=1e-3, h_fixed=2e-5,

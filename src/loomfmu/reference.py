@@ -32,6 +32,8 @@ import casadi as ca
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from .checks import (check_array, check_choice, check_mapping, check_names, check_number,
+                     check_optional_number)
 from .declare import Model
 from .ode import DaeForm, dae_form
 
@@ -40,6 +42,26 @@ from .ode import DaeForm, dae_form
 #: side (the root itself is only known to rounding; an indicator restarting
 #: at zero would also count as a root for solve_ivp)
 EVENT_GAP = 1e-10
+#: solve_ivp methods the reference accepts
+METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+#: tightest rtol solve_ivp honours (it raises smaller ones to this with a warning)
+RTOL_MIN = 100 * np.finfo(float).eps
+#: longest horizon, in multiples of the model's stop time
+MAX_HORIZONS = 1e4
+#: most output times of one reference
+MAX_OUTPUTS = 10**7
+
+
+def check_model(model) -> Model:
+    """``model`` if it is a declared :class:`~loomfmu.declare.Model`."""
+    if not isinstance(model, Model):
+        raise ValueError(f"model = {model!r:.60}; allowed: a loomfmu Model (load_model(name))")
+    return model
+
+
+def settable(model: Model) -> list[str]:
+    """Names a caller may give start values for: parameters, inputs, states."""
+    return [v.name for v in model.variables if v.kind in ("parameter", "input", "state")]
 
 
 @dataclass
@@ -180,46 +202,62 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
               input_steps: list[tuple[float, dict[str, float]]] | None = None) -> Reference:
     """Integrate ``model`` with scipy from t = 0 to ``t_end``.
 
-    t_end: final time (> 0; default: the model's stop time).
-    t_eval: output times in [0, t_end] (default: the model's output step).
-    rtol, atol: solve_ivp tolerances (> 0).
-    method: a solve_ivp method name.
+    t_end: final time (> 0, at most MAX_HORIZONS x the model's stop time;
+        default: the model's stop time).
+    t_eval: non-decreasing output times in [0, t_end] (default: the model's
+        output step).
+    rtol: solve_ivp relative tolerance in [RTOL_MIN, 0.1]; atol: > 0.
+    method: one of METHODS.
     values: start values of parameters, inputs (held constant) and states.
     input_steps: [(t_k, {input: value})], times increasing in (0, t_end):
         from t_k on the inputs named hold the new values.
+    Every argument is checked: ValueError names the argument and what is allowed.
     """
-    values = dict(values or {})
-    t_end = model.stop_time if t_end is None else float(t_end)
-    if not t_end > 0:
-        raise ValueError(f"t_end = {t_end!r}; allowed: > 0")
-    for name, tol in (("rtol", rtol), ("atol", atol)):
-        if not tol > 0:
-            raise ValueError(f"{name} = {tol!r}; allowed: > 0")
-    unknown = set(values) - {v.name for v in model.variables}
-    if unknown:
-        raise ValueError(f"values: {sorted(unknown)} are not variables of {model.name}")
+    check_model(model)
+    values = check_mapping("values", values, settable(model),
+                           what=f"variables of {model.name} with a start value (parameters, "
+                           "inputs, states)")
+    t_max = MAX_HORIZONS * model.stop_time
+    t_end = check_optional_number("t_end", t_end, lo=0.0, hi=t_max, lo_open=True, unit="s")
+    t_end = model.stop_time if t_end is None else t_end
+    rtol = check_number("rtol", rtol, lo=RTOL_MIN, hi=0.1)
+    atol = check_number("atol", atol, lo=0.0, lo_open=True)
+    check_choice("method", method, METHODS)
+    for name, value in values.items():
+        model.var(name).check_value(value)
     model.check_constraints(values)
     input_names = [v.name for v in model.of_kind("input")]
     steps = []
+    if input_steps is not None and (isinstance(input_steps, (str, bytes, dict))
+                                    or not hasattr(input_steps, "__iter__")):
+        raise ValueError(f"input_steps = {input_steps!r:.60}; allowed: a list of "
+                         "(time, {input: value})")
     for i, item in enumerate(input_steps or []):
         try:
-            t_k, new = float(item[0]), dict(item[1])
-        except (TypeError, ValueError, IndexError):
-            raise ValueError(f"input_steps[{i}] = {item!r}; allowed: (time, {{input: value}})")
-        if not 0 < t_k < t_end or (steps and t_k <= steps[-1][0]):
-            raise ValueError(f"input_steps[{i}]: time {t_k!r}; allowed: increasing, in "
-                             f"(0, {t_end})")
-        bad = set(new) - set(input_names)
-        if bad:
-            raise ValueError(f"input_steps[{i}]: {sorted(bad)} are not inputs of {model.name}; "
-                             f"allowed: {input_names}")
+            t_k, new = item
+        except (TypeError, ValueError):
+            raise ValueError(f"input_steps[{i}] = {item!r:.60}; allowed: (time, "
+                             "{input: value})") from None
+        t_k = check_number(f"input_steps[{i}] time", t_k, lo=0.0, hi=t_end, lo_open=True,
+                           hi_open=True, unit="s")
+        if steps and t_k <= steps[-1][0]:
+            raise ValueError(f"input_steps[{i}] time = {t_k!r}; allowed: increasing, after "
+                             f"{steps[-1][0]!r}")
+        new = check_mapping(f"input_steps[{i}]", new, input_names,
+                            what=f"inputs of {model.name}")
         for name, value in new.items():
-            next(v for v in model.variables if v.name == name).check_value(float(value))
-        steps.append((t_k, {name: float(v) for name, v in new.items()}))
+            model.var(name).check_value(value)
+        steps.append((t_k, new))
     if t_eval is None:
         n = int(round(t_end / model.step_size))
+        if n + 1 > MAX_OUTPUTS:
+            raise ValueError(f"t_end = {t_end!r} s gives {n + 1} output times at the model's "
+                             f"step {model.step_size} s; allowed: at most {MAX_OUTPUTS} (pass "
+                             "t_eval)")
         t_eval = np.linspace(0.0, t_end, n + 1)
-    t_eval = np.asarray(t_eval, dtype=float)
+    t_eval = check_array("t_eval", t_eval, lo=0.0, hi=t_end, increasing=True, unit="s")
+    if len(t_eval) > MAX_OUTPUTS:
+        raise ValueError(f"t_eval: {len(t_eval)} times; allowed: at most {MAX_OUTPUTS}")
 
     dae = dae_form(model)
     modes = model.of_kind("mode")

@@ -6,7 +6,9 @@ installed as the package ``loomfmu.models``; each has ``build(**options)``.
 from __future__ import annotations
 
 import importlib
+import inspect
 
+from .checks import check_names
 from .declare import Model
 
 #: model name -> (module in loomfmu.models, build options)
@@ -21,11 +23,50 @@ MODELS: dict[str, tuple[str, dict]] = {
     "spindle_modal": ("spindle_modal", {}),
 }
 
+#: mechanism -> its models, lowest fidelity first (a scene picks one level)
+FIDELITY: dict[str, list[str]] = {
+    "heald frame": ["heald_frame_rigid", "heald_frame_planar", "heald_frame"],
+    "backrest": ["backrest_regularized", "backrest"],
+    "spindle rotor": ["spindle_modal", "spindle"],
+    "spindle drive": ["drive"],
+}
+
+
+def build_options(name: str) -> list[str]:
+    """The build options ``load_model(name, ...)`` accepts (keyword names of
+    the model module's ``build``)."""
+    if not isinstance(name, str) or name not in MODELS:
+        raise ValueError(f"name = {name!r:.60}; allowed: a model name, one of "
+                         f"{', '.join(sorted(MODELS))}")
+    module, _ = MODELS[name]
+    build = importlib.import_module(f"loomfmu.models.{module}").build
+    return [p.name for p in inspect.signature(build).parameters.values()
+            if p.kind is inspect.Parameter.KEYWORD_ONLY]
+
 
 def load_model(name: str, **options) -> Model:
-    """Declare model ``name`` (a key of MODELS) with build ``options``."""
-    if name not in MODELS:
-        raise ValueError(f"model = {name!r}; allowed: {sorted(MODELS)}")
+    """Declare model ``name`` (a key of MODELS) with build ``options``.
+
+    Unknown option names are refused (ValueError listing the allowed ones),
+    and so is an option that contradicts the registry entry (e.g.
+    ``load_model("backrest_regularized", friction="events")``: that is the
+    model "backrest").  Each model's ``build`` checks the option values.
+    """
+    if not isinstance(name, str) or name not in MODELS:
+        raise ValueError(f"name = {name!r:.60}; allowed: a model name, one of "
+                         f"{', '.join(sorted(MODELS))}")
     module, defaults = MODELS[name]
+    check_names(f"load_model({name!r}) options", options, build_options(name),
+                what="build options")
+    for key, fixed in defaults.items():
+        if key in options and options[key] != fixed:
+            others = [n for n, (mod_, d) in MODELS.items()
+                      if mod_ == module and d.get(key) == options[key]]
+            if not others and module in MODELS and key not in MODELS[module][1]:
+                others = [module]
+            raise ValueError(f"{key} = {options[key]!r}: model {name!r} is built with "
+                             f"{key} = {fixed!r}; allowed: {fixed!r}"
+                             + (f" (for {key} = {options[key]!r} load {others[0]!r})"
+                                if others else ""))
     mod = importlib.import_module(f"loomfmu.models.{module}")
     return mod.build(**{**defaults, **options})

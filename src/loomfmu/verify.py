@@ -15,9 +15,11 @@ from pathlib import Path
 import fmpy
 import numpy as np
 
+from .checks import (check_choice, check_mapping, check_name_list, check_number,
+                     check_optional_number)
 from .codegen import SOLVERS
 from .declare import Model
-from .reference import Reference, reference
+from .reference import MAX_OUTPUTS, RTOL_MIN, Reference, check_model, reference
 
 
 @dataclass
@@ -34,16 +36,53 @@ def simulate(fmu: Path | str, *, solver: str = "dopri5", rtol: float = 1e-6,
              output: list[str] | None = None, model_description=None) -> FmuRun:
     """Simulate ``fmu`` with ``fmpy.simulate_fmu`` (co-simulation).
 
-    solver: one of SOLVERS.  rtol, atol: tolerances of the adaptive solvers (> 0).
-    output_interval: communication step (default: the FMU's DefaultExperiment).
-    values: start values by name (parameters, inputs, states, solver settings).
+    solver: one of SOLVERS.  rtol: in (0, 0.1]; atol: > 0 (adaptive solvers).
+    stop_time: > 0 (default: the FMU's DefaultExperiment).
+    output_interval: communication step, in (0, stop_time] (default: the
+    FMU's DefaultExperiment); at most MAX_OUTPUTS communication points.
+    values: start values by name (variables with a start value: parameters,
+    inputs, states, solver settings); output: names of variables to record.
     model_description: FMPy's parsed description, to skip parsing on repeated runs.
+    Bad arguments raise ValueError naming the argument; an FMU that fails
+    raises RuntimeError with the end of its log.
     """
-    if solver not in SOLVERS:
-        raise ValueError(f"solver = {solver!r}; allowed: {SOLVERS}")
-    for name, tol in (("rtol", rtol), ("atol", atol)):
-        if not tol > 0:
-            raise ValueError(f"{name} = {tol!r}; allowed: > 0")
+    check_choice("solver", solver, SOLVERS)
+    rtol = check_number("rtol", rtol, lo=0.0, hi=0.1, lo_open=True)
+    atol = check_number("atol", atol, lo=0.0, lo_open=True)
+    if not isinstance(fmu, (str, Path)) or not Path(fmu).is_file():
+        raise ValueError(f"fmu = {fmu!r:.80}; allowed: the path of an existing .fmu file")
+    if model_description is None:
+        try:
+            model_description = fmpy.read_model_description(str(fmu), validate=False)
+        except Exception as e:  # noqa: BLE001 (FMPy raises bare Exceptions)
+            raise ValueError(f"fmu = {str(fmu)!r}: not a readable FMU ({e})") from None
+    elif not hasattr(model_description, "modelVariables"):
+        raise ValueError(f"model_description = {model_description!r:.60}; allowed: FMPy's "
+                         "ModelDescription of this FMU, or None")
+    variables = model_description.modelVariables
+    settable = [v.name for v in variables if v.start is not None]
+    values = check_mapping("values", values, settable, what="variables with a start value",
+                           numbers_only=False)
+    for v in variables:
+        if v.name in values and v.type in ("Real", "Integer"):
+            values[v.name] = check_number(f"values[{v.name!r}]", values[v.name])
+    output = check_name_list("output", output, [v.name for v in variables],
+                             what="variables of the FMU")
+    experiment = model_description.defaultExperiment
+    stop_time = check_optional_number("stop_time", stop_time, lo=0.0, lo_open=True, unit="s")
+    output_interval = check_optional_number("output_interval", output_interval, lo=0.0,
+                                            lo_open=True, unit="s")
+    t_stop = stop_time if stop_time is not None else float(
+        getattr(experiment, "stopTime", None) or 1.0)
+    dt = output_interval if output_interval is not None else float(
+        getattr(experiment, "stepSize", None) or t_stop / 500)
+    if output_interval is not None and output_interval > t_stop:
+        raise ValueError(f"output_interval = {output_interval!r} s; allowed: in (0, "
+                         f"stop_time = {t_stop!r}]")
+    if t_stop / dt > MAX_OUTPUTS:
+        raise ValueError(f"stop_time = {t_stop!r} s, output_interval = {dt!r} s: "
+                         f"{t_stop / dt:.3g} communication points; allowed: at most "
+                         f"{MAX_OUTPUTS}")
     log: list[str] = []
 
     def logger(component, instance, status, category, message):
@@ -51,10 +90,14 @@ def simulate(fmu: Path | str, *, solver: str = "dopri5", rtol: float = 1e-6,
 
     start = {"solver": SOLVERS.index(solver) + 1, "solver_atol": atol, **(values or {})}
     wall = time.perf_counter()
-    res = fmpy.simulate_fmu(str(fmu), validate=False, stop_time=stop_time,
-                            relative_tolerance=rtol, output_interval=output_interval,
-                            start_values=start, output=output, logger=logger,
-                            model_description=model_description)
+    try:
+        res = fmpy.simulate_fmu(str(fmu), validate=False, stop_time=stop_time,
+                                relative_tolerance=rtol, output_interval=output_interval,
+                                start_values=start, output=output, logger=logger,
+                                model_description=model_description)
+    except Exception as e:  # noqa: BLE001 (FMPy raises bare Exceptions)
+        tail = "; ".join(log[-3:]) or "no log"
+        raise RuntimeError(f"simulate {Path(fmu).name}: {e} (log: {tail})") from e
     wall = time.perf_counter() - wall
     names = [n for n in res.dtype.names if n != "time"]
     return FmuRun(np.asarray(res["time"]), {n: np.asarray(res[n]) for n in names}, wall, log)
@@ -63,7 +106,12 @@ def simulate(fmu: Path | str, *, solver: str = "dopri5", rtol: float = 1e-6,
 def compare(run: FmuRun | Reference, ref: Reference,
             names: list[str]) -> dict[str, dict[str, float]]:
     """Error of each output in ``names`` of ``run`` (an FMU run or another
-    reference) at the reference's times."""
+    reference) at the reference's times; names: outputs in both."""
+    for arg, value in (("run", run), ("ref", ref)):
+        if not isinstance(value, (FmuRun, Reference)):
+            raise ValueError(f"{arg} = {value!r:.60}; allowed: an FmuRun or a Reference")
+    names = check_name_list("names", names, [n for n in ref.y if n in run.y],
+                            what="outputs of both runs")
     if len(run.t) != len(ref.t) or not np.allclose(run.t, ref.t, rtol=0, atol=1e-9):
         raise ValueError("FMU and reference output times differ")
     errs = {}
@@ -76,15 +124,31 @@ def compare(run: FmuRun | Reference, ref: Reference,
 
 
 def verify(fmu: Path | str, model: Model, *, solvers=SOLVERS, rtol: float = 1e-6,
-           atol: float = 1e-9, ref_rtol: float = 1e-11, ref_atol: float = 1e-13) -> dict:
+           atol: float = 1e-9, ref_rtol: float = 1e-11, ref_atol: float = 1e-13,
+           on_stage=None) -> dict:
     """Run ``fmu`` with every solver and compare with a tight scipy reference.
 
+    on_stage: called with a short text before each run (progress display).
+
     Returns {"reference_wall_seconds", "solvers": {solver: {"wall_seconds",
-    "errors": {output: {"max_abs", "max_rel_range"}}}}}.
+    "errors": {output: {"max_abs", "max_rel_range"}}}}}.  solvers: a non-empty
+    list from SOLVERS; rtol, atol as for :func:`simulate`; ref_rtol, ref_atol
+    as rtol, atol of :func:`~loomfmu.reference.reference`.
     """
+    check_model(model)
+    solvers = check_name_list("solvers", solvers, SOLVERS, what="solvers")
+    if not solvers:
+        raise ValueError(f"solvers = []; allowed: a non-empty list from {SOLVERS}")
+    check_number("ref_rtol", ref_rtol, lo=RTOL_MIN, hi=0.1)
+    check_number("ref_atol", ref_atol, lo=0.0, lo_open=True)
     names = [v.name for v in model.of_kind("output")]
-    runs = {s: simulate(fmu, solver=s, rtol=rtol, atol=atol, output=names) for s in solvers}
+    stage = on_stage or (lambda text: None)
+    runs = {}
+    for s in solvers:
+        stage(f"FMU run, {s}")
+        runs[s] = simulate(fmu, solver=s, rtol=rtol, atol=atol, output=names)
     grid = next(iter(runs.values())).t  # FMPy's communication points
+    stage(f"scipy reference ({model.reference_method}, rtol {ref_rtol:g})")
     ref = reference(model, t_end=grid[-1], t_eval=grid, rtol=ref_rtol, atol=ref_atol,
                     method=model.reference_method)
     return {"reference_wall_seconds": ref.wall_seconds, "reference_rhs_calls": ref.n_rhs,

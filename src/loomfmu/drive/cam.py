@@ -19,12 +19,26 @@ from __future__ import annotations
 
 import numpy as np
 
-from .law import (fourier, invert_increasing, law_constants, revolutions, speed_law,
-                  speed_slope, trig_eval)
-from .params import RPM, DriveParams
+from ..checks import check_array, check_bool, check_int, check_number, check_optional_number
+from .law import (MAX_HARMONICS, check_coefficients, check_times, fourier, invert_increasing,
+                  law_constants, revolutions, speed_law, speed_slope, trig_eval)
+from .params import RPM, DriveParams, check_params
 
 #: default number of phi samples for the profile FFT
 N_PHI = 2048
+#: most phi samples of the profile FFT
+MAX_N_PHI = 2**20
+
+
+def check_series(name: str, value) -> tuple[float, np.ndarray, np.ndarray]:
+    """A table (mean, cos coefficients, sin coefficients): finite, equal lengths."""
+    try:
+        mean, a, b = value
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} = {value!r:.60}; allowed: a tuple (mean, a, b) of a "
+                         "number and two equal-length coefficient arrays") from None
+    a, b = check_coefficients(a, b, (f"{name}[1]", f"{name}[2]"))
+    return check_number(f"{name}[0]", mean), a, b
 
 
 def _apply_response(H, a, b):
@@ -34,6 +48,7 @@ def _apply_response(H, a, b):
 
 
 def _harmonics(p: DriveParams, m: int) -> np.ndarray:
+    m = check_int("m", m, lo=0, hi=MAX_HARMONICS)
     return np.arange(1, m + 1) * law_constants(p).omega
 
 
@@ -61,7 +76,10 @@ def f_rad(p: DriveParams) -> float:
 
 def cam_from_fourier(p: DriveParams, C0, a, b, *, compensate: bool, sigma: bool = False):
     """(R0, ar, br) of r(t) from given coefficients of n0 (see cam_coefficients)."""
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    check_params(p)
+    C0 = check_number("C0", C0)
+    a, b = check_coefficients(a, b)
+    compensate, sigma = check_bool("compensate", compensate), check_bool("sigma", sigma)
     m = len(a)
     R0 = p.r_min + (C0 / 2 - p.n_min) / (p.K * p.k_g)
     if compensate:
@@ -87,7 +105,7 @@ def cam_coefficients(p: DriveParams, m: int, *, compensate: bool, sigma: bool = 
 
 def cam_radius(t, cam, p: DriveParams) -> np.ndarray:
     """r(t) in m from (R0, ar, br)."""
-    R0, ar, br = cam
+    R0, ar, br = check_series("cam", cam)
     return trig_eval(t, R0, ar, br, law_constants(p).omega)
 
 
@@ -95,9 +113,9 @@ def cam_radius_ideal(t, p: DriveParams) -> np.ndarray:
     """Untruncated compensated cam (T_g = 0 only), exact time-domain form of (3):
     r = r_min + [n0(t + tau) + T dn0/dt(t + tau) - n_min]/(K k_g).  It jumps at
     the reversals (dn0/dt does); with T_g > 0 it would need delta functions."""
-    if p.T_g != 0:
-        raise ValueError(f"cam_radius_ideal: needs T_g = 0 (s), got {p.T_g!r}")
-    ta = np.asarray(t, dtype=float) + p.tau
+    if check_params(p).T_g != 0:
+        raise ValueError(f"p.T_g = {p.T_g!r} s; allowed: 0 (cam_radius_ideal)")
+    ta = check_times("t", t) + p.tau
     return p.r_min + (speed_law(ta, p) + p.T * speed_slope(ta, p) - p.n_min) / (p.K * p.k_g)
 
 
@@ -105,10 +123,10 @@ def cam_angle(t, p: DriveParams, *, coeffs=None) -> np.ndarray:
     """phi(t) = f_rad int_0^t n dt (rad), n = n0 (coeffs None, exact) or the
     series with coeffs = (C0, a, b) (closed form of section 3 of the spec)."""
     fr = f_rad(p)
+    t = check_times("t", t)
     if coeffs is None:
         return fr * revolutions(t, p)
-    C0, a, b = coeffs
-    t = np.asarray(t, dtype=float)
+    C0, a, b = check_series("coeffs", coeffs)
     kw = np.arange(1, len(a) + 1) * law_constants(p).omega
     x = np.multiply.outer(t, kw)
     return fr * (C0 / 2 * t + np.sin(x) @ (np.asarray(a) / kw)
@@ -118,7 +136,9 @@ def cam_angle(t, p: DriveParams, *, coeffs=None) -> np.ndarray:
 def time_of_angle(phi, p: DriveParams, *, coeffs=None) -> np.ndarray:
     """Inverse of :func:`cam_angle` (phi may exceed 2 pi or be negative)."""
     c_ = law_constants(p)
-    phi = np.asarray(phi, dtype=float)
+    phi = check_array("phi", phi, ndim=None, min_size=0, unit="rad")
+    if coeffs is not None:
+        coeffs = check_series("coeffs", coeffs)
     turns = np.floor(phi / (2 * np.pi))
     rest = phi - 2 * np.pi * turns
     if coeffs is None:
@@ -149,8 +169,13 @@ def cam_profile_phi(p: DriveParams, m: int, *, compensate: bool, sigma: bool = F
     smallest M whose tail sum_{j>M} |A_j| + |B_j| is below tol (m), a bound on
     the truncation error of the table (see :func:`profile_error` for the measured one).
     """
-    if n_phi < 16 or n_phi % 2:
-        raise ValueError(f"cam_profile_phi: n_phi must be even and >= 16, got {n_phi!r}")
+    n_phi = check_int("n_phi", n_phi, lo=16, hi=MAX_N_PHI)
+    if n_phi % 2:
+        raise ValueError(f"n_phi = {n_phi!r}; allowed: even, in [16, {MAX_N_PHI}]")
+    tol = check_number("tol", tol, lo=0.0, lo_open=True, unit="m")
+    if M is not None:
+        M = check_int("M", M, lo=0, hi=n_phi // 2 - 1)
+    compensate, sigma = check_bool("compensate", compensate), check_bool("sigma", sigma)
     phi = 2 * np.pi * np.arange(n_phi) / n_phi
     c = np.fft.rfft(_profile_samples(p, m, compensate, sigma, phi)) / n_phi
     A = 2 * c[1:n_phi // 2].real
@@ -170,7 +195,7 @@ def cam_profile_phi(p: DriveParams, m: int, *, compensate: bool, sigma: bool = F
 
 def profile_radius(phi, prof) -> np.ndarray:
     """r(phi) in m from the table (A0, A, B)."""
-    A0, A, B = prof
+    A0, A, B = check_series("prof", prof)
     return trig_eval(phi, A0, A, B, 1.0)
 
 
@@ -178,6 +203,7 @@ def profile_error(p: DriveParams, m: int, prof, *, compensate: bool, sigma: bool
                   n_check: int = 4001) -> float:
     """max |r(phi) from the table - r(t(phi))| (m) on n_check angles that are
     not FFT nodes."""
+    n_check = check_int("n_check", n_check, lo=1, hi=MAX_N_PHI)
     phi = 2 * np.pi * (np.arange(n_check) + 0.5) / n_check
     return float(np.max(np.abs(profile_radius(phi, prof)
                                - _profile_samples(p, m, compensate, sigma, phi))))
@@ -186,7 +212,7 @@ def profile_error(p: DriveParams, m: int, prof, *, compensate: bool, sigma: bool
 def pressure_angle(phi, prof) -> np.ndarray:
     """Follower pressure angle (rad) of a radial knife-edge follower,
     tan alpha = (dr/dphi)/r, from the table (A0, A, B)."""
-    A0, A, B = prof
+    A0, A, B = check_series("prof", prof)
     j = np.arange(1, len(A) + 1)
     drdphi = trig_eval(phi, 0.0, j * np.asarray(B), -j * np.asarray(A), 1.0)
     return np.arctan2(drdphi, profile_radius(phi, prof))
@@ -198,7 +224,8 @@ def drive_response_coefficients(p: DriveParams, cam):
 
     u = U_з + W_g (r - r_min), n = W u, each harmonic through the exact
     frequency response (exact for a periodic input after the transient)."""
-    R0, ar, br = cam
+    check_params(p)
+    R0, ar, br = check_series("cam", cam)
     n_mean = p.K * (U_z(p) + p.k_g * (R0 - p.r_min))
     an, bn = _apply_response(forward_gain(p, len(ar)), np.asarray(ar), np.asarray(br))
     return float(n_mean), an, bn
@@ -222,18 +249,24 @@ def tracking_error(t, n, p: DriveParams, m: int | None = None, *, phi=None,
     transient leaves in the cam angle (the cam is driven by the spindle).
     t_transient: default 30 (T + T_g) + tau (the lag transient decays as e^{-t/T}).
     """
-    t = np.asarray(t, dtype=float)
-    n = np.asarray(n, dtype=float)
-    if t.shape != n.shape or t.ndim != 1:
-        raise ValueError(f"tracking_error: t and n must be 1-D of equal length, got "
-                         f"{t.shape} and {n.shape}")
+    t = check_array("t", t, increasing=True, unit="s")
+    n = check_array("n", n, unit="rev/s")
+    if t.shape != n.shape:
+        raise ValueError(f"t, n: shapes {t.shape} and {n.shape}; allowed: equal lengths")
+    if phi is not None:
+        phi = check_array("phi", phi, unit="rad")
+        if phi.shape != t.shape:
+            raise ValueError(f"phi: shape {phi.shape}; allowed: the shape of t {t.shape}")
+    if m is not None:
+        m = check_int("m", m, lo=0, hi=MAX_HARMONICS)
     c_ = law_constants(p)
+    t_transient = check_optional_number("t_transient", t_transient, lo=0.0, unit="s")
     if t_transient is None:
         t_transient = 30 * (p.T + p.T_g) + p.tau
     periods = np.floor((t[-1] - t_transient) / c_.P * (1 + 1e-12))
     if periods < 1:
-        raise ValueError(f"tracking_error: need t[-1] >= t_transient + P = "
-                         f"{t_transient + c_.P:g} s, got t[-1] = {t[-1]:g} s")
+        raise ValueError(f"t: ends at t[-1] = {t[-1]:g} s; allowed: t[-1] >= t_transient + "
+                         f"P = {t_transient + c_.P:g} s")
     sel = t >= t[-1] - periods * c_.P - 1e-9 * c_.P
     coeffs = None if m is None else fourier(p, m)
     tr = t[sel] if phi is None else time_of_angle(np.asarray(phi)[sel], p, coeffs=coeffs)

@@ -20,11 +20,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .params import DriveParams
+from ..checks import check_array, check_int, check_number
+from .params import DriveParams, check_params
 
 #: Newton/bisection stopping tolerance on n, relative to n_max
 _REL_TOL = 1e-15
 _MAX_ITER = 100
+#: most harmonics :func:`fourier` computes (the cam tables use <= 512)
+MAX_HARMONICS = 1000
+#: most harmonics x quadrature panels of one :func:`fourier` call (its arrays
+#: hold 16 x this many numbers: 256 MB)
+MAX_WORK = 2_000_000
+
+
+def check_times(name: str, t) -> np.ndarray:
+    """Times as a float array of any shape, every one finite."""
+    return check_array(name, t, ndim=None, min_size=0, unit="s")
 
 
 @dataclass(frozen=True)
@@ -44,6 +55,7 @@ class LawConstants:
 
 def law_constants(p: DriveParams) -> LawConstants:
     """n1, K_n (5), Delta, g1, g2, mean speed, period (see module docstring)."""
+    check_params(p)
     K_n = (p.n_max - p.n_min) / (p.D_N - p.D_B)
     n1 = (p.D_N * p.n_min - p.D_B * p.n_max) / (p.D_N - p.D_B)
     Delta = p.n_max - p.n_min - n1 * np.log(p.n_max / p.n_min)
@@ -71,8 +83,15 @@ def invert_increasing(f, df, y, lo, hi, *, tol: float, x0=None):
 
     Newton steps that leave the current bracket are replaced by bisection,
     so it converges for any increasing f with f(lo) <= y <= f(hi).  lo, hi
-    and x0 broadcast against y; tol is the absolute tolerance on x."""
-    y = np.asarray(y, dtype=float)
+    and x0 broadcast against y; tol is the absolute tolerance on x (> 0)."""
+    if not callable(f) or not callable(df):
+        raise ValueError(f"f = {f!r:.40}, df = {df!r:.40}; allowed: callables")
+    check_number("tol", tol, lo=0.0, lo_open=True)
+    y = check_array("y", y, ndim=None, min_size=0)
+    check_array("lo", lo, ndim=None, min_size=0)
+    check_array("hi", hi, ndim=None, min_size=0)
+    if np.any(np.asarray(lo, dtype=float) > np.asarray(hi, dtype=float)):
+        raise ValueError(f"lo = {lo!r:.40}, hi = {hi!r:.40}; allowed: lo <= hi")
     a = np.broadcast_to(np.asarray(lo, dtype=float), y.shape).copy()
     b = np.broadcast_to(np.asarray(hi, dtype=float), y.shape).copy()
     x = 0.5 * (a + b) if x0 is None else np.clip(np.broadcast_to(x0, y.shape), a, b)
@@ -101,6 +120,7 @@ def speed_law(t, p: DriveParams) -> np.ndarray:
 
     Solves (7) in the interlayer and the corrected (6) in the layer; t may be
     any array shape (negative times wrap)."""
+    t = check_times("t", t)
     c_ = law_constants(p)
     tl, inter = _phase(t, p)
     c = np.where(inter, _F(p.n_min, c_.n1) + c_.Delta * tl / p.T_n,
@@ -112,6 +132,7 @@ def speed_slope(t, p: DriveParams) -> np.ndarray:
     """dn0/dt in rev/s^2 (exact): +-(Delta/T_stroke) n/(n - n1) = g K_n n/d.
 
     At the reversals (t = 0, T_n mod P) the right-hand limit is returned."""
+    t = check_times("t", t)
     c_ = law_constants(p)
     tl, inter = _phase(t, p)
     n = speed_law(t, p)
@@ -122,7 +143,7 @@ def speed_slope(t, p: DriveParams) -> np.ndarray:
 def revolutions(t, p: DriveParams) -> np.ndarray:
     """Cumulative spindle revolutions int_0^t n0 dt' (exact, t may be negative)."""
     c_ = law_constants(p)
-    t = np.asarray(t, dtype=float)
+    t = check_times("t", t)
     tl, inter = _phase(t, p)
     n = speed_law(t, p)
     q = lambda x: (x - c_.n1) ** 2
@@ -153,11 +174,20 @@ def fourier(p: DriveParams, m: int, *, panels: int | None = None):
     n0(t) = C0/2 + sum_k a_k cos k w t + b_k sin k w t.  Quadrature in n
     instead of t (dt = (T_stroke/Delta)(1 - n1/n) dn): the integrands are
     smooth, no corners, no root finding; composite Gauss-Legendre with
-    ``panels`` x 16 nodes (default max(16, 2m) panels).
+    ``panels`` x 16 nodes (default max(16, 2m) panels).  m: 0 ... MAX_HARMONICS;
+    panels: >= 1, with m x panels <= MAX_WORK.
     """
-    if int(m) != m or m < 0:
-        raise ValueError(f"fourier: m must be an integer >= 0, got {m!r}")
-    m = int(m)
+    check_params(p)
+    try:
+        m = check_int("m", m, lo=0, hi=MAX_HARMONICS)
+    except ValueError:
+        raise ValueError(f"fourier: m must be an integer in [0, {MAX_HARMONICS}], got "
+                         f"{m!r:.40}") from None
+    if panels is not None:
+        panels = check_int("panels", panels, lo=1, hi=MAX_WORK)
+        if m * panels > MAX_WORK:
+            raise ValueError(f"panels = {panels!r} with m = {m}: m x panels = {m * panels}; "
+                             f"allowed: m x panels <= {MAX_WORK}")
     c_ = law_constants(p)
     n, wq = _gauss_nodes(p, m, panels)
     t_i = p.T_n * (n - p.n_min - c_.n1 * np.log(n / p.n_min)) / c_.Delta
@@ -173,19 +203,31 @@ def fourier(p: DriveParams, m: int, *, panels: int | None = None):
 
 def trig_eval(t, mean, a, b, omega: float) -> np.ndarray:
     """mean + sum_k a_k cos k omega t + b_k sin k omega t (any shape of t)."""
-    t = np.asarray(t, dtype=float)
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    t = check_times("t", t)
+    check_number("mean", mean)
+    check_number("omega", omega)
+    a, b = check_coefficients(a, b)
     x = np.multiply.outer(t, np.arange(1, len(a) + 1) * omega)
     return mean + np.cos(x) @ a + np.sin(x) @ b
 
 
+def check_coefficients(a, b, names=("a", "b")) -> tuple[np.ndarray, np.ndarray]:
+    """Two 1-D finite coefficient arrays of equal length."""
+    a = check_array(names[0], a, min_size=0)
+    b = check_array(names[1], b, min_size=0)
+    if len(a) != len(b):
+        raise ValueError(f"{names[0]}, {names[1]}: lengths {len(a)} and {len(b)}; allowed: "
+                         "equal lengths")
+    return a, b
+
+
 def series(t, C0, a, b, *, omega: float) -> np.ndarray:
     """m-term series (8) of n0: C0/2 + sum a_k cos k w t + b_k sin k w t."""
-    return trig_eval(t, C0 / 2, a, b, omega)
+    return trig_eval(t, check_number("C0", C0) / 2, a, b, omega)
 
 
 def amplitude_phase(a, b):
     """(C_k, psi_k) of (8) with the four-quadrant phase (defect D8):
     a cos x + b sin x = C sin(x + psi), C = hypot(a, b), psi = atan2(a, b)."""
-    a, b = np.asarray(a), np.asarray(b)
+    a, b = check_coefficients(a, b)
     return np.hypot(a, b), np.arctan2(a, b)

@@ -7,8 +7,11 @@ rev/s; rpm appear only at the edges (:data:`RPM`).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field, fields
+
+from ..checks import check_names, is_real
 
 #: rev/s per rpm
 RPM = 1.0 / 60.0
@@ -61,7 +64,7 @@ class DriveParams:
         out = []
         for f in fields(self):
             v = getattr(self, f.name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
+            if not is_real(v) or not math.isfinite(v):
                 out.append(f"{f.name} must be a finite number, got {v!r}")
         if out:
             return out
@@ -89,12 +92,41 @@ class DriveParams:
     @classmethod
     def from_rpm(cls, **kw) -> "DriveParams":
         """Like the constructor, but n_min, n_max in rpm and K in rpm/V."""
+        check_names("DriveParams.from_rpm", kw, [f.name for f in fields(cls)], what="fields")
         for name in ("n_min", "n_max", "K"):
-            if name in kw:
+            if name in kw and is_real(kw[name]):
                 kw[name] = kw[name] * RPM
         return cls(**kw)
+
+    def replace(self, **changes) -> "DriveParams":
+        """A copy with ``changes`` (field names checked, values validated)."""
+        check_names("changes", changes, [f.name for f in fields(self)], what="fields")
+        return dataclasses.replace(self, **changes)
 
     @classmethod
     def table(cls) -> list[dict]:
         """name, default, unit, description, source of every field."""
         return [dict(name=f.name, default=f.default, **f.metadata) for f in fields(cls)]
+
+
+_dataclass_init = DriveParams.__init__
+
+
+def _checked_init(self, *args, **kw):
+    """The dataclass constructor with unknown field names refused by ValueError."""
+    names = [f.name for f in fields(DriveParams)]
+    if len(args) > len(names):
+        raise ValueError(f"DriveParams: {len(args)} positional values; allowed: at most "
+                         f"{len(names)} ({', '.join(names)})")
+    check_names("DriveParams", kw, names, what="fields")
+    _dataclass_init(self, *args, **kw)
+
+
+DriveParams.__init__ = _checked_init  # type: ignore[method-assign]
+
+
+def check_params(p, name: str = "p") -> "DriveParams":
+    """``p`` if it is a :class:`DriveParams` (ValueError otherwise)."""
+    if not isinstance(p, DriveParams):
+        raise ValueError(f"{name} = {p!r:.60}; allowed: a loomfmu.drive.DriveParams")
+    return p

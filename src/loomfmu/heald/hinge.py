@@ -48,6 +48,8 @@ import numpy as np
 
 from loomfmu.models.heald_common import G_STD
 
+from ..checks import check_array, check_choice, check_mapping, check_number, check_order
+
 #: The eight phases of one frame cycle (two main-shaft revolutions), seed 002.
 PHASES = ("bottom dwell", "rise to crossing", "crossing", "rise to top dwell",
           "top dwell", "fall to crossing", "crossing (falling)", "fall to bottom dwell")
@@ -55,16 +57,37 @@ MARGIN_RANGE = (0.07, 0.12)
 FRICTION_RANGE = (0.10, 0.15)
 
 
-def _check_margin(name: str, value: float, band: tuple[float, float]) -> None:
+#: the keyword arguments of :func:`hinge_load_kinetostatic` (model parameter
+#: names): pick them from a model's values with ``{k: v for k, v in values.items()
+#: if k in KINETOSTATIC_PARAMETERS}``
+KINETOSTATIC_PARAMETERS = ("m_RR", "m_heald", "n_hinge", "g", "h_m", "k_H", "omega", "l_1",
+                           "k_z", "n_n", "T_min", "T_max")
+
+
+def _check_margin(name: str, value: float, band: tuple[float, float]) -> float:
+    value = check_number(name, value, lo=0.0, hi=band[1])
     if not (value == 0.0 or band[0] <= value <= band[1]):
         raise ValueError(f"{name} = {value!r}; allowed: 0 (none) or the seed's "
                          f"[{band[0]}, {band[1]}]")
+    return value
 
 
 def _check_positive(**kw) -> None:
     for name, value in kw.items():
-        if not (math.isfinite(value) and value >= 0):
-            raise ValueError(f"{name} = {value!r}; allowed: finite and >= 0")
+        check_number(name, value, lo=0.0)
+
+
+def _check_shed(*, h_m, k_H, omega, l_1, k_z, n_n, T_min, T_max) -> None:
+    """The motion-law and shed arguments, in the ranges of the models' parameters."""
+    check_number("h_m", h_m, lo=0.0, lo_open=True, unit="m")
+    check_number("k_H", k_H, lo=0.0, lo_open=True)
+    check_number("omega", omega, lo=0.0, unit="rad/s")
+    check_number("l_1", l_1, lo=0.0, lo_open=True, unit="m")
+    check_number("k_z", k_z, lo=0.0, lo_open=True)
+    check_number("n_n", n_n, lo=0.0)
+    check_number("T_min", T_min, lo=0.0, unit="N")
+    check_number("T_max", T_max, lo=0.0, unit="N")
+    check_order("T_min", T_min, "T_max", T_max, strict=False)
 
 
 def hinge_load_phases(*, m_RR: float, m_heald: float, a_max: float, n_hinge: float = 2.0,
@@ -80,10 +103,10 @@ def hinge_load_phases(*, m_RR: float, m_heald: float, a_max: float, n_hinge: flo
     doc); margin: 0 or 0.07-0.12; friction: 0 or 0.10-0.15.
     """
     _check_positive(m_RR=m_RR, m_heald=m_heald, a_max=a_max, g=g)
-    if not n_hinge >= 1:
-        raise ValueError(f"n_hinge = {n_hinge!r}; allowed: >= 1")
-    _check_margin("margin", margin, MARGIN_RANGE)
-    _check_margin("friction", friction, FRICTION_RANGE)
+    check_number("n_hinge", n_hinge, lo=1.0)
+    margin = _check_margin("margin", margin, MARGIN_RANGE)
+    friction = _check_margin("friction", friction, FRICTION_RANGE)
+    check_choice("form", form, ("general", "simplified"))
     G_RR, G_G = m_RR * g, m_heald * g
     G_rem, F_in = G_RR + G_G, (m_RR + m_heald) * a_max
     if form == "general":
@@ -105,7 +128,11 @@ def hinge_load_phases(*, m_RR: float, m_heald: float, a_max: float, n_hinge: flo
 
 
 def max_phases(loads: dict[str, float], rel_tol: float = 1e-9) -> list[str]:
-    """The phases whose |N| is the largest (ties within rel_tol)."""
+    """The phases whose |N| is the largest (ties within rel_tol, in [0, 1))."""
+    loads = check_mapping("loads", loads, PHASES, what="phases")
+    if not loads:
+        raise ValueError("loads = {}; allowed: a non-empty dict {phase: N}")
+    check_number("rel_tol", rel_tol, lo=0.0, hi=1.0, hi_open=True)
     top = max(abs(v) for v in loads.values())
     return [p for p, v in loads.items() if abs(v) >= top * (1 - rel_tol)]
 
@@ -115,7 +142,10 @@ def motion(phi: np.ndarray, *, h_m: float = 0.029, k_H: float = 9 / 7,
            omega: float = 60.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """H, H', H'' (time derivatives, constant omega) of seed 000's corrected
     motion law, written out in numpy (independent of the CasADi model)."""
-    phi = np.asarray(phi, dtype=float)
+    phi = check_array("phi", phi, ndim=None, min_size=0, unit="rad")
+    check_number("h_m", h_m, lo=0.0, lo_open=True, unit="m")
+    check_number("k_H", k_H, lo=0.0, lo_open=True)
+    check_number("omega", omega, lo=0.0, unit="rad/s")
     rev = np.floor(phi / (2 * math.pi))
     phi_r = phi - 2 * math.pi * rev
     phi_a = np.clip(phi_r - math.radians(40), 0, math.radians(280))
@@ -131,6 +161,9 @@ def motion(phi: np.ndarray, *, h_m: float = 0.029, k_H: float = 9 / 7,
 def warp_vertical(H: np.ndarray, *, h_m: float = 0.029, l_1: float = 0.05, k_z: float = 5.0,
                   n_n: float = 1000.0, T_min: float = 0.3, T_max: float = 0.8) -> np.ndarray:
     """f_y (N) of seed 000, fig. 2: positive when the warp pulls the frame down."""
+    H = check_array("H", H, ndim=None, min_size=0, unit="m")
+    _check_shed(h_m=h_m, k_H=1.0, omega=0.0, l_1=l_1, k_z=k_z, n_n=n_n, T_min=T_min,
+                T_max=T_max)
     l_2 = k_z * l_1
     L1, L2 = np.hypot(l_1, H), np.hypot(l_2, H)
     dl_max = math.hypot(l_1, h_m) + math.hypot(l_2, h_m) - l_1 - l_2
@@ -142,11 +175,16 @@ def hinge_load_kinetostatic(phi, *, m_RR: float = 4.6, m_heald: float = 9.0 / G_
                             n_hinge: float = 2.0, g: float = G_STD, h_m: float = 0.029,
                             k_H: float = 9 / 7, omega: float = 60.0, l_1: float = 0.05,
                             k_z: float = 5.0, n_n: float = 1000.0, T_min: float = 0.3,
-                            T_max: float = 0.8, **ignored) -> np.ndarray:
+                            T_max: float = 0.8) -> np.ndarray:
     """N(phi) = -[(m_RR + m_heald)(g + H'') + f_y] / n_hinge for a rigid frame:
     seed 002's (4)-(5) with the actual acceleration and warp action of seed
     000's motion law and shed.  Keyword names are the models' parameter names
-    (other parameters are ignored, so a model's start values can be passed)."""
+    (KINETOSTATIC_PARAMETERS; pick them from a model's start values, any
+    other name is an error)."""
+    _check_positive(m_RR=m_RR, m_heald=m_heald, g=g)
+    check_number("n_hinge", n_hinge, lo=1.0)
+    _check_shed(h_m=h_m, k_H=k_H, omega=omega, l_1=l_1, k_z=k_z, n_n=n_n, T_min=T_min,
+                T_max=T_max)
     H, _, a = motion(phi, h_m=h_m, k_H=k_H, omega=omega)
     f_y = warp_vertical(H, h_m=h_m, l_1=l_1, k_z=k_z, n_n=n_n, T_min=T_min, T_max=T_max)
     return -((m_RR + m_heald) * (g + a) + f_y) / n_hinge
@@ -155,9 +193,12 @@ def hinge_load_kinetostatic(phi, *, m_RR: float = 4.6, m_heald: float = 9.0 / G_
 def phase_of(H, h_dot, h_m: float, band: float = 0.1) -> np.ndarray:
     """Phase index 0..7 (PHASES) of each sample; ``band``: the crossing zone
     |H| <= band h_m (the seed's "region of the crossing")."""
-    H, h_dot = np.asarray(H), np.asarray(h_dot)
-    if not 0 < band < 1:
-        raise ValueError(f"band = {band!r}; allowed: (0, 1)")
+    H = check_array("H", H, ndim=None, min_size=0, unit="m")
+    h_dot = check_array("h_dot", h_dot, ndim=None, min_size=0, unit="m/s")
+    if H.shape != h_dot.shape:
+        raise ValueError(f"H, h_dot: shapes {H.shape} and {h_dot.shape}; allowed: equal")
+    check_number("h_m", h_m, lo=0.0, lo_open=True, unit="m")
+    check_number("band", band, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
     vmax = np.max(np.abs(h_dot)) or 1.0
     dwell = np.abs(h_dot) <= 1e-9 * vmax
     up = h_dot > 0
@@ -168,8 +209,11 @@ def phase_of(H, h_dot, h_m: float, band: float = 0.1) -> np.ndarray:
 
 
 def phase_extremes(N, phase) -> dict[str, float]:
-    """The largest |N| (with sign) in each phase."""
-    N, phase = np.asarray(N), np.asarray(phase)
+    """The largest |N| (with sign) in each phase (phase: indices 0..7 of PHASES)."""
+    N = check_array("N", N, ndim=None, min_size=0, unit="N")
+    phase = check_array("phase", phase, lo=0, hi=len(PHASES) - 1, ndim=None, min_size=0)
+    if N.shape != phase.shape:
+        raise ValueError(f"N, phase: shapes {N.shape} and {phase.shape}; allowed: equal")
     out = {}
     for k, name in enumerate(PHASES):
         sel = N[phase == k]

@@ -39,6 +39,8 @@ import math
 
 from loomfmu.models.heald_common import G_STD
 
+from ..checks import check_choice, check_int, check_number
+
 #: Loom widths of table 1 (cm).
 WIDTHS_CM = (180, 220, 250, 280, 330, 360, 390, 450)
 #: Table 1 columns (makers), in the seed's order.
@@ -108,7 +110,8 @@ def _shed_sum(l_1: float, k_z: float, h: float) -> float:
 
 
 def reduced_vertical_mass(l: float) -> float:
-    """sum M_y of seed 000's reduced masses for the default section at slat length l."""
+    """sum M_y of seed 000's reduced masses for the default section at slat length l (m)."""
+    l = check_number("l", l, lo=0.0, lo_open=True, unit="m")
     rho, h1, b1, d1, l_n = 2700.0, 0.1, 0.01, 0.0014, 0.45
     m_l = rho * (h1 * b1 - (h1 - 2 * d1) * (b1 - 2 * d1)) * l
     m_h = rho * 0.03 * 0.006 * 0.35
@@ -132,6 +135,8 @@ def preset_values(name: str) -> dict[str, float]:
 
 def warp_force(width_cm: int, yarn: str) -> float:
     """N_T = n F_T (N): the vertical warp force on the frame at the open shed."""
-    if yarn not in YARNS:
-        raise ValueError(f"yarn = {yarn!r}; allowed: {tuple(YARNS)}")
+    width_cm = check_int("width_cm", width_cm, lo=min(TABLE2), hi=max(TABLE2))
+    if width_cm not in TABLE2:
+        raise ValueError(f"width_cm = {width_cm!r}; allowed: {tuple(TABLE2)}")
+    check_choice("yarn", yarn, tuple(YARNS))
     return TABLE2[width_cm]["threads"] * YARNS[yarn][0]

@@ -1,0 +1,199 @@
+"""Argument checks shared by every public function of loomfmu.
+
+Each check raises ``ValueError`` whose message starts with the argument's
+name and says what is allowed, e.g. ``rtol = inf; allowed: a finite number
+in (0, 1)``; it returns the value converted (a float, an int, a dict), so a
+function checks and normalizes in one line::
+
+    t_end = check_number("t_end", t_end, lo=0, lo_open=True)
+
+Booleans are not numbers here (``harmonics=True`` is a mistake, not 1),
+strings are not numbers, NaN and +-inf are outside every range.
+"""
+from __future__ import annotations
+
+import difflib
+import math
+import numbers
+from collections.abc import Iterable, Mapping
+
+import numpy as np
+
+#: how many allowed names a message lists before it abbreviates
+_LIST_NAMES = 12
+
+
+def _interval(lo: float, hi: float, lo_open: bool, hi_open: bool) -> str:
+    if lo == -math.inf and hi == math.inf:
+        return "a finite number"
+    if hi == math.inf:
+        return f"a finite number {'>' if lo_open else '>='} {lo:g}"
+    if lo == -math.inf:
+        return f"a finite number {'<' if hi_open else '<='} {hi:g}"
+    return (f"a finite number in {'(' if lo_open else '['}{lo:g}, {hi:g}"
+            f"{')' if hi_open else ']'}")
+
+
+def _short(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def is_real(value) -> bool:
+    """A real scalar: int, float, numpy number; not bool, str, complex, None."""
+    return (isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)))
+
+
+def check_number(name: str, value, *, lo: float = -math.inf, hi: float = math.inf,
+                 lo_open: bool = False, hi_open: bool = False, unit: str = "") -> float:
+    """``value`` as a float, finite and in the interval [lo, hi] (ends open if
+    lo_open / hi_open); otherwise ValueError naming ``name`` and the interval."""
+    allowed = _interval(lo, hi, lo_open, hi_open) + (f" {unit}" if unit else "")
+    if not is_real(value):
+        raise ValueError(f"{name} = {_short(value)}; allowed: {allowed}")
+    try:
+        v = float(value)
+    except OverflowError:
+        v = math.inf
+    if not math.isfinite(v) or v < lo or v > hi or (lo_open and v == lo) or (
+            hi_open and v == hi):
+        raise ValueError(f"{name} = {_short(value)}; allowed: {allowed}")
+    return v
+
+
+def check_optional_number(name: str, value, **kw) -> float | None:
+    """None, or :func:`check_number`."""
+    return None if value is None else check_number(name, value, **kw)
+
+
+def check_int(name: str, value, *, lo: int | None = None, hi: int | None = None) -> int:
+    """``value`` as an int in [lo, hi]: an int, a numpy integer or an integral
+    float; not a bool."""
+    lo_s = "-inf" if lo is None else str(lo)
+    hi_s = "inf" if hi is None else str(hi)
+    allowed = f"an integer in [{lo_s}, {hi_s}]"
+    if not is_real(value):
+        raise ValueError(f"{name} = {_short(value)}; allowed: {allowed}")
+    if isinstance(value, (int, np.integer)):
+        v = int(value)
+    else:
+        f = float(value)
+        if not math.isfinite(f) or f != int(f):
+            raise ValueError(f"{name} = {_short(value)}; allowed: {allowed}")
+        v = int(f)
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
+        raise ValueError(f"{name} = {_short(value)}; allowed: {allowed}")
+    return v
+
+
+def check_bool(name: str, value) -> bool:
+    """``value`` if it is True or False (numpy bools too)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} = {_short(value)}; allowed: True or False")
+    return bool(value)
+
+
+def check_choice(name: str, value, allowed: Iterable):
+    """``value`` if it is one of ``allowed`` (compared by type and equality,
+    so True is not 1 and 1.0 is not '1')."""
+    allowed = tuple(allowed)
+    for a in allowed:
+        if type(a) is type(value) and a == value:
+            return value
+    raise ValueError(f"{name} = {_short(value)}; allowed: {', '.join(map(repr, allowed))}")
+
+
+def _names_text(allowed: list[str]) -> str:
+    if len(allowed) <= _LIST_NAMES:
+        return ", ".join(allowed)
+    return ", ".join(allowed[:_LIST_NAMES]) + f", ... ({len(allowed)} names)"
+
+
+def check_names(name: str, given: Iterable, allowed: Iterable[str], *, what: str = "names"
+                ) -> None:
+    """Every element of ``given`` is a string in ``allowed``; the message lists
+    the unknown ones with the closest allowed names."""
+    allowed = list(allowed)
+    given = list(given)
+    wrong_type = [g for g in given if not isinstance(g, str)]
+    if wrong_type:
+        raise ValueError(f"{name}: {_short(wrong_type)} are not strings; allowed: {what} "
+                         f"{_names_text(allowed)}")
+    known = set(allowed)
+    unknown = [g for g in given if g not in known]
+    if unknown:
+        hints = []
+        for u in unknown:
+            close = difflib.get_close_matches(u, allowed, n=2)
+            hints.append(f"{u!r}" + (f" (did you mean {' or '.join(map(repr, close))}?)"
+                                     if close else ""))
+        raise ValueError(f"{name}: unknown {', '.join(hints)}: not {what}; allowed: "
+                         f"{_names_text(allowed)}")
+
+
+def check_mapping(name: str, value, allowed: Iterable[str] | None = None, *,
+                  what: str = "names", numbers_only: bool = True) -> dict:
+    """A dict copy of ``value`` (None: empty): keys in ``allowed`` (if given),
+    values finite numbers (if ``numbers_only``)."""
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise ValueError(f"{name} = {_short(value)}; allowed: a dict {{name: value}}")
+    out = dict(value)
+    if allowed is not None:
+        check_names(name, out, allowed, what=what)
+    if numbers_only:
+        for key, v in out.items():
+            out[key] = check_number(f"{name}[{key!r}]", v)
+    return out
+
+
+def check_name_list(name: str, value, allowed: Iterable[str], *, what: str = "names"
+                    ) -> list[str] | None:
+    """None, or a list of distinct names from ``allowed`` (a lone string is
+    refused: it would be read as its letters)."""
+    if value is None:
+        return None
+    if isinstance(value, (str, bytes)) or not isinstance(value, Iterable):
+        raise ValueError(f"{name} = {_short(value)}; allowed: a list of {what}")
+    out = list(value)
+    check_names(name, out, allowed, what=what)
+    if len(set(out)) != len(out):
+        raise ValueError(f"{name}: {_short(out)} names a variable twice; allowed: distinct "
+                         f"{what}")
+    return out
+
+
+def check_array(name: str, value, *, lo: float = -math.inf, hi: float = math.inf,
+                ndim: int | None = 1, min_size: int = 1, increasing: bool = False,
+                unit: str = "") -> np.ndarray:
+    """``value`` as a float array: finite, in [lo, hi], of ``ndim`` dimensions
+    (None: any) with at least ``min_size`` elements, non-decreasing if
+    ``increasing``."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} = {_short(value)}; allowed: an array of finite numbers"
+                         ) from None
+    if np.asarray(value).dtype.kind in "bUSOc" and np.asarray(value).size:
+        raise ValueError(f"{name} = {_short(value)}; allowed: an array of finite numbers")
+    if ndim is not None and arr.ndim != ndim:
+        raise ValueError(f"{name}: shape {arr.shape}; allowed: a {ndim}-D array")
+    if arr.size < min_size:
+        raise ValueError(f"{name}: {arr.size} elements; allowed: at least {min_size}")
+    bad = ~np.isfinite(arr) | (arr < lo) | (arr > hi)
+    if bad.any():
+        first = arr.ravel()[np.argmax(bad.ravel())]
+        raise ValueError(f"{name}: element {first!r}; allowed: "
+                         f"{_interval(lo, hi, False, False)}{' ' + unit if unit else ''}")
+    if increasing and arr.ndim == 1 and np.any(np.diff(arr) < 0):
+        raise ValueError(f"{name}: not in increasing order; allowed: non-decreasing values")
+    return arr
+
+
+def check_order(lo_name: str, lo: float, hi_name: str, hi: float, *, strict: bool = True
+                ) -> None:
+    """``lo`` < ``hi`` (or <= if not strict), naming both."""
+    if lo > hi or (strict and lo == hi):
+        raise ValueError(f"{lo_name} = {lo!r}, {hi_name} = {hi!r}; allowed: "
+                         f"{lo_name} {'<' if strict else '<='} {hi_name}")
