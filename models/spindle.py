@@ -237,6 +237,39 @@ def spindle_system(**options):
     return m, declare_rotor(m, Omega, **options)
 
 
+def node_heights(m: Model, sp: SpindleRotor) -> list[float]:
+    """Height of each node above the footstep (m) at the declared (default)
+    parameter values of ``m``."""
+    z = ca.vertcat(*[ca.SX(v) for v in sp.rotor.node_z()])
+    f = ca.Function("node_z", [m.syms("parameter")], [z])
+    return [float(v) for v in f(m.starts("parameter")).full().ravel()]
+
+
+def node_labels(m: Model, sp: SpindleRotor) -> dict[str, tuple[str, str]]:
+    """DOF prefix ("n3", "h0") -> (where the node is: role and height at the
+    default lengths; a short tag), for the states' descriptions."""
+    z = node_heights(m, sp)
+    role = {k: r for r, k in sp.nodes.items()}
+    text = {"footstep": ("footstep, lower support", "footstep"),
+            "bolster": ("bolster bearing, upper support", "bolster bearing"),
+            "whorl": ("whorl", "whorl"),
+            "bobbin": ("bobbin seat, the bobbin's equivalent disk", "bobbin seat"),
+            "top": ("top of the blade", "top of the blade")}
+    out = {}
+    for k, zk in enumerate(z):
+        if k in role:
+            what, tag = text[role[k]]
+        else:
+            what = tag = ("interior node below the bolster" if k < sp.nodes["bolster"]
+                          else "interior node on the cone")
+        out[f"n{k}"] = (f"node {k} ({what}; z = {zk * 1e3:.1f} mm up from the footstep at "
+                        "the default lengths)", f"{tag}, node {k}")
+    for h, (node, *_rest) in enumerate(sp.rotor.housings):
+        out[f"h{h}"] = (f"the housing of the footstep bearing (centre tube on the coil "
+                        f"spring) at node {node}", f"housing at node {node}")
+    return out
+
+
 def _vel_name(dof: str) -> str:
     node, comp = dof.split(".")
     return f"{node}.v{comp}"
@@ -287,30 +320,39 @@ def unbalance_force(m: Model, sp: SpindleRotor, Omega, phi) -> ca.SX:
     return F
 
 
-def declare_dynamics(m: Model, sp: SpindleRotor, Omega, M, C, G, K, basis=None) -> None:
+def declare_dynamics(m: Model, sp: SpindleRotor, Omega, M, C, G, K, basis=None,
+                     basis_labels: list[str] | None = None) -> None:
     """States, equations (12) and outputs.  ``basis`` (numeric n x r) makes a
-    Ritz reduction q = basis eta (spindle_modal); None keeps every FE DOF."""
+    Ritz reduction q = basis eta (spindle_modal); None keeps every FE DOF.
+    basis_labels: what each basis column is (e.g. its mode and frequency),
+    for the states' descriptions."""
     phi = m.state("phi", 0.0, unit="rad", description="rotation angle of the spindle "
                   "(phase of the unbalance forces)")
     m.eq(m.der(phi), Omega)
     F = unbalance_force(m, sp, Omega, phi)
     if basis is None:
+        where = node_labels(m, sp)
         q = ca.vertcat(*[m.state(d, 0.0, unit=_DOF_UNIT[d.split('.')[1]], nominal=1e-4,
                                  description=f"{_DOF_TEXT[d.split('.')[1]]} of "
-                                 f"{'housing' if d.startswith('h') else 'node'} "
-                                 f"{d.split('.')[0]}") for d in sp.dofs])
+                                 f"{where[d.split('.')[0]][0]}") for d in sp.dofs])
         v = ca.vertcat(*[m.state(_vel_name(d), 0.0, unit=_DOF_UNIT[d.split('.')[1]] + "/s",
-                                 nominal=0.1, description=f"rate of {d}")
-                         for d in sp.dofs])
+                                 nominal=0.1, description=f"rate of {d} "
+                                 f"({where[d.split('.')[0]][1]})") for d in sp.dofs])
         a = band_ldl_solve(M, F - (C + Omega * G) @ v - K @ q)
         qv, vv = q, v
     else:
         r = basis.shape[1]
         B = ca.DM(basis)
+        labels = basis_labels or [f"basis vector {i}" for i in range(r)]
+        if len(labels) != r:
+            raise ValueError(f"basis_labels: {len(labels)} labels; allowed: one per basis "
+                             f"column ({r})")
         eta_ = ca.vertcat(*[m.state(f"eta{i}", 0.0, unit="m", nominal=1e-4,
-                                    description=f"modal coordinate {i}") for i in range(r)])
+                                    description=f"modal coordinate of {labels[i]}")
+                            for i in range(r)])
         deta = ca.vertcat(*[m.state(f"deta{i}", 0.0, unit="m/s", nominal=0.1,
-                                    description=f"rate of modal coordinate {i}")
+                                    description=f"rate of eta{i} "
+                                    f"({labels[i].split(', largest')[0]})")
                             for i in range(r)])
         Mr = B.T @ M @ B
         a = band_ldl_solve(Mr, B.T @ (F - (C + Omega * G) @ (B @ deta) - K @ (B @ eta_)))

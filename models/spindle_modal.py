@@ -11,30 +11,58 @@ is exact only at the default parameters.  Same inputs and outputs as
 """
 from __future__ import annotations
 
+import math
+
 import casadi as ca
 import numpy as np
 import scipy.linalg as sla
 
 from loomfmu.declare import Model
-from loomfmu.models.spindle import RPM, declare_dynamics, declare_rotor, spindle_system
+from loomfmu.models.spindle import (RPM, declare_dynamics, declare_rotor, node_labels,
+                                    spindle_system)
 
 
-def modal_basis(model: Model, sp, n_modes: int, basis_rpm: float) -> np.ndarray:
-    """``model``, ``sp``: from spindle_system (free speed symbol).
-    The first n_modes x-plane modes, each placed in x and in y (n x 2 n_modes)."""
+def planar_modes(model: Model, sp, basis_rpm: float):
+    """Undamped x-plane modes of the non-spinning rotor at the default
+    parameters and the film stiffness at ``basis_rpm``: (omega^2 ascending,
+    mass-normalised shapes as columns, x-plane DOF indices, y-plane DOF indices)."""
     p = model.syms("parameter")
     f = ca.Function("mk", [p, sp.Omega], [sp.M, sp.K])
     M, K = (np.array(a) for a in f(model.starts("parameter"), basis_rpm * RPM))
     xi, yi = sp.plane_indices()
     Mx, Kx = M[np.ix_(xi, xi)], (K[np.ix_(xi, xi)] + K[np.ix_(xi, xi)].T) / 2
     w2, V = sla.eigh(Kx, Mx)
+    return w2, V, xi, yi
+
+
+def modal_basis(model: Model, sp, n_modes: int, basis_rpm: float) -> np.ndarray:
+    """``model``, ``sp``: from spindle_system (free speed symbol).
+    The first n_modes x-plane modes, each placed in x and in y (n x 2 n_modes)."""
+    w2, V, xi, yi = planar_modes(model, sp, basis_rpm)
     if n_modes > len(xi):
         raise ValueError(f"n_modes = {n_modes!r}; allowed: 1..{len(xi)}")
-    B = np.zeros((M.shape[0], 2 * n_modes))
+    B = np.zeros((len(sp.dofs), 2 * n_modes))
     for k in range(n_modes):
         B[xi, 2 * k] = V[:, k]
         B[yi, 2 * k + 1] = V[:, k]
     return B
+
+
+def mode_labels(model: Model, sp, n_modes: int, basis_rpm: float) -> list[str]:
+    """What each column of :func:`modal_basis` is: mode number, plane, natural
+    frequency and the node of largest deflection (computed, not typed)."""
+    w2, V, xi, _ = planar_modes(model, sp, basis_rpm)
+    where = node_labels(model, sp)
+    trans = [j for j, i in enumerate(xi) if sp.dofs[i].endswith(".x")]
+    labels = []
+    for k in range(n_modes):
+        hz = math.sqrt(max(w2[k], 0.0)) / (2 * math.pi)
+        big = max(trans, key=lambda j: abs(V[j, k]))
+        node = sp.dofs[xi[big]].split(".")[0]
+        for plane in ("x", "y"):
+            labels.append(f"mode {k + 1}, {plane} plane, {hz:.1f} Hz, largest deflection "
+                          f"at the {where[node][1]}")
+    return labels
 
 
 def build(*, n_modes: int = 4, basis_rpm: float = 16000.0, beam: str = "euler",
@@ -45,7 +73,9 @@ def build(*, n_modes: int = 4, basis_rpm: float = 16000.0, beam: str = "euler",
         raise ValueError(f"n_modes = {n_modes!r}; allowed: integer >= 1")
     m = Model("spindle_modal", description="D1201 ring-spinning spindle reduced to "
               f"{n_modes} planar modes per plane (Ritz projection of the FE rotor of "
-              "seed 003)", stop_time=0.02, step_size=2e-4, h_fixed=2e-6,
+              "seed 003); the modes' frequencies in the states' descriptions are undamped, "
+              f"not spinning, with the film stiffness at {basis_rpm:g} rpm and the default "
+              "parameters", stop_time=0.02, step_size=2e-4, h_fixed=2e-6,
               options={"n_modes": n_modes, "basis_rpm": basis_rpm, "beam": beam,
                        "n_turns": n_turns, "damper": damper, "n_low": n_low,
                        "n_cone": n_cone})
@@ -57,6 +87,7 @@ def build(*, n_modes: int = 4, basis_rpm: float = 16000.0, beam: str = "euler",
     am, free = spindle_system(beam=beam, n_turns=n_turns, damper=damper, n_low=n_low,
                               n_cone=n_cone)
     B = modal_basis(am, free, n_modes, basis_rpm)
-    declare_dynamics(m, sp, Omega, sp.M, sp.C, sp.G, sp.K, basis=B)
+    declare_dynamics(m, sp, Omega, sp.M, sp.C, sp.G, sp.K, basis=B,
+                     basis_labels=mode_labels(am, free, n_modes, basis_rpm))
     return m
 
