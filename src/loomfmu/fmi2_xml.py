@@ -9,6 +9,7 @@ the parameters, states and inputs it depends on at initialization
 """
 from __future__ import annotations
 
+import importlib.metadata
 import math
 import xml.etree.ElementTree as ET
 
@@ -19,6 +20,30 @@ from .declare import Model
 from .ode import DaeForm
 from .runtime_files import LOG_CATEGORIES
 from .units import UNITS
+
+
+#: Header values used when the installed package's metadata does not state them
+#: (pyproject.toml has no ``authors`` or ``license`` yet; add them there and
+#: they flow into every model description).
+DEFAULT_AUTHOR = "the loomfmu developers"
+DEFAULT_LICENSE = ("none stated: the loomfmu package declares no license; ask the authors "
+                   "before redistributing")
+
+
+def tool_info() -> dict[str, str]:
+    """The fmiModelDescription header attributes that name the tool and its
+    terms: author, version (the loomfmu package version), copyright, license,
+    generationTool.  No generationDateAndTime: a build of the same declaration
+    gives the same file."""
+    try:
+        meta = importlib.metadata.metadata("loomfmu")
+        version = meta["Version"]
+        author = meta.get("Author") or meta.get("Author-email") or DEFAULT_AUTHOR
+        license_ = meta.get("License-Expression") or meta.get("License") or DEFAULT_LICENSE
+    except importlib.metadata.PackageNotFoundError:  # running from a source tree
+        version, author, license_ = "0+unknown", DEFAULT_AUTHOR, DEFAULT_LICENSE
+    return {"author": author, "version": version, "copyright": f"Copyright {author}",
+            "license": license_, "generationTool": f"loomfmu {version}"}
 
 
 def _num(v: float) -> str:
@@ -86,7 +111,7 @@ def model_description(model: Model, dae: DaeForm, guid: str, sources: list[str])
     rows = real_table(model)
     root = ET.Element("fmiModelDescription", {
         "fmiVersion": "2.0", "modelName": model.name, "guid": guid,
-        "description": model.description, "generationTool": "loomfmu",
+        "description": model.description, **tool_info(),
         "variableNamingConvention": "structured", "numberOfEventIndicators": "0"})
     cs = ET.SubElement(root, "CoSimulation", {
         "modelIdentifier": model.name, "needsExecutionTool": "false",
