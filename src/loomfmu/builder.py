@@ -16,6 +16,7 @@ from fmpy.validation import validate_fmu
 from .codegen import generate_sources
 from .declare import Model
 from .fmi2_xml import model_description
+from .fmu_doc import write_documentation
 from .ode import dae_form
 from .runtime_files import RUNTIME_DIR, RUNTIME_HEADERS, RUNTIME_SOURCES
 
@@ -84,7 +85,9 @@ def _check_symbols(objs: list[str], model_identifier: str) -> None:
 
 def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 2,
               validate: bool = True) -> BuildResult:
-    """Build ``model`` into ``<out_dir>/<model.name>.fmu``.
+    """Build ``model`` into ``<out_dir>/<model.name>.fmu``, with its
+    documentation page (``documentation/index.html``, not yet verified: see
+    :func:`loomfmu.fmu_doc.write_documentation`).
 
     fmi_version: only 2 (FMI 2.0 Co-Simulation) is implemented so far.
     validate: run ``fmpy.validate_fmu`` and return its problems in the result.
@@ -109,6 +112,8 @@ def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 
         compile_binary(src, root / "binaries" / "linux64" / f"{model.name}.so", generated_c)
         fmu = out_dir / f"{model.name}.fmu"
         _zip_dir(root, fmu)
+    # documentation/index.html; `loomfmu build` rewrites it with the verification
+    write_documentation(fmu, model, verification=None)
     problems = list(validate_fmu(str(fmu))) if validate else []
     return BuildResult(model.name, fmu, guid, time.perf_counter() - t0, problems)
 

@@ -1,0 +1,535 @@
+"""``documentation/index.html`` inside an FMU, generated from the declaration.
+
+FMI 2.0 (section 2.1.1) names ``documentation/index.html`` as the entry
+point of an FMU's documentation.  The page is written from the same
+declaration as the C code and the model description, and from the model
+description itself (what the importer sees), so it cannot drift from the
+FMU: what the model is, its equations as declared, every variable (unit,
+range, start, description and, for parameters, the source), the solver
+settings and the tolerance rule, ports, the default experiment, and how the
+FMU was verified against the scipy reference.
+
+Plain HTML with inline CSS: no JavaScript, no external files.
+
+    write_documentation(fmu_path, model, verification=verify(fmu_path, model))
+"""
+from __future__ import annotations
+
+import html
+import importlib
+import inspect
+import math
+import os
+import re
+import xml.etree.ElementTree as ET
+import zipfile
+from pathlib import Path
+
+import casadi as ca
+
+from .codegen import SETTINGS, SOLVER_DESCRIPTIONS, SOLVERS
+from .declare import Model
+from .registry import MODELS
+
+#: Where FMI 2.0 puts the documentation's entry point.
+DOC_MEMBER = "documentation/index.html"
+#: A printed expression longer than this is cut (the full one is in the C sources).
+MAX_EXPR_CHARS = 1500
+#: Zip timestamp of the page, fixed so that the same inputs give the same file.
+_ZIP_DATE = (1980, 1, 1, 0, 0, 0)
+
+_CSS = """
+body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;
+ color:#1d2327;background:#fff;margin:0;line-height:1.45;font-size:15px}
+main{max-width:1120px;margin:0 auto;padding:24px 28px 48px}
+h1{font-size:26px;margin:0 0 4px} h2{font-size:20px;margin:34px 0 10px;
+ border-bottom:2px solid #d0d7de;padding-bottom:4px} h3{font-size:16px;margin:22px 0 6px}
+.lead{font-size:16px;margin:4px 0 12px} .meta{color:#57606a;font-size:13px}
+.meta code{font-size:12px}
+nav{background:#f6f8fa;border:1px solid #d0d7de;border-radius:6px;padding:8px 14px;
+ margin:16px 0;font-size:14px} nav a{margin-right:14px;white-space:nowrap}
+a{color:#0550ae;text-decoration:none} a:hover{text-decoration:underline}
+code,pre,.mono{font-family:ui-monospace,SFMono-Regular,Menlo,Consolas,monospace}
+code{font-size:13px;background:#f6f8fa;padding:0 3px;border-radius:3px}
+table{border-collapse:collapse;width:100%;margin:6px 0 14px;font-size:13.5px}
+th,td{border:1px solid #d0d7de;padding:4px 7px;text-align:left;vertical-align:top}
+th{background:#f0f3f6;font-weight:600} tr:nth-child(even) td{background:#fafbfc}
+td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
+td.name{font-family:ui-monospace,Menlo,Consolas,monospace;font-size:12.5px;
+ white-space:nowrap} td.small{font-size:12.5px;color:#424a53}
+tr.worst td{background:#fff4d6 !important}
+.rule{background:#eef6ff;border-left:4px solid #0969da;padding:8px 14px;margin:10px 0}
+.warn{background:#fff8e6;border-left:4px solid #bf8700;padding:8px 14px;margin:10px 0}
+.doc p{margin:6px 0} .doc ul.items{margin:4px 0 8px;padding-left:18px}
+.doc ul.items li{margin:3px 0} .doc pre.code{background:#f6f8fa;padding:8px 12px;
+ border-radius:6px;font-size:13px;overflow-x:auto}
+.eq{border:1px solid #d0d7de;border-radius:6px;margin:8px 0;overflow:hidden}
+.eq .head{background:#f6f8fa;padding:4px 10px;font-size:13px;color:#57606a}
+.eq pre{margin:0;padding:6px 10px;font-size:12.5px;white-space:pre-wrap;
+ overflow-wrap:anywhere}
+.eq pre.main{font-size:14px;color:#0a3069;font-weight:600}
+.eq pre.where{color:#424a53;border-top:1px dashed #d0d7de}
+.eq details summary{cursor:pointer;padding:2px 10px;font-size:12.5px;color:#57606a;
+ border-top:1px dashed #d0d7de}
+.cut{color:#8c6d1f;font-style:italic}
+footer{margin-top:40px;color:#57606a;font-size:12.5px;border-top:1px solid #d0d7de;
+ padding-top:8px}
+"""
+
+
+# ------------------------------------------------------------------ the FMU
+def write_documentation(fmu_path, model: Model, *, verification: dict | None = None) -> None:
+    """(Re)write ``documentation/index.html`` inside the FMU at ``fmu_path``.
+
+    model: the declaration the FMU was built from (its name must match the
+    model description's modelName).  verification: the dict returned by
+    :func:`loomfmu.verify.verify` (optionally with "rtol", "atol", "ref_rtol",
+    "ref_atol"), or None: the page then says the FMU was not verified at
+    build.  Any earlier page is replaced; every other member is kept
+    byte-identical.
+    """
+    fmu_path = Path(fmu_path)
+    if not zipfile.is_zipfile(fmu_path):
+        raise ValueError(f"fmu_path = {str(fmu_path)!r}: not an existing .fmu (zip) file")
+    with zipfile.ZipFile(fmu_path) as z:
+        names = z.namelist()
+        if "modelDescription.xml" not in names:
+            raise ValueError(f"fmu_path = {str(fmu_path)!r}: no modelDescription.xml inside")
+        xml = z.read("modelDescription.xml").decode("utf-8")
+        kept = [(info, z.read(info.filename)) for info in z.infolist()
+                if info.filename != DOC_MEMBER]
+    page = html_for(model, verification, model_description_xml=xml, members=names)
+    tmp = fmu_path.with_name(fmu_path.name + ".doc.tmp")
+    try:
+        with zipfile.ZipFile(tmp, "w") as z:
+            for info, data in kept:
+                z.writestr(info, data)
+            info = zipfile.ZipInfo(DOC_MEMBER, date_time=_ZIP_DATE)
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = 0o644 << 16
+            z.writestr(info, page.encode("utf-8"))
+        os.replace(tmp, fmu_path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def html_for(model: Model, verification: dict | None = None, *,
+             model_description_xml: str | None = None,
+             members: list[str] | None = None) -> str:
+    """The documentation page of ``model`` as one self-contained HTML string.
+
+    model_description_xml: the FMU's modelDescription.xml (default: generated
+    from ``model`` as the builder does).  members: the FMU's file names, to
+    point at the generated sources.
+    """
+    if verification is not None and not isinstance(verification.get("solvers"), dict):
+        raise ValueError("verification: expected the dict of loomfmu.verify.verify "
+                         "(with a 'solvers' mapping) or None")
+    if model_description_xml is None:
+        model_description_xml = _generated_xml(model)
+    md = ET.fromstring(model_description_xml)
+    if md.get("modelName") != model.name:
+        raise ValueError(f"model = {model.name!r} does not match the model description's "
+                         f"modelName {md.get('modelName')!r}")
+    csrc = next((n for n in members or [] if n.endswith("_casadi.c")),
+                f"sources/{model.name}_casadi.c")
+    sections = [  # the short sections first, the long reference tables after
+        ("about", "What it is", _about(model, md)),
+        ("verification", "Verification", _verification(model, md, verification)),
+        ("solver", "Solvers and tolerances", _solver(md)),
+        ("experiment", "Default experiment", _experiment(md)),
+        ("ports", "Ports", _ports(model)),
+        ("variables", "Variables", _variables(model, md)),
+        ("equations", "Equations", _equations(model, csrc)),
+    ]
+    nav = "".join(f'<a href="#{a}">{t}</a>' for a, t, _ in sections)
+    body = "".join(f'<section id="{a}"><h2>{t}</h2>{s}</section>' for a, t, s in sections)
+    tool = html.escape(md.get("generationTool", "loomfmu"))
+    return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+            f'<meta name="viewport" content="width=device-width, initial-scale=1">'
+            f"<title>{_e(model.name)}: FMU documentation</title><style>{_CSS}</style>"
+            f"</head><body><main>{_header(model, md)}<nav>{nav}</nav>{body}"
+            f"<footer>Generated by {tool} from the declaration in "
+            f"<code>models/{_e(_module(model))}.py</code> and this FMU's "
+            f"modelDescription.xml. Numbers are rounded to 6 significant digits; the "
+            f"exact values are in modelDescription.xml.</footer></main></body></html>\n")
+
+
+def _generated_xml(model: Model) -> str:
+    from .codegen import model_guid
+    from .fmi2_xml import model_description
+    from .ode import dae_form
+    dae = dae_form(model)
+    return model_description(model, dae, model_guid(model, dae), [])
+
+
+# ------------------------------------------------------------------ helpers
+def _e(s) -> str:
+    return html.escape(str(s), quote=True)
+
+
+def _fmt(v) -> str:
+    if v is None or v == "":
+        return ""
+    try:
+        x = float(v)
+    except ValueError:
+        return str(v)
+    return "" if math.isinf(x) else f"{x:.6g}"
+
+
+def _module(model: Model) -> str:
+    return MODELS.get(model.name, (model.name,))[0]
+
+
+def _table(head: list[str], rows: list[str]) -> str:
+    th = "".join(f"<th>{h}</th>" for h in head)
+    return f"<table><thead><tr>{th}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
+
+
+def _cell_table(head: list[str], rows: list[list[tuple[str, str]]]) -> str:
+    """A table of (css class, escaped text) cells, without the columns that
+    are empty in every row."""
+    keep = [j for j in range(len(head)) if any(r[j][1] for r in rows)]
+    body = ["<tr>" + "".join(f'<td class="{r[j][0]}">{r[j][1]}</td>' if r[j][0] else
+                             f"<td>{r[j][1]}</td>" for j in keep) + "</tr>" for r in rows]
+    return _table([head[j] for j in keep], body)
+
+
+#: A list item's marker: a defect label followed by two spaces ("D1  ..."), or a bullet.
+_MARKER = re.compile(r"^(?:([A-Z]\d+)\s{2,}|([-*])\s+)")
+
+
+def _inline(text: str) -> str:
+    return re.sub(r"``(.+?)``", r"<code>\1</code>", _e(" ".join(text.split())))
+
+
+def _paragraph(para: str) -> str:
+    """One docstring paragraph: prose, an indented code block, or a list of
+    marked items (D1, B1, -, *) whose continuation lines are indented."""
+    lines = para.splitlines()
+    if all(ln.startswith(" ") for ln in lines):
+        return f'<pre class="code">{_e(inspect.cleandoc(para))}</pre>'
+    if not any(_MARKER.match(ln) for ln in lines):
+        return f"<p>{_inline(para)}</p>"
+    out, items, prose = [], [], []
+    for ln in lines:
+        m = _MARKER.match(ln)
+        if m:
+            if prose:
+                out.append(f"<p>{_inline(' '.join(prose))}</p>")
+                prose = []
+            items.append([m.group(1) or m.group(2), ln[m.end():]])
+        elif ln.startswith(" ") and items:
+            items[-1][1] += " " + ln.strip()
+        else:
+            if items:
+                out.append(_items(items))
+                items = []
+            prose.append(ln)
+    if prose:
+        out.append(f"<p>{_inline(' '.join(prose))}</p>")
+    if items:
+        out.append(_items(items))
+    return "".join(out)
+
+
+def _items(items: list) -> str:
+    return '<ul class="items">' + "".join(
+        f"<li><b>{_e(k)}</b> {_inline(t)}</li>" if k not in "-*" else f"<li>{_inline(t)}</li>"
+        for k, t in items) + "</ul>"
+
+
+def _docstring(model: Model) -> str:
+    try:
+        doc = importlib.import_module(f"loomfmu.models.{_module(model)}").__doc__ or ""
+    except ImportError:
+        return ""
+    paras = re.split(r"\n\s*\n", inspect.cleandoc(doc))
+    return '<div class="doc">' + "".join(_paragraph(p) for p in paras if p.strip()) + "</div>"
+
+
+# ------------------------------------------------------------------ sections
+def _header(model: Model, md: ET.Element) -> str:
+    a = md.attrib
+    opts = ", ".join(f"{k} = {v!r}" for k, v in model.options.items()) or "none"
+    return (f"<h1>{_e(model.name)}</h1><p class=\"lead\">{_e(model.description)}</p>"
+            f'<p class="meta">FMI {_e(a.get("fmiVersion"))} Co-Simulation · GUID '
+            f'<code>{_e(a.get("guid"))}</code> · {_e(a.get("generationTool", ""))}<br>'
+            f'Author: {_e(a.get("author", ""))} · Version {_e(a.get("version", ""))} · '
+            f'{_e(a.get("copyright", ""))} · License: {_e(a.get("license", ""))}<br>'
+            f"Build options: <code>{_e(opts)}</code></p>")
+
+
+def _about(model: Model, md: ET.Element) -> str:
+    counts = {k: len(model.of_kind(k)) for k in ("parameter", "state", "input", "output",
+                                                 "algebraic", "mode")}
+    counts.update({"equation": len(model.equations), "event indicator": len(model.events),
+                   "delay": len(model.delays)})
+    summary = ", ".join(_count(n, k) for k, n in counts.items() if n)
+    return (f"{_docstring(model)}<p>Declared in <code>models/{_e(_module(model))}.py</code>: "
+            f"{summary}.</p>")
+
+
+def _count(n: int, what: str) -> str:
+    return f"{n} {what}{'' if n == 1 else 's'}"
+
+
+def _split_cse(s: str) -> tuple[list[str], str]:
+    """CasADi prints shared subexpressions first: "@1=..., @2=..., final"."""
+    parts = _top_split(s)
+    defs = parts[:-1]
+    if not all(re.match(r"^@\d+=", d) for d in defs):
+        return [], s
+    return [re.sub(r"^(@\d+)=", r"\1 = ", d) for d in defs], parts[-1]
+
+
+def _strip(s: str) -> str:
+    """Drop one pair of parentheses around the whole expression."""
+    if s.startswith("(") and s.endswith(")"):
+        depth = 0
+        for i, ch in enumerate(s):
+            depth += ch == "("
+            depth -= ch == ")"
+            if depth == 0 and i < len(s) - 1:
+                return s
+        return s[1:-1]
+    return s
+
+
+def _top_split(s: str) -> list[str]:
+    """Split ``s`` at the commas outside any bracket."""
+    parts, depth, start = [], 0, 0
+    for i, ch in enumerate(s):
+        if ch in "([{":
+            depth += 1
+        elif ch in ")]}":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            parts.append(s[start:i].strip())
+            start = i + 1
+    return parts + [s[start:].strip()]
+
+
+def _printed(lhs, rhs: ca.SX) -> tuple[list[str], str, int]:
+    """(shared subexpressions, "lhs = rhs", printed length).  lhs: a name, or an
+    SX printed together with rhs so that both sides share the @k names."""
+    if isinstance(lhs, str):
+        defs, final = _split_cse(str(rhs))
+        return defs, f"{lhs} = {_strip(final)}", len(str(rhs))
+    text = str(ca.vertcat(lhs, rhs))
+    defs, final = _split_cse(text)
+    sides = _top_split(final[1:-1]) if final.startswith("[") else [final, "?"]
+    return defs, f"{_strip(sides[0])} = {_strip(sides[-1])}", len(text)
+
+
+def _expr_block(title: str, lhs, rhs: ca.SX, csrc: str) -> str:
+    defs, main, total = _printed(lhs, rhs)
+    where, used = [], len(main)
+    for d in defs:
+        if used + len(d) > MAX_EXPR_CHARS:
+            break
+        where.append(d)
+        used += len(d)
+    cut = len(main) > MAX_EXPR_CHARS or len(where) < len(defs)
+    if len(main) > MAX_EXPR_CHARS:
+        main = main[:MAX_EXPR_CHARS] + " …"
+    out = [f'<div class="eq"><div class="head">{title}</div>',
+           f'<pre class="main">{_e(main)}</pre>']
+    if where:
+        out.append(f"<details><summary>where: {_count(len(defs), 'shared subexpression')}"
+                   f'</summary><pre class="where">{_e(chr(10).join(where))}</pre></details>')
+    if cut:
+        out.append(f'<pre class="where cut">… cut: {len(defs) - len(where)} shared '
+                   f"subexpressions not shown ({total} characters in all); the full "
+                   f"expression is in {_e(csrc)}</pre>")
+    return "".join(out) + "</div>"
+
+
+def _equations(model: Model, csrc: str) -> str:
+    out = ["<p>As declared (residual form <code>lhs = rhs</code>), printed by CasADi: "
+           "<code>@k</code> names a shared subexpression, listed under <em>where</em> "
+           "(click to open); "
+           "<code>sq(x)</code> is x², <code>der(x)</code> the time derivative, "
+           "<code>delay(u)</code> a delayed value. Long expressions are cut.</p>"]
+    for k, eqs in enumerate(model.equations, 1):
+        rows = ca.vertsplit(ca.vec(eqs))
+        for j, e in enumerate(rows, 1):
+            # m.eq(lhs, rhs) stored lhs - rhs; anything else is shown as "residual = 0"
+            lhs, rhs = (e.dep(0), e.dep(1)) if e.op() == ca.OP_SUB else (e, ca.SX(0))
+            title = f"equation {k}" + (f", row {j} of {len(rows)}" if len(rows) > 1 else "")
+            out.append(_expr_block(title, lhs, rhs, csrc))
+    sub = [("Outputs", [(f"output {v.name} [{v.unit or '1'}]", v.name, ca.SX(v.expr))
+                        for v in model.of_kind("output")]),
+           ("Start values computed at initialization (unless the state is set)",
+            [(f"start of {n}", f"{n}(start)", ca.SX(x)) for n, x in model.initials.items()]),
+           ("Delays", [(f"delay {d.name}: {d.description} (max {d.max_delay:g} s)",
+                        f"delay({d.name})", ca.SX(d.expr)) for d in model.delays]),
+           ("Event indicators (the solvers stop where they change sign)",
+            [(f"event {ev.name}: {ev.description}", ev.name, ev.expr) for ev in model.events]),
+           ("Constraints on the parameters (must be ≥ 0)",
+            [(f"{c.name}: {c.message}", c.name, c.expr) for c in model.constraints])]
+    for title, items in sub:
+        if items:
+            out.append(f"<h3>{title}</h3>")
+            out += [_expr_block(_e(t), lhs, rhs, csrc) for t, lhs, rhs in items]
+    if model.delays:
+        out.append(_table(["delay", "tau (s)"], [
+            f'<tr><td class="name">{_e(d.name)}</td><td class="mono">{_e(str(d.tau))}</td></tr>'
+            for d in model.delays]))
+    if model.mode_values:
+        out.append("<h3>Modes</h3>" + _table(["mode", "values (priority order)",
+                                                "re-chosen at the events"], [
+            f'<tr><td class="name">{_e(n)}</td><td>{_e(", ".join(map(str, vals)))}</td>'
+            f"<td>{_e(', '.join(e for e, m in model.event_modes.items() if m == n))}</td>"
+            "</tr>" for n, vals in model.mode_values.items()]))
+    return "".join(out)
+
+
+_GROUPS = (("Parameters", lambda v, kind: v.get("causality") == "parameter"),
+           ("Inputs", lambda v, kind: v.get("causality") == "input"),
+           ("Outputs", lambda v, kind: v.get("causality") == "output"),
+           ("States", lambda v, kind: kind == "state"),
+           ("Other local variables", lambda v, kind: v.get("causality") == "local"
+            and kind != "state"))
+
+
+def _variables(model: Model, md: ET.Element) -> str:
+    kinds = {v.name: v.kind for v in model.variables}
+    settings = {s.name for s in SETTINGS}
+    svs = md.find("ModelVariables").findall("ScalarVariable")
+    out = [f"<p>Every ScalarVariable of modelDescription.xml ({len(svs)} in all), as the "
+           "importer sees them. Ranges are enforced by the FMU: a parameter or state set "
+           "outside its range is refused (fmi2Error and a log line); an input outside its "
+           "range is taken with a warning (the model may not be valid there).</p>"]
+    enums = {st.get("name"): {it.get("value"): it.get("name") for it in st.iter("Item")}
+             for st in md.iter("SimpleType")}
+    for title, pick in _GROUPS:
+        rows = []
+        for sv in svs:
+            name = sv.get("name")
+            if not pick(sv, kinds.get(name)):
+                continue
+            typ = next(iter(sv))
+            start, unit = typ.get("start", ""), typ.get("unit", "")
+            if typ.tag == "Enumeration":
+                items = enums.get(typ.get("declaredType"), {})
+                start = f"{start} = {items.get(start, '?')}"
+            else:
+                start = _fmt(start)
+            lo, hi = _fmt(typ.get("min")), _fmt(typ.get("max"))
+            rng = f"[{lo or '−∞'}, {hi or '∞'}]" if (lo or hi) else ""
+            if name in settings or typ.tag == "Enumeration":
+                src = "loomfmu runtime setting"
+            elif kinds.get(name) == "parameter":
+                src = model.var(name).source
+            else:
+                src = ""
+            rows.append([("name", _e(name)),
+                         ("small", f'{_e(sv.get("causality"))}/{_e(sv.get("variability"))}'),
+                         ("num", _e(start)), ("", _e(unit)), ("num", _e(rng)),
+                         ("", _e(sv.get("description"))), ("small", _e(src))])
+        if rows:
+            head = ["name", "causality/variability", "start", "unit", "range", "description",
+                    "source"]
+            out.append(f"<h3>{title} ({len(rows)})</h3>" + _cell_table(head, rows))
+    return "".join(out)
+
+
+def _solver(md: ET.Element) -> str:
+    rtol = next(s for s in SETTINGS if s.name == "solver_rtol")
+    exp = md.find("DefaultExperiment")
+    tol = exp.get("tolerance") if exp is not None else None
+    rows = [f'<tr><td class="name">{i}</td><td class="name">{_e(s)}</td>'
+            f"<td>{_e(SOLVER_DESCRIPTIONS[s])}</td></tr>" for i, s in enumerate(SOLVERS, 1)]
+    starts = {sv.get("name"): next(iter(sv)).get("start")
+              for sv in md.find("ModelVariables").findall("ScalarVariable")}
+    srows = [f'<tr><td class="name">{_e(s.name)}</td><td class="num">{_fmt(starts.get(s.name))}'
+             f'</td><td>{_e(s.unit)}</td><td class="num">[{_fmt(s.min)}, {_fmt(s.max)}]</td>'
+             f"<td>{_e(s.description)}</td></tr>" for s in SETTINGS]
+    fmpy_note = (f" FMPy's <code>simulate_fmu</code> always passes one (the default "
+                 f"experiment's {_fmt(tol)} unless <code>relative_tolerance</code> is given), "
+                 "so with FMPy set <code>relative_tolerance</code>, not "
+                 "<code>solver_rtol</code>.") if tol else ""
+    return ("<p>The FMU integrates itself between communication points with the solver "
+            "chosen by the parameter <code>solver</code>; events are located inside the "
+            "step and the solver restarts there.</p>"
+            + _table(["value", "solver", "method"], rows)
+            + '<div class="rule"><strong>Tolerance rule: the importer\'s tolerance overrides '
+            "<code>solver_rtol</code>.</strong> When the importer calls "
+            "<code>fmi2SetupExperiment</code> with <code>toleranceDefined = fmi2True</code>, "
+            "its <code>tolerance</code> is the relative tolerance of the adaptive solvers "
+            "(dopri5, rodas4) and <code>solver_rtol</code> is not used (it keeps its "
+            f"value). A tolerance outside [{_fmt(rtol.min)}, {_fmt(rtol.max)}] is limited "
+            "to that range, with a warning. <code>solver_rtol</code> applies only when the "
+            "importer defines no tolerance." + fmpy_note + " <code>solver_atol</code> "
+            "always applies; rk4 takes fixed steps of <code>solver_h_fixed</code> and uses "
+            "neither.</div>"
+            + "<h3>Settings (fixed parameters)</h3>"
+            + _table(["name", "start", "unit", "range", "description"], srows))
+
+
+def _ports(model: Model) -> str:
+    if not model.ports:
+        return "<p>No ports declared.</p>"
+    rows = [f'<tr><td class="name">{_e(p.name)}</td><td>{_e(p.kind)}</td><td class="name">'
+            + "<br>".join(f"{_e(r)}: {_e(n)}" for r, n in p.variables.items())
+            + f"</td><td>{_e(p.description)}</td></tr>" for p in model.ports]
+    return ("<p>Named groups of variables that a scene connects to other FMUs.</p>"
+            + _table(["port", "kind", "variables (role: name)", "description"], rows))
+
+
+def _experiment(md: ET.Element) -> str:
+    exp = md.find("DefaultExperiment")
+    if exp is None:
+        return "<p>None declared.</p>"
+    what = {"startTime": ("s", "start time"), "stopTime": ("s", "stop time"),
+            "stepSize": ("s", "communication step"),
+            "tolerance": ("", "relative tolerance the importer is asked to pass")}
+    rows = [f'<tr><td class="name">{_e(k)}</td><td class="num">{_fmt(v)}</td>'
+            f"<td>{what.get(k, ('', ''))[0]}</td><td>{what.get(k, ('', ''))[1]}</td></tr>"
+            for k, v in exp.attrib.items()]
+    return _table(["attribute", "value", "unit", "meaning"], rows)
+
+
+def _verification(model: Model, md: ET.Element, ver: dict | None) -> str:
+    if ver is None:
+        return ('<div class="warn"><strong>Not verified at build</strong>; run '
+                "<code>loomfmu verify</code> on this FMU to compare it with the scipy "
+                "reference.</div>")
+    from .verify import verify
+    defaults = {k: p.default for k, p in inspect.signature(verify).parameters.items()
+                if p.default is not inspect.Parameter.empty}
+
+    def setting(key, dkey):
+        if key in ver:
+            return _fmt(ver[key])
+        return f"{_fmt(defaults[dkey])} (loomfmu.verify default)"
+
+    units = {v.name: v.unit for v in model.of_kind("output")}
+    out = [f"<p>The FMU was run through FMPy with each solver below (rtol "
+           f"{setting('rtol', 'rtol')}, atol {setting('atol', 'atol')}) and compared at "
+           "every communication point with a scipy <code>solve_ivp</code> reference "
+           f"(method {_e(model.reference_method)}, rtol {setting('ref_rtol', 'ref_rtol')}, "
+           f"atol {setting('ref_atol', 'ref_atol')}; "
+           f"{_fmt(ver.get('reference_wall_seconds'))} s, "
+           f"{_e(ver.get('reference_rhs_calls', ''))} right-hand-side calls). "
+           "Error measures per output: the largest absolute difference, and that "
+           "divided by the output's range over the run (its magnitude when the range is "
+           "zero). The row of the worst relative error is highlighted.</p>"]
+    for solver, res in ver["solvers"].items():
+        errs = res.get("errors") or {}
+        wall = _fmt(res.get("wall_seconds"))
+        if not errs:
+            msg = res.get("error") or "; ".join(res.get("log", [])) or "no errors recorded"
+            out.append(f"<h3>{_e(solver)}</h3><p>{_e(msg)}</p>")
+            continue
+        worst = max(errs, key=lambda n: errs[n]["max_rel_range"])
+        rows = [f'<tr{" class=worst" if n == worst else ""}><td class="name">{_e(n)}</td>'
+                f"<td>{_e(units.get(n, ''))}</td><td class=\"num\">{errs[n]['max_abs']:.3g}"
+                f"</td><td class=\"num\">{errs[n]['max_rel_range']:.3g}</td></tr>"
+                for n in errs]
+        out.append(f"<h3>{_e(solver)}: worst relative error "
+                   f"{errs[worst]['max_rel_range']:.3g} ({_e(worst)}), FMU run {wall} s</h3>"
+                   + _table(["output", "unit", "max abs error", "relative to range"], rows))
+    return "".join(out)

@@ -1,0 +1,157 @@
+"""Every FMU documents itself: documentation/index.html generated from the
+declaration and the model description, and a model description that names
+its author, version and generation tool."""
+from __future__ import annotations
+
+import html
+import importlib.metadata
+import re
+import shutil
+import xml.etree.ElementTree as ET
+import zipfile
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from loomfmu import MODELS, build_fmu, load_model
+from loomfmu.fmu_doc import DOC_MEMBER, html_for, write_documentation
+from loomfmu.verify import verify
+
+_BUILT: dict = {}
+
+
+@pytest.fixture
+def built(request, dist):
+    """The session's build of a model: conftest's fixture where there is one,
+    else built here once per session into the same folder."""
+    def get(name):
+        try:
+            return request.getfixturevalue(f"{name}_fmu")
+        except pytest.FixtureLookupError:
+            pass
+        if name not in _BUILT:
+            _BUILT[name] = build_fmu(load_model(name), out_dir=dist)
+        return _BUILT[name]
+    return get
+
+
+def _read(path):
+    with zipfile.ZipFile(path) as z:
+        return {n: z.read(n) for n in z.namelist()}, z.namelist()
+
+
+def _visible_text(page: str) -> str:
+    body = re.sub(r"<style>.*?</style>", "", page, flags=re.S)
+    return html.unescape(re.sub(r"<[^>]+>", " ", body))
+
+
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_every_fmu_carries_its_documentation(built, name):
+    result = built(name)
+    assert result.problems == [], result.problems  # fmpy validation still passes
+    files, order = _read(result.path)
+    assert order.count(DOC_MEMBER) == 1
+    page = files[DOC_MEMBER].decode("utf-8")
+    md = ET.fromstring(files["modelDescription.xml"])
+
+    cells = set(re.findall(r'<td class="name">([^<]*)</td>', page))
+    names = [sv.get("name") for sv in md.iter("ScalarVariable")]
+    missing = [n for n in names if html.escape(n, quote=True) not in cells]
+    assert not missing, f"variables not listed in {DOC_MEMBER}: {missing}"
+
+    text = " ".join(_visible_text(page).split())
+    assert "the importer's tolerance overrides solver_rtol" in text
+    assert "fmi2SetupExperiment" in text
+    assert "Not verified at build" in text and "loomfmu verify" in text
+    assert load_model(name).description in text
+    # self-contained: no scripts, no external files
+    assert "<script" not in page.lower()
+    assert not re.search(r'\b(src|href)="(?!#)', page)
+
+    version = importlib.metadata.version("loomfmu")
+    assert md.get("version") == version
+    assert md.get("generationTool") == f"loomfmu {version}"
+    assert md.get("author") and md.get("license") and md.get("copyright")
+
+
+def test_documentation_shows_the_verification(heald_frame_rigid_fmu, tmp_path):
+    fmu = tmp_path / "heald_frame_rigid.fmu"
+    shutil.copy(heald_frame_rigid_fmu.path, fmu)
+    model = load_model("heald_frame_rigid")
+    before, _ = _read(fmu)
+    ver = verify(fmu, model, solvers=("dopri5",), rtol=1e-6)
+    write_documentation(fmu, model, verification={**ver, "rtol": 1e-6})
+    after, order = _read(fmu)
+
+    assert order.count(DOC_MEMBER) == 1
+    assert {n: b for n, b in after.items() if n != DOC_MEMBER} == \
+        {n: b for n, b in before.items() if n != DOC_MEMBER}
+    page = after[DOC_MEMBER].decode("utf-8")
+    text = " ".join(_visible_text(page).split())
+    assert "Not verified at build" not in text
+    assert f"method {model.reference_method}" in text
+    errors = ver["solvers"]["dopri5"]["errors"]
+    assert set(errors) == {v.name for v in model.of_kind("output")}
+    section = page.split('<section id="verification">', 1)[1]
+    for out, e in errors.items():
+        row = re.search(rf'<td class="name">{re.escape(out)}</td>(.*?)</tr>', section, re.S)
+        assert row, out
+        cells = re.findall(r'<td class="num">([^<]*)</td>', row.group(1))
+        assert cells == [f"{e['max_abs']:.3g}", f"{e['max_rel_range']:.3g}"]
+    worst = max(errors, key=lambda n: errors[n]["max_rel_range"])
+    assert f"worst relative error {errors[worst]['max_rel_range']:.3g} ({worst})" in text
+
+
+def test_write_documentation_refuses_what_it_cannot_document(heald_frame_rigid_fmu, tmp_path):
+    not_fmu = tmp_path / "x.fmu"
+    not_fmu.write_text("not a zip")
+    with pytest.raises(ValueError, match="fmu_path"):
+        write_documentation(not_fmu, load_model("heald_frame_rigid"))
+    with pytest.raises(ValueError, match="modelName"):
+        write_documentation(heald_frame_rigid_fmu.path, load_model("backrest"))
+    with pytest.raises(ValueError, match="verification"):
+        html_for(load_model("heald_frame_rigid"), {"errors": {}})
+
+
+def _mm(description: str) -> float:
+    return float(re.search(r"z = ([0-9.]+) mm", description).group(1))
+
+
+def test_spindle_states_say_where_each_node_is():
+    m = load_model("spindle")
+    p = {v.name: v.start for v in m.of_kind("parameter")}
+    n_low, n_cone = m.options["n_low"], m.options["n_cone"]
+    bolster, whorl = n_low, n_low + 1
+    top = whorl + n_cone
+    expect = {0: ("footstep", 0.0), bolster: ("bolster", p["L_s"]),
+              whorl: ("whorl", p["L_s"] + p["L_w"]),
+              top: ("top", p["L_s"] + p["L_w"] + p["L_up"])}
+    for k in range(top + 1):
+        d = m.var(f"n{k}.x").description
+        z = (k * p["L_s"] / n_low if k <= bolster else
+             p["L_s"] + p["L_w"] + (k - whorl) * p["L_up"] / n_cone)
+        assert _mm(d) == pytest.approx(z * 1e3, abs=0.05), d
+        if k in expect:
+            assert expect[k][0] in d, d
+        else:
+            assert "interior" in d or "bobbin" in d, d
+        assert f"node {k}" in m.var(f"n{k}.vy").description
+
+
+def test_spindle_modal_states_say_which_mode_and_frequency():
+    from loomfmu.models.spindle import RPM, spindle_system
+    m = load_model("spindle_modal")
+    am, sp = spindle_system()
+    f = ca.Function("mk", [am.syms("parameter"), sp.Omega], [sp.M, sp.K])
+    M, K = (np.array(a) for a in f(am.starts("parameter"), m.options["basis_rpm"] * RPM))
+    xi, _ = sp.plane_indices()
+    lam = np.linalg.eigvals(np.linalg.solve(M[np.ix_(xi, xi)], K[np.ix_(xi, xi)]))
+    hz = np.sort(np.sqrt(np.abs(lam.real))) / (2 * np.pi)
+    for i in range(2 * m.options["n_modes"]):
+        d = m.var(f"eta{i}").description
+        k = i // 2
+        assert f"mode {k + 1}, {'xy'[i % 2]} plane" in d, d
+        got = float(re.search(r"([0-9.]+) Hz", d).group(1))
+        assert got == pytest.approx(hz[k], abs=0.06), d
+        assert f"{got:.1f} Hz" in m.var(f"deta{i}").description
