@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 
+from .checks import check_choice, check_number, check_optional_number, is_real
 from .units import check_unit
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
@@ -57,9 +58,9 @@ class Variable:
 
     def check_value(self, value: float) -> None:
         """Raise ValueError when ``value`` is outside this variable's range."""
-        if not math.isfinite(value):
-            raise ValueError(f"{self.name} = {value!r} is not finite; allowed range "
-                             f"[{self.min}, {self.max}] {self.unit}")
+        if not is_real(value) or not math.isfinite(value):
+            raise ValueError(f"{self.name} = {value!r:.60} is not finite; allowed: a number "
+                             f"in the range [{self.min}, {self.max}] {self.unit}")
         if not self.min <= value <= self.max:
             raise ValueError(f"{self.name} = {value!r} {self.unit} is outside the "
                              f"allowed range [{self.min}, {self.max}]")
@@ -131,23 +132,44 @@ class Model:
     t: ca.SX = field(default_factory=lambda: ca.SX.sym("time"))
 
     def __post_init__(self):
-        if not re.match(r"^[A-Za-z_][A-Za-z0-9_]*$", self.name):
-            raise ValueError(f"model name {self.name!r} must be a C identifier")
+        if not isinstance(self.name, str) or not re.match(r"^[A-Za-z_][A-Za-z0-9_]*$",
+                                                          self.name):
+            raise ValueError(f"name = {self.name!r}; allowed: a C identifier (model name)")
+        self.stop_time = check_number("stop_time", self.stop_time, lo=0.0, lo_open=True,
+                                      unit="s")
+        self.step_size = check_number("step_size", self.step_size, lo=0.0, lo_open=True,
+                                      hi=self.stop_time, unit="s")
+        if self.h_max != math.inf:
+            self.h_max = check_number("h_max", self.h_max, lo=0.0, lo_open=True, unit="s")
+        self.h_fixed = check_number("h_fixed", self.h_fixed, lo=0.0, lo_open=True,
+                                    hi=self.step_size, unit="s")
+        check_choice("reference_method", self.reference_method,
+                     ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA"))
         self._by_name: dict[str, Variable] = {}
         self._der: dict[str, ca.SX] = {}
 
     # -- declaration ------------------------------------------------------
     def _add(self, name, kind, start, unit, description, **kw) -> ca.SX:
-        if not _NAME.match(name):
-            raise ValueError(f"variable name {name!r} is not a valid identifier")
+        if not isinstance(name, str) or not _NAME.match(name):
+            raise ValueError(f"name = {name!r}; allowed: an identifier (dots between parts)")
         if name in self._by_name:
             raise ValueError(f"variable {name!r} declared twice in model {self.name}")
         check_unit(unit)
-        if not description:
-            raise ValueError(f"variable {name!r} needs a description")
+        if not description or not isinstance(description, str):
+            raise ValueError(f"variable {name!r} needs a description (a non-empty string)")
+        lo = check_number(f"{name}: min", kw.get("min", -math.inf)) if kw.get(
+            "min", -math.inf) != -math.inf else -math.inf
+        hi = check_number(f"{name}: max", kw.get("max", math.inf)) if kw.get(
+            "max", math.inf) != math.inf else math.inf
+        if lo > hi:
+            raise ValueError(f"{name}: min = {lo!r}, max = {hi!r}; allowed: min <= max")
+        if kw.get("nominal") is not None:
+            kw["nominal"] = check_optional_number(f"{name}: nominal", kw["nominal"], lo=0.0,
+                                                  lo_open=True)
+        if start is not None:
+            start = check_number(f"{name}: start", start, unit=unit)
         sym = ca.SX.sym(name)
-        var = Variable(name, kind, sym, None if start is None else float(start),
-                       unit, description, **kw)
+        var = Variable(name, kind, sym, start, unit, description, **kw)
         if start is not None:
             var.check_value(var.start)
         self.variables.append(var)
@@ -185,8 +207,7 @@ class Model:
         the FMU's history is built to hold; a larger tau is rejected at
         initialization.
         """
-        if not max_delay > 0:
-            raise ValueError(f"delay {name!r}: max_delay = {max_delay!r}; allowed: > 0")
+        check_number(f"delay {name!r}: max_delay", max_delay, lo=0.0, lo_open=True, unit="s")
         tau = ca.SX(tau)
         others = [self.t, self.syms("state"), self.syms("input"), self.syms("mode"),
                   self.syms("algebraic"), *(d.sym for d in self.delays),
@@ -228,8 +249,12 @@ class Model:
         takes the first value whose validity expression (see ``mode_rule``)
         is >= 0.
         """
-        values = tuple(int(v) for v in values)
-        if int(start) not in values:
+        from .checks import check_int
+        values = tuple(check_int(f"mode {name!r}: values", v) for v in values)
+        if not values or len(set(values)) != len(values):
+            raise ValueError(f"mode {name!r}: values = {values!r}; allowed: distinct integers, "
+                             "at least one")
+        if check_int(f"mode {name!r}: start", start) not in values:
             raise ValueError(f"mode {name!r}: start = {start!r}; allowed: {values}")
         sym = self._add(name, "mode", int(start), "", description,
                         min=min(values), max=max(values))

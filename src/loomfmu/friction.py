@@ -28,7 +28,15 @@ from __future__ import annotations
 
 import casadi as ca
 
+from .checks import check_number
 from .declare import Model
+
+
+def _coefficient(name: str, value):
+    """A friction radius/coefficient: an expression (a parameter) or a number >= 0."""
+    if isinstance(value, (ca.SX, ca.MX)):
+        return value
+    return check_number(name, value, lo=0.0)
 
 STUCK, FORWARD, BACKWARD = 0, 1, -1
 MODE_LABELS = {STUCK: "stuck", FORWARD: "forward", BACKWARD: "backward"}
@@ -48,6 +56,21 @@ def coulomb_joint(m: Model, name: str, *, speed: ca.SX, torque: ca.SX, normal,
     tanh(speed / eps), the smooth variant whose cost and error can be charted
     against the event-driven one; returns None.
     """
+    if not isinstance(m, Model):
+        raise ValueError(f"m = {m!r:.60}; allowed: a loomfmu Model")
+    for arg, sym in (("speed", speed), ("torque", torque)):
+        if not (isinstance(sym, ca.SX) and sym.is_symbolic() and sym.numel() == 1):
+            raise ValueError(f"{arg} = {sym!r:.60}; allowed: one declared variable's symbol")
+    r_kinetic = _coefficient("r_kinetic", r_kinetic)
+    r_static = _coefficient("r_static", r_static)
+    if isinstance(r_kinetic, float) and isinstance(r_static, float) and r_static < r_kinetic:
+        raise ValueError(f"r_static = {r_static!r}, r_kinetic = {r_kinetic!r}; allowed: "
+                         "r_static >= r_kinetic (static friction holds at least as much)")
+    if regularized_eps is not None and not isinstance(regularized_eps, (ca.SX, ca.MX)):
+        regularized_eps = check_number("regularized_eps", regularized_eps, lo=0.0,
+                                       lo_open=True)
+    if start not in (STUCK, FORWARD, BACKWARD) or isinstance(start, bool):
+        raise ValueError(f"start = {start!r}; allowed: STUCK (0), FORWARD (1), BACKWARD (-1)")
     accel = m.der(speed)
     if regularized_eps is not None:
         m.eq(torque, -r_kinetic * normal * ca.tanh(speed / regularized_eps))

@@ -25,8 +25,39 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from .checks import check_bool, check_int, check_number
+
 #: Gauss-Legendre points for the squeeze-film integrals of (4), (5).
 FILM_QUADRATURE_POINTS = 16
+#: most Gauss-Legendre points of :func:`gauss_integral`, most coil-spring turns
+MAX_POINTS, MAX_TURNS = 1000, 100
+
+
+def _is_symbolic(value) -> bool:
+    return isinstance(value, (ca.SX, ca.MX, ca.DM))
+
+
+def _num(name: str, value, *, lo: float = 0.0, lo_open: bool = True, hi: float = math.inf):
+    """A numeric argument checked like :func:`~loomfmu.checks.check_number`
+    (default > 0); a CasADi expression passes unchanged (it is a model's
+    parameter, checked by the parameter's range)."""
+    if _is_symbolic(value):
+        return value
+    return check_number(name, value, lo=lo, lo_open=lo_open, hi=hi)
+
+
+def _coeffs(name: str, value):
+    """A 2x2 coefficient table [[xx, xy], [yx, yy]] of numbers or expressions."""
+    try:
+        rows = [list(r) for r in value]
+        ok = len(rows) == 2 and all(len(r) == 2 for r in rows)
+    except TypeError:
+        ok = False
+    if not ok:
+        raise ValueError(f"{name} = {value!r:.60}; allowed: 2x2 coefficients "
+                         "[[xx, xy], [yx, yy]]")
+    return [[_num(f"{name}[{i}][{j}]", v, lo=-math.inf) for j, v in enumerate(r)]
+            for i, r in enumerate(rows)]
 
 
 # ---------------------------------------------------------------- beam element
@@ -40,6 +71,8 @@ def beam_planar(l, EI, rhoA, rhoI, phi=0.0):
     The gyroscopic matrix of the element is 2 M_r (I_p = 2 I_d for a
     circular section), see :func:`element_global`.
     """
+    l, EI, rhoA = _num("l", l), _num("EI", EI), _num("rhoA", rhoA)
+    rhoI, phi = _num("rhoI", rhoI, lo_open=False), _num("phi", phi, lo_open=False)
     p = phi
     k = EI / ((1 + p) * l**3)
     K = [[12 * k, 6 * l * k, -12 * k, 6 * l * k],
@@ -67,7 +100,11 @@ def beam_planar(l, EI, rhoA, rhoI, phi=0.0):
 
 
 def circle_section(d_out, d_in=0.0):
-    """Area and second moment of area of a (hollow) circular section."""
+    """Area and second moment of area of a (hollow) circular section
+    (d_out > d_in >= 0)."""
+    d_out, d_in = _num("d_out", d_out), _num("d_in", d_in, lo_open=False)
+    if not (_is_symbolic(d_out) or _is_symbolic(d_in)) and d_in >= d_out:
+        raise ValueError(f"d_in = {d_in!r}, d_out = {d_out!r}; allowed: d_in < d_out")
     return math.pi / 4 * (d_out**2 - d_in**2), math.pi / 64 * (d_out**4 - d_in**4)
 
 
@@ -91,6 +128,16 @@ class Rotor:
     housings: list = field(default_factory=list)  # (node, m_p, K1, C1, K2, C2)
     structural_damping: object = 0.0              # beta: C += beta K_beam
 
+    def __post_init__(self):
+        self.E, self.rho = _num("E", self.E), _num("rho", self.rho)
+        self.G_shear, self.kappa = _num("G_shear", self.G_shear), _num("kappa", self.kappa)
+        self.timoshenko = check_bool("timoshenko", self.timoshenko)
+        self.structural_damping = _num("structural_damping", self.structural_damping,
+                                       lo_open=False)
+
+    def _node(self, node) -> int:
+        return check_int("node", node, lo=0, hi=self.n_nodes - 1)
+
     @property
     def n_nodes(self) -> int:
         return len(self.elements) + 1
@@ -99,22 +146,26 @@ class Rotor:
         """Append a beam element above the last node; return its top node.
         EI_extra: bending stiffness of a part that stiffens the element
         without adding mass here (e.g. a bobbin tube pressed on the blade)."""
-        self.elements.append((l, d_out, d_in, EI_extra))
+        circle_section(d_out, d_in)
+        self.elements.append((_num("l", l), d_out, d_in, _num("EI_extra", EI_extra,
+                                                                lo_open=False)))
         return len(self.elements)
 
     def disk(self, node, m, Id, Ip) -> None:
         """A rigid disk (mass, diametral and polar moment of inertia) at ``node``."""
-        self.disks.append((node, m, Id, Ip))
+        self.disks.append((self._node(node), _num("m", m, lo_open=False),
+                           _num("Id", Id, lo_open=False), _num("Ip", Ip, lo_open=False)))
 
     def spring(self, node, K, C) -> None:
         """An 8-coefficient support to ground: K, C are 2x2 [[xx, xy], [yx, yy]]."""
-        self.springs.append((node, K, C))
+        self.springs.append((self._node(node), _coeffs("K", K), _coeffs("C", C)))
 
     def housing(self, node, m_p, K1, C1, K2, C2) -> None:
         """Bearing (K1, C1) from ``node`` to a housing of participating mass
         m_p, and the housing's support (K2, C2) to ground (seed 003, fig. 4).
         The housing adds two DOF (its x, y), placed before the node's DOF."""
-        self.housings.append((node, m_p, K1, C1, K2, C2))
+        self.housings.append((self._node(node), _num("m_p", m_p), _coeffs("K1", K1),
+                              _coeffs("C1", C1), _coeffs("K2", K2), _coeffs("C2", C2)))
 
     # -- DOF layout ------------------------------------------------------------
     def dof_names(self) -> list[str]:
@@ -127,7 +178,11 @@ class Rotor:
         return names
 
     def dof(self, name: str) -> int:
-        return self.dof_names().index(name)
+        names = self.dof_names()
+        if name not in names:
+            raise ValueError(f"name = {name!r}; allowed: a DOF name such as 'n0.x' "
+                             f"({len(names)} DOF: {', '.join(names[:8])}, ...)")
+        return names.index(name)
 
     def node_z(self) -> list:
         z = [0.0]
@@ -214,8 +269,12 @@ def band_ldl_solve(A: ca.SX, b: ca.SX, bw: int | None = None) -> ca.SX:
     The expression grows as n bw^2 (a dense symbolic factorization grows
     as n^3), which keeps the generated right-hand side of an FE rotor small.
     """
+    if not isinstance(A, (ca.SX, ca.DM)) or A.size1() != A.size2():
+        raise ValueError(f"A: {A!r:.60}; allowed: a square CasADi matrix")
     n = A.size1()
-    bw = bandwidth(A) if bw is None else bw
+    if ca.SX(b).numel() != n:
+        raise ValueError(f"b: {ca.SX(b).numel()} elements; allowed: {n} (the size of A)")
+    bw = bandwidth(A) if bw is None else check_int("bw", bw, lo=0, hi=max(n - 1, 0))
     L: dict[tuple[int, int], ca.SX] = {}
     D: list[ca.SX] = []
     for j in range(n):
@@ -240,6 +299,10 @@ def band_ldl_solve(A: ca.SX, b: ca.SX, bw: int | None = None) -> ca.SX:
 # ------------------------------------------ coil-spring squeeze-film damper
 def gauss_integral(fun, a: float, b: float, n: int = FILM_QUADRATURE_POINTS):
     """int_a^b fun(t) dt by n-point Gauss-Legendre (fun may return SX)."""
+    if not callable(fun):
+        raise ValueError(f"fun = {fun!r:.60}; allowed: a function of one argument")
+    a, b = check_number("a", a), check_number("b", b)
+    n = check_int("n", n, lo=1, hi=MAX_POINTS)
     t, w = np.polynomial.legendre.leggauss(n)
     half, mid = (b - a) / 2, (a + b) / 2
     return sum(float(wi) * half * fun(mid + half * float(ti)) for ti, wi in zip(t, w))
@@ -247,21 +310,30 @@ def gauss_integral(fun, a: float, b: float, n: int = FILM_QUADRATURE_POINTS):
 
 def spring_radii(r1, c, n: int) -> list:
     """Radii of the n turns of the coil spring, r_{i+1} - r_i = c (seed 003, (5))."""
-    if n < 2:
-        raise ValueError(f"n = {n!r} turns; allowed: >= 2")
+    n = check_int("n", n, lo=2, hi=MAX_TURNS)
+    r1, c = _num("r1", r1), _num("c", c)
     return [r1 + i * c for i in range(n)]
 
 
 def coil_spring_stiffness(E, a, l, radii):
     """Structural stiffness (1): K = E a^3 l / (12 pi sum r_i^3)."""
+    E, a, l, radii = _num("E", E), _num("a", a), _num("l", l), _radii(radii)
     return E * a**3 * l / (12 * math.pi * sum(r**3 for r in radii))
 
 
 def film_eccentricities(radii, c, delta0) -> list:
     """eps_i0 = 1 - ((n-1) c - delta0)/c * r_i / sum_{j<n} r_j (seed 003, after (5))."""
+    radii, c, delta0 = _radii(radii), _num("c", c), _num("delta0", delta0, lo_open=False)
     n = len(radii)
     s = sum(radii[: n - 1])
     return [1 - ((n - 1) * c - delta0) / c * r / s for r in radii]
+
+
+def _radii(radii) -> list:
+    """The turns' radii: a list of at least two (> 0)."""
+    if isinstance(radii, (str, bytes)) or not hasattr(radii, "__len__") or len(radii) < 2:
+        raise ValueError(f"radii = {radii!r:.60}; allowed: a list of >= 2 radii (m, > 0)")
+    return [_num(f"radii[{i}]", r) for i, r in enumerate(radii)]
 
 
 def _pow(base, e):
@@ -282,6 +354,8 @@ def film_integral_C(eps):
 
 def film_stiffness(eta, x0, omega, radii, l, c, delta0):
     """Film stiffness K_xx = K_yy of (2) with the layers' K^(i) of (4)."""
+    eta, x0, l = _num("eta", eta), _num("x0", x0), _num("l", l)
+    omega = _num("omega", omega, lo_open=False)
     s = sum(radii[: len(radii) - 1])
     eps = film_eccentricities(radii, c, delta0)
     inv = 0
@@ -301,6 +375,7 @@ def film_damping(eta, radii, l, c, delta0, form: str = "corrected"):
     """
     if form not in ("corrected", "printed"):
         raise ValueError(f"form = {form!r}; allowed: 'corrected', 'printed'")
+    eta, l = _num("eta", eta), _num("l", l)
     s = sum(radii[: len(radii) - 1])
     eps = film_eccentricities(radii, c, delta0)
     inv = 0
@@ -315,7 +390,10 @@ def equivalent_support(K1, C1, K2, C2, m_p, w):
     whirl frequency w (seed 003, fig. 4): Z = Z1 (Z1 + Z2)^-1 Z2 with the
     displacement impedances Z1 = K1 + i w C1, Z2 = K2 + i w C2 - w^2 m_p I.
     Returns (K_eq, C_eq) as 2x2 numpy arrays (K_eq = Re Z, C_eq = Im Z / w)."""
-    K1, C1, K2, C2 = (np.asarray(v, dtype=float) for v in (K1, C1, K2, C2))
+    K1, C1, K2, C2 = (np.array(_coeffs(n, v), dtype=float)
+                      for n, v in (("K1", K1), ("C1", C1), ("K2", K2), ("C2", C2)))
+    m_p = check_number("m_p", m_p, lo=0.0)
+    w = check_number("w", w, lo=0.0, lo_open=True, unit="rad/s")
     Z1 = K1 + 1j * w * C1
     Z2 = K2 + 1j * w * C2 - w**2 * m_p * np.eye(2)
     Z = Z1 @ np.linalg.solve(Z1 + Z2, Z2)
@@ -323,9 +401,14 @@ def equivalent_support(K1, C1, K2, C2, m_p, w):
 
 
 def numeric(exprs, syms: ca.SX, values) -> list[np.ndarray]:
-    """Evaluate SX expressions at numeric values of ``syms``."""
+    """Evaluate SX expressions at numeric values of ``syms`` (one finite value each)."""
+    from .checks import check_array
+    values = check_array("values", values, ndim=None, min_size=0)
+    if values.size != syms.numel():
+        raise ValueError(f"values: {values.size} numbers; allowed: {syms.numel()} (one per "
+                         "symbol)")
     f = ca.Function("f", [syms], list(exprs))
-    return [np.asarray(v) for v in f(ca.DM(np.asarray(values, dtype=float)))]
+    return [np.asarray(v) for v in f(ca.DM(values))]
 
 
 if __name__ == "__main__":  # python -m loomfmu.rotor calibrate|trends|charts|all

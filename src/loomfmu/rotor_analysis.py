@@ -19,13 +19,47 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from .checks import check_array, check_bool, check_int, check_number
+
 #: rad/s per rpm
 RPM = 2 * np.pi / 60
+#: most modes :func:`campbell` tracks
+MAX_MODES = 1000
+
+
+def check_matrices(**mats) -> list[np.ndarray]:
+    """Square, finite matrices of one size, in the order given."""
+    out = []
+    for name, value in mats.items():
+        a = check_array(name, value, ndim=2)
+        if a.shape[0] != a.shape[1]:
+            raise ValueError(f"{name}: shape {a.shape}; allowed: a square matrix")
+        if out and a.shape != out[0].shape:
+            raise ValueError(f"{name}: shape {a.shape}; allowed: {out[0].shape} like "
+                             f"{next(iter(mats))}")
+        out.append(a)
+    return out
+
+
+def check_vector(name: str, value, n: int) -> np.ndarray:
+    v = check_array(name, value)
+    if v.shape != (n,):
+        raise ValueError(f"{name}: shape {v.shape}; allowed: ({n},), one per DOF")
+    return v
+
+
+def check_indices(name: str, value, n: int) -> np.ndarray:
+    """DOF indices (integers in [0, n))."""
+    idx = check_array(name, value, lo=0, hi=n - 1, ndim=None)
+    if np.any(idx != np.round(idx)):
+        raise ValueError(f"{name}: {value!r:.40}; allowed: integer DOF indices in [0, {n})")
+    return idx.astype(int)
 
 
 def undamped_frequencies(M: np.ndarray, K: np.ndarray) -> np.ndarray:
     """Natural frequencies (rad/s, ascending) of M q'' + K q = 0; K's
     symmetric part is used (cross-coupling does not store energy)."""
+    M, K = check_matrices(M=M, K=K)
     Ks = (K + K.T) / 2
     w2 = sla.eigh(Ks, (M + M.T) / 2, eigvals_only=True)
     return np.sqrt(np.clip(w2, 0, None))
@@ -37,6 +71,7 @@ def complex_modes(M, C, K):
     K must be regular (the rotor must be supported).  Returns (s, X) with
     X of shape (n, 2n), one column per eigenvalue.
     """
+    M, C, K = check_matrices(M=M, C=C, K=K)
     n = M.shape[0]
     KiC = np.linalg.solve(K, C)
     KiM = np.linalg.solve(K, M)
@@ -69,6 +104,12 @@ def whirl_modes(M, C, K, x_idx, y_idx) -> list[WhirlMode]:
 
     x_idx, y_idx: indices of the x and y DOF (translations and slopes, paired).
     """
+    M, C, K = check_matrices(M=M, C=C, K=K)
+    x_idx, y_idx = (check_indices(n, v, M.shape[0]) for n, v in (("x_idx", x_idx),
+                                                                 ("y_idx", y_idx)))
+    if x_idx.shape != y_idx.shape:
+        raise ValueError(f"x_idx, y_idx: shapes {x_idx.shape} and {y_idx.shape}; allowed: "
+                         "paired indices of equal length")
     s, X = complex_modes(M, C, K)
     out = []
     for k in np.argsort(np.abs(s.imag)):
@@ -86,6 +127,12 @@ def campbell(matrices, speeds_rpm, x_idx, y_idx, n_modes: int = 6, damped=True):
     Returns {"speed_rpm", "forward", "backward"}: arrays (len(speeds), n_modes)
     of the lowest forward / backward whirl frequencies in rpm (nan if fewer).
     """
+    if not callable(matrices):
+        raise ValueError(f"matrices = {matrices!r:.60}; allowed: a function Omega -> "
+                         "(M, C, G, K)")
+    speeds_rpm = check_array("speeds_rpm", speeds_rpm, unit="rpm")
+    n_modes = check_int("n_modes", n_modes, lo=1, hi=MAX_MODES)
+    damped = check_bool("damped", damped)
     fw = np.full((len(speeds_rpm), n_modes), np.nan)
     bw = np.full((len(speeds_rpm), n_modes), np.nan)
     for i, n in enumerate(speeds_rpm):
@@ -100,6 +147,9 @@ def campbell(matrices, speeds_rpm, x_idx, y_idx, n_modes: int = 6, damped=True):
 
 def unbalance_response(M, C, K, w, P1, P2):
     """Solve (15) for A1, A2: q = A1 sin wt + A2 cos wt (C includes w G)."""
+    M, C, K = check_matrices(M=M, C=C, K=K)
+    w = check_number("w", w, unit="rad/s")
+    P1, P2 = check_vector("P1", P1, M.shape[0]), check_vector("P2", P2, M.shape[0])
     D = K - w**2 * M
     A = np.block([[D, -w * C], [w * C, D]])
     sol = np.linalg.solve(A, np.concatenate([P1, P2]))
@@ -109,11 +159,18 @@ def unbalance_response(M, C, K, w, P1, P2):
 
 def amplitude(A1, A2, idx) -> float:
     """Largest excursion of a DOF whose motion is A1 sin wt + A2 cos wt."""
+    A1 = check_array("A1", A1)
+    A2 = check_vector("A2", A2, len(A1))
+    idx = check_int("idx", idx, lo=0, hi=len(A1) - 1)
     return float(np.hypot(A1[idx], A2[idx]))
 
 
 def orbit_radius(A1, A2, ix, iy) -> float:
     """Largest radius sqrt(x^2 + y^2) over one period of a node's orbit."""
+    A1 = check_array("A1", A1)
+    A2 = check_vector("A2", A2, len(A1))
+    ix = check_int("ix", ix, lo=0, hi=len(A1) - 1)
+    iy = check_int("iy", iy, lo=0, hi=len(A1) - 1)
     t = np.linspace(0, 2 * np.pi, 721)
     x = A1[ix] * np.sin(t) + A2[ix] * np.cos(t)
     y = A1[iy] * np.sin(t) + A2[iy] * np.cos(t)
@@ -131,7 +188,10 @@ def dynamic_compliance(M, C, K, w, a, b=None):
     """(21): u0/P0 = sum_i (b^T X_i)(H_i^T a) / (m_i (i w - s_i)), with
     m_i = H_i^T (2 s_i M + C) X_i (19).  a: force direction; b: response
     direction (default a, as printed).  Returns a complex number."""
-    b = a if b is None else b
+    M, C, K = check_matrices(M=M, C=C, K=K)
+    w = check_number("w", w, unit="rad/s")
+    a = check_vector("a", a, M.shape[0])
+    b = a if b is None else check_vector("b", b, M.shape[0])
     s, X = complex_modes(M, C, K)
     H = left_modes(M, C, K, s)
     total = 0j
@@ -143,5 +203,8 @@ def dynamic_compliance(M, C, K, w, a, b=None):
 
 def direct_compliance(M, C, K, w, a, b=None):
     """b^T (K + i w C - w^2 M)^-1 a: the oracle for :func:`dynamic_compliance`."""
-    b = a if b is None else b
+    M, C, K = check_matrices(M=M, C=C, K=K)
+    w = check_number("w", w, unit="rad/s")
+    a = check_vector("a", a, M.shape[0])
+    b = a if b is None else check_vector("b", b, M.shape[0])
     return complex(b @ np.linalg.solve(K + 1j * w * C - w**2 * M, a))

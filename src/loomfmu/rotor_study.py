@@ -21,6 +21,7 @@ import casadi as ca
 import numpy as np
 from scipy.optimize import least_squares
 
+from .checks import check_bool, check_int, check_mapping, check_number
 from .rotor_analysis import (RPM, campbell, direct_compliance, dynamic_compliance,
                              orbit_radius, unbalance_response, whirl_modes)
 
@@ -58,7 +59,13 @@ class Spindle:
     options: dict
 
     def __post_init__(self):
-        from loomfmu.models.spindle import spindle_system
+        import inspect
+
+        from loomfmu.models.spindle import declare_rotor, spindle_system
+        allowed = [p.name for p in inspect.signature(declare_rotor).parameters.values()
+                   if p.kind is inspect.Parameter.KEYWORD_ONLY]
+        self.options = check_mapping("options", self.options, allowed,
+                                     what="spindle build options", numbers_only=False)
         self.model, self.sp = spindle_system(**self.options)
         self.names = [v.name for v in self.model.of_kind("parameter")]
         self.defaults = dict(zip(self.names, self.model.starts("parameter")))
@@ -67,16 +74,26 @@ class Spindle:
         self.xi, self.yi = self.sp.plane_indices()
 
     def values(self, **overrides) -> dict:
-        unknown = set(overrides) - set(self.names)
-        if unknown:
-            raise ValueError(f"overrides: {sorted(unknown)} are not spindle parameters")
+        """The default parameters with ``overrides`` (names and ranges checked)."""
+        overrides = check_mapping("overrides", overrides, self.names,
+                                  what="spindle parameters")
+        for name, value in overrides.items():
+            self.model.var(name).check_value(value)
         return {**self.defaults, **overrides}
 
     def matrices(self, Omega: float, values: dict | None = None):
-        v = values or self.defaults
+        """(M, C, G, K) at spin speed Omega (rad/s) for ``values`` (parameters;
+        default: the defaults)."""
+        check_number("Omega", Omega, unit="rad/s")
+        v = self.values(**check_mapping("values", values, self.names,
+                                        what="spindle parameters"))
         return [np.array(a) for a in self._f([v[n] for n in self.names], Omega)]
 
     def forward_freqs_rpm(self, values=None, speed_rpm=WORK_RPM, n=3, damped=False):
+        """The n lowest forward-whirl frequencies (rpm) at speed_rpm (>= 0)."""
+        speed_rpm = check_number("speed_rpm", speed_rpm, lo=0.0, unit="rpm")
+        n = check_int("n", n, lo=1, hi=1000)
+        damped = check_bool("damped", damped)
         M, C, G, K = self.matrices(speed_rpm * RPM, values)
         Om = speed_rpm * RPM
         modes = whirl_modes(M, (C if damped else 0 * C) + Om * G, K, self.xi, self.yi)
@@ -85,8 +102,13 @@ class Spindle:
 
     def unbalance(self, speed_rpm, values=None, e_b=5e-6, e_w=5e-6):
         """Orbit radii (top, bottom) from (15) for the bobbin's and whorl's
-        unbalance m e Omega^2, in phase (F_x = U w^2 cos wt, F_y = U w^2 sin wt)."""
-        v = values or self.defaults
+        unbalance m e Omega^2, in phase (F_x = U w^2 cos wt, F_y = U w^2 sin wt).
+        speed_rpm: >= 0; e_b, e_w: eccentricities (m, >= 0)."""
+        v = self.values(**check_mapping("values", values, self.names,
+                                        what="spindle parameters"))
+        speed_rpm = check_number("speed_rpm", speed_rpm, lo=0.0, unit="rpm")
+        e_b = check_number("e_b", e_b, lo=0.0, unit="m")
+        e_w = check_number("e_w", e_w, lo=0.0, unit="m")
         w = speed_rpm * RPM
         M, C, G, K = self.matrices(w, v)
         n = M.shape[0]
@@ -102,11 +124,17 @@ class Spindle:
                 orbit_radius(A1, A2, self.sp.idx(f"n{bot}.x"), self.sp.idx(f"n{bot}.y")))
 
 
+def _check_spindle(sp) -> Spindle:
+    if not isinstance(sp, Spindle):
+        raise ValueError(f"sp = {sp!r:.60}; allowed: a Spindle")
+    return sp
+
+
 # ------------------------------------------------------------------ calibration
 def calibrate(sp: Spindle | None = None) -> dict:
     """Fit CAL_BOUNDS' unknowns to SEED_FREQS (log-frequency least squares
     with a weak pull to the assumed values).  Returns the fit and the table."""
-    sp = sp or Spindle({})
+    sp = Spindle({}) if sp is None else _check_spindle(sp)
     keys = list(CAL_BOUNDS)
     prior = np.log([PRIOR[k] for k in keys])
     lo = np.log([CAL_BOUNDS[k][0] for k in keys])
@@ -142,8 +170,9 @@ def calibrate(sp: Spindle | None = None) -> dict:
 def amplitude_table(sp: Spindle, fill: float) -> dict:
     """The seed's amplitude-vs-speed table against the model; the unbalance
     (equal eccentricity of bobbin and whorl) is scaled to the seed's top
-    amplitude by least squares in log (one factor: the seed gives no unbalance)."""
-    v = sp.values(fill=fill)
+    amplitude by least squares in log (one factor: the seed gives no unbalance).
+    fill: bobbin fill, in the parameter's range."""
+    v = _check_spindle(sp).values(fill=fill)
     speeds = SEED_TABLE["speed_rpm"]
     e = 1e-6
     raw = np.array([sp.unbalance(n, v, e_b=e, e_w=e) for n in speeds])

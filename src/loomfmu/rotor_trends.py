@@ -17,6 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .checks import check_array, check_choice, check_number  # noqa: E402
 from .rotor_analysis import RPM, campbell, dynamic_compliance  # noqa: E402
 from .rotor_study import CHARTS, DOCS, WORK_RPM, Spindle, amplitude_table  # noqa: E402
 
@@ -54,12 +55,18 @@ STUDIES = {
 
 
 def direction(y) -> str:
-    y = np.asarray(y, float)
+    """"up", "down" or "flat" (within FLAT) from y[0] to y[-1]; y[0] != 0."""
+    y = check_array("y", y, min_size=2)
+    if y[0] == 0:
+        raise ValueError("y[0] = 0; allowed: nonzero (the change is relative to it)")
     change = (y[-1] - y[0]) / abs(y[0])
     return "flat" if abs(change) <= FLAT else ("up" if change > 0 else "down")
 
 
 def run_study(name: str, ecc: float) -> dict:
+    """Study ``name`` (a key of STUDIES) at eccentricity ``ecc`` (m, > 0)."""
+    check_choice("name", name, tuple(STUDIES))
+    ecc = check_number("ecc", ecc, lo=0.0, lo_open=True, unit="m")
     label, xs, apply, claims = STUDIES[name]
     base = Spindle({})
     rows = []

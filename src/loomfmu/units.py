@@ -40,5 +40,8 @@ UNITS: dict[str, dict[str, float]] = {
 
 def check_unit(unit: str) -> None:
     """Raise ValueError for a unit loomfmu cannot describe in the XML."""
+    if not isinstance(unit, str):
+        raise ValueError(f"unit = {unit!r:.60}; allowed: a unit name (string) from "
+                         f"{sorted(UNITS)}")
     if unit and unit not in UNITS:
         raise ValueError(f"unit {unit!r} is not defined; known units: {sorted(UNITS)}")
