@@ -195,20 +195,123 @@ static LfStatus cross_gap(LfInstance *c, int k, double t_left, const double *x_l
     return LF_OK;
 }
 
-/* After an accepted step: find the earliest crossing.  The step is then
- * redone from t_old to the root's old side, so that no stage straddles the
- * discontinuity (the dense output of the straddling step is contaminated by
- * it), and the solver restarts on the new side. */
-LfStatus lf_handle_events(LfInstance *c) {
+/* Indicators between the ends of an accepted step.  A step's ends alone
+ * miss an indicator that leaves its sign and comes back inside the step: a
+ * stuck joint's breakaway margin driven by time (its states constant, so
+ * the solver's error estimate is zero and its step grows tenfold each
+ * step).  Two rules, for every model:
+ *
+ * 1. Each accepted step is scanned on the dense output: the indicators at
+ *    its midpoint, and the quadratic through the three samples per
+ *    indicator.  Where that quadratic's extremum inside the interval comes
+ *    closer to zero than LF_EVENT_VERTEX_MARGIN times the midpoint's
+ *    distance from the chord (or two sign changes show), the halves are
+ *    scanned again, down to LF_EVENT_SCAN_DEPTH levels.  The earliest
+ *    interval with a sign change is where the root is located.
+ * 2. The next step is bounded so that the indicators stay resolved: an
+ *    indicator's second difference over the step, |g(a) - 2 g(m) + g(b)|,
+ *    which grows as h^2, may be at most LF_EVENT_CURV times its size
+ *    max(|g|) (about 6 steps per period of an oscillating indicator).
+ *    Without the bound a step could alias a whole oscillation, which no
+ *    sampling inside it can see.  The bound never shrinks the step below
+ *    a quarter of the last one at once. */
+#define LF_EVENT_SCAN_DEPTH 8
+#define LF_EVENT_VERTEX_MARGIN 0.5
+#define LF_EVENT_CURV 0.25
+
+/* Could samples ga, gm, gb of one indicator at the start, middle and end of
+ * an interval hide a sign change (two roots, or one already seen)? */
+static int may_hide_roots(double ga, double gm, double gb) {
+    double a = 2.0 * (ga - 2.0 * gm + gb), b = 4.0 * gm - 3.0 * ga - gb, th, v;
+    double sgn = (ga > 0 || (ga == 0 && gb > 0)) ? 1.0 : -1.0;
+    if (crossed(ga, gm) || crossed(gm, gb)) return 1;
+    if (a == 0) return 0;
+    th = -b / (2.0 * a); /* extremum of ga + b th + a th^2 */
+    if (!(th > 0 && th < 1)) return 0;
+    v = ga + th * (b + a * th);
+    return sgn * v < LF_EVENT_VERTEX_MARGIN * 0.25 * fabs(a);
+}
+
+static int any_crossed(const double *ga, const double *gb) {
+    int k;
+    for (k = 0; k < LF_NE; k++)
+        if (crossed(ga[k], gb[k])) return 1;
+    return 0;
+}
+
+typedef struct {
+    double ta, tb;                  /* earliest interval with a sign change */
+    double ga[LF_DIM(LF_NE)], gb[LF_DIM(LF_NE)];
+    int found;
+    double h_bound;                 /* bound on the next step (rule 2) */
+} EventScan;
+
+/* Scan (ta, tb] of the accepted step (rule 1); depth 0 also sets rule 2's
+ * bound.  Stops at the first interval with a sign change. */
+static LfStatus scan_events(LfInstance *c, double ta, const double *ga, double tb,
+                            const double *gb, int depth, EventScan *out) {
+    double gm[LF_DIM(LF_NE)], xm[LF_DIM(LF_NX)], tm = 0.5 * (ta + tb);
+    int k, resolved = 1;
+    LfStatus st;
+    if (depth < LF_EVENT_SCAN_DEPTH && tm > ta && tm < tb) {
+        c->solver.method->dense(&c->solver, tm, xm);
+        st = lf_eval_events(c, tm, xm, gm);
+        if (st != LF_OK) return st;
+        for (k = 0; k < LF_NE; k++) {
+            if (may_hide_roots(ga[k], gm[k], gb[k])) resolved = 0;
+            if (depth == 0) {
+                double d2 = fabs(ga[k] - 2.0 * gm[k] + gb[k]);
+                double size = fmax(fabs(ga[k]), fmax(fabs(gm[k]), fabs(gb[k])));
+                if (d2 > 0 && size > 0)
+                    out->h_bound = fmin(out->h_bound, (tb - ta) * sqrt(LF_EVENT_CURV * size / d2));
+            }
+        }
+        if (!resolved) {
+            st = scan_events(c, ta, ga, tm, gm, depth + 1, out);
+            if (st != LF_OK || out->found) return st;
+            return scan_events(c, tm, gm, tb, gb, depth + 1, out);
+        }
+        /* a single sign change, in one of the halves */
+        if (any_crossed(ga, gm)) {
+            tb = tm;
+            gb = gm;
+        } else if (any_crossed(gm, gb)) {
+            ta = tm;
+            ga = gm;
+        }
+    }
+    if (any_crossed(ga, gb)) {
+        out->found = 1;
+        out->ta = ta;
+        out->tb = tb;
+        memcpy(out->ga, ga, sizeof(double) * LF_NE);
+        memcpy(out->gb, gb, sizeof(double) * LF_NE);
+    }
+    return LF_OK;
+}
+
+/* After an accepted step: find the earliest crossing (scan_events).  The
+ * step is then redone from t_old to the root's old side, so that no stage
+ * straddles the discontinuity (the dense output of the straddling step is
+ * contaminated by it), and the solver restarts on the new side. */
+static LfStatus handle_events(LfInstance *c, double *h_bound) {
     LfSolver *s = &c->solver;
     double t_left = s->t, t_right = s->t, margin, t_stop, t_end_step, e_end[LF_DIM(LF_NE)];
+    double h_step = s->t - s->t_old;
     int k, first = -1, crossed_gap;
+    EventScan scan;
     LfStatus st = lf_eval_events(c, s->t, s->x, e_end);
     if (st != LF_OK) return st;
-    for (k = 0; k < LF_NE; k++) {
+    scan.found = 0;
+    scan.h_bound = INFINITY;
+    st = scan_events(c, s->t_old, c->e_old, s->t, e_end, 0, &scan);
+    if (st != LF_OK) return st;
+    /* rule 2: at most 4 times shorter than this step */
+    *h_bound = fmax(scan.h_bound, 0.25 * h_step);
+    for (k = 0; scan.found && k < LF_NE; k++) {
         double tl, tr;
-        if (!crossed(c->e_old[k], e_end[k])) continue;
-        st = locate_root(c, k, s->t_old, c->e_old[k], s->t, e_end[k], &tl, &tr);
+        if (!crossed(scan.ga[k], scan.gb[k])) continue;
+        st = locate_root(c, k, scan.ta, scan.ga[k], scan.tb, scan.gb[k], &tl, &tr);
         if (st != LF_OK) return st;
         if (first < 0 || tr < t_right) {
             t_left = tl;
@@ -254,4 +357,11 @@ LfStatus lf_handle_events(LfInstance *c) {
     lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: event %s, solver restarted", s->t,
            lf_model.event_names[first]);
     return lf_hist_push(c, s->t, s->x, lf_model.event_mode[first] >= 0);
+}
+
+LfStatus lf_handle_events(LfInstance *c) {
+    double h_bound = INFINITY;
+    LfStatus st = handle_events(c, &h_bound);
+    if (st == LF_OK && c->solver.h > h_bound) c->solver.h = h_bound;
+    return st;
 }
