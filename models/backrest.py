@@ -14,7 +14,7 @@ weight), the generalized forces by virtual work (warp tensions, spring,
 friction torques) and Lagrange's equations; the reaction R2 by Newton's law
 for the roller.  Tests check them against the seed's (7), (10) and (11).
 
-Print defects corrected (README, "Backrest"):
+Print defects corrected (docs/backrest.md):
 B1  (5), (7): spring arm printed ``r`` (the roller radius); corrected ``r2``,
     the arm of (8), (9).
 B2  (8): ``m_c g r1 phi_i`` corrected to ``m_c g r1 cos(phi_n)``: setting (7)

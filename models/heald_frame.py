@@ -10,7 +10,7 @@ x1, x3 horizontal (out of the frame plane) displacement of the top slat's
 left/right corners, x2 of its mid-section; y1, y2, y3 the same vertically.
 y points up like h; x points to the long (back) side of the shed.
 
-Print defects of the seed, and what this model does (README, "Heald frame"):
+Print defects of the seed, and what this model does (docs/heald_frame.md):
 
 D1  Motion-law coefficient.  Printed: H = h_m{[1.2 phi_a - sin(1.2 phi_a)]/pi - 1}.
     phi_a runs over 280 deg = 4.887 rad, so 1.2 phi_a ends at 336 deg, not

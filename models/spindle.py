@@ -11,10 +11,10 @@ element up to the whorl, ``n_cone`` stepped elements for the blade's cone up
 to its top.  Bobbin (tube + yarn, ``fill`` 0 empty .. 1 full) and whorl are
 rigid disks.  The housing of the lower support (the centre tube on the coil
 spring) has its own x, y DOF.  The D1201 geometry is not in the seed: every
-dimension is an assumption (README, "Spindle rotor"), the unknown support
+dimension is an assumption (docs/spindle.md), the unknown support
 and bobbin values are calibrated (``python -m loomfmu.rotor calibrate``).
 
-Print defects (README, "Spindle rotor", S1-S5): the rotary-inertia matrix's
+Print defects (docs/spindle.md, S1-S5): the rotary-inertia matrix's
 (4,2) entry is -l^2 (printed l^2); (2), (3) read K_xy = K_yx = 0; (5) has
 r_i^4 (printed r_i^3, unit Pa s; ``damper="printed"`` keeps it); (20) gives
 q, not q'.

@@ -6,7 +6,7 @@ Coordinates.  The spin axis is z.  Every node carries four DOF, in the
 order ``(x, y, ax, ay)``: the translations and the slopes ax = dx/dz,
 ay = dy/dz.  With slopes (not rotation angles) both bending planes use the
 same element matrices, and the gyroscopic coupling of a disk spinning at
-+Omega about z reads (derivation in the README, "Spindle rotor")::
++Omega about z reads (derivation in docs/spindle.md)::
 
     x-plane, slope row:  Id ax'' + Ip Omega ay' = Q_ax
     y-plane, slope row:  Id ay'' - Ip Omega ax' = Q_ay
@@ -371,7 +371,7 @@ def film_damping(eta, radii, l, c, delta0, form: str = "corrected"):
     form="printed": C^(i) = 9.36 eta r_i^3 l / (c^3 sum r) -- unit Pa s, not
     N s/m.  form="corrected" (default): r_i^4 in place of r_i^3, i.e. the
     long-damper term eta r^3 l / c^3 times the layer's share r_i / sum r,
-    as the share enters (4) (README, "Spindle rotor", defect S3).
+    as the share enters (4) (docs/spindle.md, defect S3).
     """
     if form not in ("corrected", "printed"):
         raise ValueError(f"form = {form!r}; allowed: 'corrected', 'printed'")

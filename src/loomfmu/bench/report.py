@@ -144,7 +144,7 @@ def summary_md(table, verdicts: dict, infos: dict, cmd: str, wall: float) -> str
 
 
 def update_readme(readme: Path, section: str) -> bool:
-    """Replace the text between the bench markers in the README (if present)."""
+    """Replace the text between the bench markers in a page (docs/speed.md), if present."""
     text = readme.read_text()
     pat = re.compile(r"(<!-- bench:start -->\n).*?(<!-- bench:end -->)", re.S)
     if not pat.search(text):
