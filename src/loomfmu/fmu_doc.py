@@ -58,6 +58,9 @@ td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
 td.name{font-family:ui-monospace,Menlo,Consolas,monospace;font-size:12.5px;
  white-space:nowrap} td.small{font-size:12.5px;color:#424a53}
 tr.worst td{background:#fff4d6 !important}
+table.compact{width:auto;min-width:50%}
+.solvers{display:flex;flex-wrap:wrap;gap:0 18px} .solvers>div{flex:1 1 340px}
+.solvers h3{font-size:14.5px}
 .rule{background:#eef6ff;border-left:4px solid #0969da;padding:8px 14px;margin:10px 0}
 .warn{background:#fff8e6;border-left:4px solid #bf8700;padding:8px 14px;margin:10px 0}
 .doc p{margin:6px 0} .doc ul.items{margin:4px 0 8px;padding-left:18px}
@@ -355,8 +358,7 @@ def _equations(model: Model, csrc: str) -> str:
     for k, eqs in enumerate(model.equations, 1):
         rows = ca.vertsplit(ca.vec(eqs))
         for j, e in enumerate(rows, 1):
-            # m.eq(lhs, rhs) stored lhs - rhs; anything else is shown as "residual = 0"
-            lhs, rhs = (e.dep(0), e.dep(1)) if e.op() == ca.OP_SUB else (e, ca.SX(0))
+            lhs, rhs = _sides(e)
             title = f"equation {k}" + (f", row {j} of {len(rows)}" if len(rows) > 1 else "")
             out.append(_expr_block(title, lhs, rhs, csrc))
     sub = [("Outputs", [(f"output {v.name} [{v.unit or '1'}]", v.name, ca.SX(v.expr))
@@ -384,6 +386,23 @@ def _equations(model: Model, csrc: str) -> str:
             f"<td>{_e(', '.join(e for e, m in model.event_modes.items() if m == n))}</td>"
             "</tr>" for n, vals in model.mode_values.items()]))
     return "".join(out)
+
+
+def _is_der(x: ca.SX) -> bool:
+    return x.is_symbolic() and x.name().startswith("der(")
+
+
+def _sides(e: ca.SX) -> tuple[ca.SX, ca.SX]:
+    """(lhs, rhs) of a scalar residual: m.eq(lhs, rhs) stored lhs - rhs;
+    der(x) + r (CasADi's form of der(x) - (-r)) is shown as der(x) = -r;
+    anything else as "residual = 0"."""
+    if e.op() == ca.OP_SUB:
+        return e.dep(0), e.dep(1)
+    if e.op() == ca.OP_ADD:
+        for a, b in ((0, 1), (1, 0)):
+            if _is_der(e.dep(a)):
+                return e.dep(a), -e.dep(b)
+    return e, ca.SX(0)
 
 
 _GROUPS = (("Parameters", lambda v, kind: v.get("causality") == "parameter"),
@@ -501,35 +520,52 @@ def _verification(model: Model, md: ET.Element, ver: dict | None) -> str:
     defaults = {k: p.default for k, p in inspect.signature(verify).parameters.items()
                 if p.default is not inspect.Parameter.empty}
 
-    def setting(key, dkey):
+    def tol(key):
         if key in ver:
             return _fmt(ver[key])
-        return f"{_fmt(defaults[dkey])} (loomfmu.verify default)"
+        return f"{_fmt(defaults[key])} (verify's default)"
 
     units = {v.name: v.unit for v in model.of_kind("output")}
-    out = [f"<p>The FMU was run through FMPy with each solver below (rtol "
-           f"{setting('rtol', 'rtol')}, atol {setting('atol', 'atol')}) and compared at "
-           "every communication point with a scipy <code>solve_ivp</code> reference "
-           f"(method {_e(model.reference_method)}, rtol {setting('ref_rtol', 'ref_rtol')}, "
-           f"atol {setting('ref_atol', 'ref_atol')}; "
-           f"{_fmt(ver.get('reference_wall_seconds'))} s, "
-           f"{_e(ver.get('reference_rhs_calls', ''))} right-hand-side calls). "
-           "Error measures per output: the largest absolute difference, and that "
-           "divided by the output's range over the run (its magnitude when the range is "
-           "zero). The row of the worst relative error is highlighted.</p>"]
+    how = [("reference", f"scipy <code>solve_ivp</code>, method {_e(model.reference_method)}, "
+                         f"rtol {tol('ref_rtol')}, atol {tol('ref_atol')}; "
+                         f"{_sig(ver.get('reference_wall_seconds'))} s, "
+                         f"{_e(ver.get('reference_rhs_calls', '?'))} right-hand-side calls"),
+           ("FMU runs", f"FMPy co-simulation with each solver, rtol {tol('rtol')} (passed as "
+                        f"the importer's tolerance), atol {tol('atol')}"),
+           ("compared", "at every communication point of the default experiment; per "
+                        "output the largest absolute difference, and that divided by the "
+                        "output's range over the run (its magnitude if the range is zero)")]
+    out = ["<table><tbody>" + "".join(f"<tr><th>{k}</th><td>{v}</td></tr>" for k, v in how)
+           + "</tbody></table>"]
+    summary, tables = [], []
     for solver, res in ver["solvers"].items():
         errs = res.get("errors") or {}
-        wall = _fmt(res.get("wall_seconds"))
+        wall = _sig(res.get("wall_seconds"))
         if not errs:
             msg = res.get("error") or "; ".join(res.get("log", [])) or "no errors recorded"
-            out.append(f"<h3>{_e(solver)}</h3><p>{_e(msg)}</p>")
+            summary.append(f'<tr><td class="name">{_e(solver)}</td><td colspan="3">'
+                           f"{_e(msg)}</td></tr>")
             continue
         worst = max(errs, key=lambda n: errs[n]["max_rel_range"])
+        summary.append(f'<tr><td class="name">{_e(solver)}</td><td class="num">'
+                       f"{errs[worst]['max_rel_range']:.3g}</td><td class=\"name\">"
+                       f"{_e(worst)}</td><td class=\"num\">{wall} s</td></tr>")
         rows = [f'<tr{" class=worst" if n == worst else ""}><td class="name">{_e(n)}</td>'
-                f"<td>{_e(units.get(n, ''))}</td><td class=\"num\">{errs[n]['max_abs']:.3g}"
+                f"<td class=\"num\">{errs[n]['max_abs']:.3g}</td><td>{_e(units.get(n, ''))}"
                 f"</td><td class=\"num\">{errs[n]['max_rel_range']:.3g}</td></tr>"
                 for n in errs]
-        out.append(f"<h3>{_e(solver)}: worst relative error "
-                   f"{errs[worst]['max_rel_range']:.3g} ({_e(worst)}), FMU run {wall} s</h3>"
-                   + _table(["output", "unit", "max abs error", "relative to range"], rows))
+        tables.append(f'<div><h3>{_e(solver)}: worst relative error '
+                      f"{errs[worst]['max_rel_range']:.3g} ({_e(worst)})</h3>"
+                      + _table(["output", "max abs error", "unit", "relative to range"], rows)
+                      + "</div>")
+    out.append('<table class="compact"><thead><tr><th>solver</th><th>worst relative '
+               "error</th><th>in output</th><th>FMU run (wall)</th></tr></thead><tbody>"
+               + "".join(summary) + "</tbody></table>")
+    out.append('<div class="solvers">' + "".join(tables) + "</div>")
+    out.append("<p>Highlighted: the output with the worst relative error.</p>")
     return "".join(out)
+
+
+def _sig(v) -> str:
+    """Three significant digits (times, counts)."""
+    return "?" if v is None else f"{float(v):.3g}"
