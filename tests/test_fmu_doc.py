@@ -155,3 +155,12 @@ def test_spindle_modal_states_say_which_mode_and_frequency():
         got = float(re.search(r"([0-9.]+) Hz", d).group(1))
         assert got == pytest.approx(hz[k], abs=0.06), d
         assert f"{got:.1f} Hz" in m.var(f"deta{i}").description
+
+
+def test_same_declaration_same_description_and_page(heald_frame_rigid_fmu, tmp_path):
+    again = build_fmu(load_model("heald_frame_rigid"), out_dir=tmp_path)
+    first, _ = _read(heald_frame_rigid_fmu.path)
+    second, _ = _read(again.path)
+    assert again.guid == heald_frame_rigid_fmu.guid
+    for member in ("modelDescription.xml", DOC_MEMBER):
+        assert first[member] == second[member], member

@@ -137,8 +137,8 @@ def html_for(model: Model, verification: dict | None = None, *,
     csrc = next((n for n in members or [] if n.endswith("_casadi.c")),
                 f"sources/{model.name}_casadi.c")
     sections = [  # the short sections first, the long reference tables after
-        ("about", "What it is", _about(model, md)),
-        ("verification", "Verification", _verification(model, md, verification)),
+        ("about", "What it is", _about(model)),
+        ("verification", "Verification", _verification(model, verification)),
         ("solver", "Solvers and tolerances", _solver(md)),
         ("experiment", "Default experiment", _experiment(md)),
         ("ports", "Ports", _ports(model)),
@@ -264,7 +264,7 @@ def _header(model: Model, md: ET.Element) -> str:
             f"Build options: <code>{_e(opts)}</code></p>")
 
 
-def _about(model: Model, md: ET.Element) -> str:
+def _about(model: Model) -> str:
     counts = {k: len(model.of_kind(k)) for k in ("parameter", "state", "input", "output",
                                                  "algebraic", "mode")}
     counts.update({"equation": len(model.equations), "event indicator": len(model.events),
@@ -511,7 +511,7 @@ def _experiment(md: ET.Element) -> str:
     return _table(["attribute", "value", "unit", "meaning"], rows)
 
 
-def _verification(model: Model, md: ET.Element, ver: dict | None) -> str:
+def _verification(model: Model, ver: dict | None) -> str:
     if ver is None:
         return ('<div class="warn"><strong>Not verified at build</strong>; run '
                 "<code>loomfmu verify</code> on this FMU to compare it with the scipy "
