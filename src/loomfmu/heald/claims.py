@@ -38,8 +38,14 @@ MAX_CYCLES = 100
 
 
 def _check_values(model: Model, values) -> dict:
-    return check_mapping("values", values, settable(model),
-                         what=f"parameters, inputs or states of {model.name}")
+    """values: names of parameters, inputs or states of ``model``, each in its
+    range, the parameters meeting the model's constraints."""
+    values = check_mapping("values", values, settable(model),
+                           what=f"parameters, inputs or states of {model.name}")
+    for name, value in values.items():
+        model.var(name).check_value(value)
+    model.check_constraints(values)
+    return values
 
 
 def _values(model, values):
