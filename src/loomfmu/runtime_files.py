@@ -15,7 +15,7 @@ RUNTIME_HEADERS = ("lf_model.h", "lf_runtime.h", "lf_internal.h", "lf_solver.h",
 #: lf_prefix.h renames each to <modelIdentifier>_<symbol> (the builder checks
 #: with nm that no other global symbol is left).
 RUNTIME_SYMBOLS = (
-    "lf_check_step", "lf_consistent_modes", "lf_delayed_values", "lf_do_step", "lf_dopri5",
+    "lf_check_step", "lf_consistent_modes", "lf_delayed_rates", "lf_delayed_values", "lf_do_step", "lf_dopri5",
     "lf_eval_events", "lf_eval_fn", "lf_first_nonfinite", "lf_free", "lf_get_integer",
     "lf_get_real", "lf_handle_events", "lf_hist_push", "lf_hist_step", "lf_init_delays",
     "lf_initial_modes", "lf_initial_states", "lf_initialize", "lf_instantiate", "lf_log",

@@ -19,40 +19,57 @@
  * sample), otherwise the value after it.  s = t - tau is known to rounding
  * only (t_jump + tau - tau need not be t_jump): samples within `eps` of s
  * count as at s.  (Elsewhere the choice is immaterial: the interpolant is
- * continuous at a sample.) */
-static double hist_interp(const LfInstance *c, int k, double s, int left, double eps) {
+ * continuous at a sample.)  *rate: the interpolant's time derivative at s,
+ * dg/dt there, which Rosenbrock methods need in df/dt. */
+static double hist_interp(const LfInstance *c, int k, double s, int left, double eps,
+                          double *rate) {
     long lo = -1, hi = c->hist_count[k], n = c->hist_count[k];
-    double t0, t1, h, th, g0, g1;
+    double t0, t1, h, th, th2, th3, g0, g1, d0, d1;
     /* lo: the last sample with t_lo < s (left) or t_lo <= s (right) */
     while (hi - lo > 1) {
         long mid = (lo + hi) / 2;
         if (left ? HT(c, k, mid) < s - eps : HT(c, k, mid) <= s + eps) lo = mid;
         else hi = mid;
     }
-    if (lo < 0) return HG(c, k, 0);
-    if (lo == n - 1) return HG(c, k, n - 1) + HD(c, k, n - 1) * (s - HT(c, k, n - 1));
+    if (lo < 0) {
+        *rate = 0.0;
+        return HG(c, k, 0);
+    }
+    if (lo == n - 1) {
+        *rate = HD(c, k, n - 1);
+        return HG(c, k, n - 1) + HD(c, k, n - 1) * (s - HT(c, k, n - 1));
+    }
     hi = lo + 1;
     t0 = HT(c, k, lo);
     t1 = HT(c, k, hi);
     g0 = HG(c, k, lo);
     g1 = HG(c, k, hi);
+    d0 = HD(c, k, lo);
+    d1 = HD(c, k, hi);
     h = t1 - t0;
     th = (s - t0) / h;
-    if (c->delay_interp == LF_DELAY_LINEAR) return g0 + (g1 - g0) * th;
-    return (2 * th * th * th - 3 * th * th + 1) * g0 + (th * th * th - 2 * th * th + th) * h * HD(c, k, lo) +
-           (3 * th * th - 2 * th * th * th) * g1 + (th * th * th - th * th) * h * HD(c, k, hi);
+    if (c->delay_interp == LF_DELAY_LINEAR) {
+        *rate = (g1 - g0) / h;
+        return g0 + (g1 - g0) * th;
+    }
+    th2 = th * th;
+    th3 = th2 * th;
+    *rate = ((6 * th2 - 6 * th) * (g0 - g1) / h + (3 * th2 - 4 * th + 1) * d0 + (3 * th2 - 2 * th) * d1);
+    return (2 * th3 - 3 * th2 + 1) * g0 + (th3 - 2 * th2 + th) * h * d0 + (3 * th2 - 2 * th3) * g1 +
+           (th3 - th2) * h * d1;
 }
 
-/* The delayed values at t.  Steps end at every breakpoint t_jump + tau
- * and the solver restarts there.  The stages of the step ending at a
- * breakpoint that run at its end take the value before the jump; the
- * restarted solver (t = its last accepted point) takes the value after it.
- * Only there is s = t - tau taken as equal to a sample within rounding. */
-LfStatus lf_delayed_values(LfInstance *c, double t, const double *x) {
-    double g[LF_DIM(2 * LF_ND)];
+/* The delayed values at t (and, if rate != NULL, their time derivatives
+ * for delays > 0).  Steps end at every breakpoint t_jump + tau and the
+ * solver restarts there.  The stages of the step ending at a breakpoint
+ * that run at its end take the value before the jump; the restarted solver
+ * (t = its last accepted point) takes the value after it.  Only there is
+ * s = t - tau taken as equal to a sample within rounding. */
+static LfStatus delayed(LfInstance *c, double t, const double *x, double *rate) {
+    double g[LF_DIM(2 * LF_ND)], r;
     int k, need_now = 0, left = c->solver_ready && t > c->solver.t && t >= c->t_bp_step;
     double eps = (left || (c->solver_ready && t == c->solver.t))
-                     ? 8 * 2.220446049250313e-16 * fmax(1.0, fabs(t))
+                     ? 8 * LF_EPS * fmax(1.0, fabs(t))
                      : 0.0;
     for (k = 0; k < LF_ND; k++)
         if (c->tau[k] == 0 || c->hist_count[k] == 0) need_now = 1;
@@ -60,10 +77,22 @@ LfStatus lf_delayed_values(LfInstance *c, double t, const double *x) {
         c->arg[6] = c->dval;
         if (lf_eval_fn(c, LF_FN_HIST, t, x, c->w_cur, g, &g[LF_ND], NULL) != LF_OK) return LF_ERROR;
     }
-    for (k = 0; k < LF_ND; k++)
-        c->dval[k] = (c->tau[k] == 0 || c->hist_count[k] == 0) ? g[k]
-                                                                : hist_interp(c, k, t - c->tau[k], left, eps);
+    for (k = 0; k < LF_ND; k++) {
+        r = 0.0;
+        c->dval[k] = (c->tau[k] == 0 || c->hist_count[k] == 0)
+                         ? g[k]
+                         : hist_interp(c, k, t - c->tau[k], left, eps, &r);
+        if (rate) rate[k] = r;
+    }
     return LF_OK;
+}
+
+LfStatus lf_delayed_values(LfInstance *c, double t, const double *x) {
+    return delayed(c, t, x, NULL);
+}
+
+LfStatus lf_delayed_rates(LfInstance *c, double t, const double *x, double *rate) {
+    return delayed(c, t, x, rate);
 }
 
 static void add_breakpoint(LfInstance *c, double t) {
@@ -94,18 +123,23 @@ double lf_next_breakpoint(LfInstance *c, double t, double t_end, int *is_bp) {
 static LfStatus hist_append(LfInstance *c, double t, const double *g, int jump) {
     int k;
     for (k = 0; k < LF_ND; k++) {
-        double oldest_needed = t - c->tau[k] - c->solver.opt.h_max;
+        /* every later query is at s >= t - tau (stages run at or after the
+         * last accepted point t); the sample at or before that is kept for
+         * the interpolation, and samples within rounding of it (a jump) */
+        double oldest_needed = t - c->tau[k] - 16 * LF_EPS * fmax(1.0, fabs(t));
         if (c->tau[k] == 0) continue; /* read at the current time, never from here */
-        /* drop samples no query can reach any more */
-        while (c->hist_count[k] >= 2 && HT(c, k, 1) <= oldest_needed) {
+        while (c->hist_count[k] >= 2 && HT(c, k, 1) < oldest_needed) {
             c->hist_start[k] = (c->hist_start[k] + 1) % LF_HIST_CAP;
             c->hist_count[k]--;
         }
         if (c->hist_count[k] == LF_HIST_CAP) {
             lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
-                   "t = %.17g: history of delay %s is full: %d samples cover only %g s of "
-                   "the %g s needed (the steps are too small for this delay)", t,
-                   lf_model.delay_names[k], LF_HIST_CAP, t - HT(c, k, 0), c->tau[k]);
+                   "t = %.17g: history of delay %s is full: the equations read back to "
+                   "t - tau = %.17g, and the %d samples it holds (the most it can) start at "
+                   "t = %.17g, %g s apart on average; the steps are too short for tau = %g s "
+                   "(loosen solver_rtol / solver_atol)", t, lf_model.delay_names[k],
+                   t - c->tau[k], LF_HIST_CAP, HT(c, k, 0),
+                   (t - HT(c, k, 0)) / (LF_HIST_CAP - 1), c->tau[k]);
             return LF_DISCARD;
         }
         HT(c, k, c->hist_count[k]) = t;

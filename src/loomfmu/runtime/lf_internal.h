@@ -23,6 +23,8 @@ LfStatus lf_rhs(void *ctx, double t, const double *x, double *dx);
 
 /* lf_delay.c: history of the delayed expressions and its breakpoints. */
 LfStatus lf_delayed_values(LfInstance *c, double t, const double *x);
+/* the same, and d/dt of each delayed value with tau > 0 (0 for tau = 0) */
+LfStatus lf_delayed_rates(LfInstance *c, double t, const double *x, double *rate);
 double lf_next_breakpoint(LfInstance *c, double t, double t_end, int *is_bp);
 LfStatus lf_hist_push(LfInstance *c, double t, const double *x, int jump);
 LfStatus lf_hist_step(LfInstance *c);
