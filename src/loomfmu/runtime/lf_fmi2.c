@@ -3,8 +3,17 @@
  * Every function checks the instance pointer and the call order against a
  * mask of allowed states, and logs expected vs actual on failure.  Features
  * the model description declares as absent (directional derivatives, input
- * derivatives) return fmi2Error with a log line. */
+ * derivatives) return fmi2Error with a log line.
+ *
+ * Misuse is refused, never a crash: NULL arrays, sizes no array of this FMU
+ * can have, non-finite or backward time, FMU states not made by this
+ * instance.  An instance is known by the registry of live instances below,
+ * so that a call with a freed instance (fmi2FreeInstance twice, fmi2DoStep
+ * after fmi2FreeInstance) returns fmi2Error (nothing to log through) without
+ * touching the freed memory.  Limit: if the allocator has given the freed
+ * address to a new instance of this FMU, the call goes to that instance. */
 #include <math.h>
+#include <stddef.h>
 #include <string.h>
 
 #include "fmi2Functions.h"
@@ -16,9 +25,65 @@
      LF_ST_TERMINATED | LF_ST_ERROR)
 #define RUNNING (LF_ST_STEP_COMPLETE | LF_ST_STEP_FAILED)
 
+/* an FMU state: the bytes of lf_state_write, in the instance's list */
+typedef struct StateBlob {
+    struct StateBlob *next;
+    size_t n;
+    unsigned char data[1];
+} StateBlob;
+
+/* What the facade keeps per instance (the instance's log_env). */
 typedef struct {
-    fmi2CallbackFunctions cb;
+    fmi2CallbackFunctions cb; /* first: the logger bridge reads it as its env */
+    StateBlob *states;        /* FMU states made by this instance, freed with it */
+    int rtol_set;             /* solver_rtol set by the importer (since reset) */
 } Fmi2Env;
+
+#define ENV(inst) ((Fmi2Env *)(inst)->log_env)
+
+/* ---- registry of live instances (lock-free; instances may live in several
+ * threads) ------------------------------------------------------------------ */
+
+#define LF_MAX_LIVE 1024
+static void *live_slots[LF_MAX_LIVE];
+static int live_top; /* slots in use are below */
+
+static int live_add(void *c) {
+    int i, top;
+    for (i = 0; i < LF_MAX_LIVE; i++) {
+        void *expected = NULL;
+        if (__atomic_compare_exchange_n(&live_slots[i], &expected, c, 0, __ATOMIC_SEQ_CST,
+                                        __ATOMIC_SEQ_CST)) {
+            top = __atomic_load_n(&live_top, __ATOMIC_SEQ_CST);
+            while (top < i + 1 &&
+                   !__atomic_compare_exchange_n(&live_top, &top, i + 1, 0, __ATOMIC_SEQ_CST,
+                                                __ATOMIC_SEQ_CST)) {
+            }
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* 1 if c was live (and is not any more): only one caller can free it */
+static int live_remove(void *c) {
+    int i, top = __atomic_load_n(&live_top, __ATOMIC_SEQ_CST);
+    for (i = 0; i < top; i++) {
+        void *expected = c;
+        if (__atomic_compare_exchange_n(&live_slots[i], &expected, NULL, 0, __ATOMIC_SEQ_CST,
+                                        __ATOMIC_SEQ_CST))
+            return 1;
+    }
+    return 0;
+}
+
+static LfInstance *live(fmi2Component c) {
+    int i, top = __atomic_load_n(&live_top, __ATOMIC_SEQ_CST);
+    if (!c) return NULL;
+    for (i = 0; i < top; i++)
+        if (__atomic_load_n(&live_slots[i], __ATOMIC_SEQ_CST) == c) return (LfInstance *)c;
+    return NULL;
+}
 
 /* The message is the logger's format string (FMI 2.0, 2.1.5): '%' and the
  * variable-reference marker '#' are escaped, so that it prints as written. */
@@ -35,24 +100,37 @@ static void fmi2_log_bridge(void *env, const char *instance, LfStatus status,
     cb->logger(cb->componentEnvironment, instance, (fmi2Status)status, category, buf);
 }
 
-static int allowed(LfInstance *c, const char *fn, int mask) {
-    if (!c) return 0;
-    if (c->state & mask) return 1;
-    lf_log(c, LF_ERROR, LF_LOG_ERROR,
+static int allowed(fmi2Component c, const char *fn, int mask) {
+    LfInstance *inst = live(c);
+    if (!inst) return 0; /* NULL, freed or not an instance: nothing to log through */
+    if (inst->state & mask) return 1;
+    lf_log(inst, LF_ERROR, LF_LOG_ERROR,
            "%s must not be called in the current state (state mask %d, allowed %d)", fn,
-           (int)c->state, mask);
+           (int)inst->state, mask);
     return 0;
 }
 
 #define CHECK(fn, mask)                                                              \
     do {                                                                             \
-        if (!allowed((LfInstance *)c, fn, mask)) return fmi2Error;                   \
+        if (!allowed(c, fn, mask)) return fmi2Error;                                 \
     } while (0)
+
+static fmi2Status null_arg(LfInstance *c, const char *fn, const char *arg) {
+    lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: %s is NULL; nothing done", c->t, fn, arg);
+    return fmi2Error;
+}
 
 /* ---- inquiry, logging, life cycle ------------------------------------ */
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char *fmi2GetVersion(void) { return fmi2Version; }
+
+static int category_index(const char *name) {
+    int k;
+    for (k = 0; name && k < LF_N_LOG; k++)
+        if (strcmp(name, lf_log_category_names[k]) == 0) return k;
+    return -1;
+}
 
 fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t n,
                                const fmi2String categories[]) {
@@ -64,20 +142,26 @@ fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t n,
         for (k = 0; k < LF_N_LOG; k++) inst->log_on[k] = loggingOn;
         return fmi2OK;
     }
-    for (i = 0; i < n; i++) { /* all known, or nothing changes */
-        int found = 0;
-        for (k = 0; k < LF_N_LOG; k++)
-            if (categories[i] && strcmp(categories[i], lf_log_category_names[k]) == 0) found = 1;
-        if (!found) {
+    if (!categories) return null_arg(inst, "fmi2SetDebugLogging", "categories (with n > 0)");
+    if (n > LF_N_LOG * 16) {
+        lf_log(inst, LF_ERROR, LF_LOG_ERROR, "fmi2SetDebugLogging: nCategories = %lu, expected "
+               "at most %d (the FMU has %d categories)", (unsigned long)n, LF_N_LOG * 16,
+               LF_N_LOG);
+        return fmi2Error;
+    }
+    for (i = 0; i < n; i++) /* all known, or nothing changes */
+        if (category_index(categories[i]) < 0) {
             lf_log(inst, LF_ERROR, LF_LOG_ERROR, "fmi2SetDebugLogging: unknown category %s",
                    categories[i] ? categories[i] : "(null)");
             return fmi2Error;
         }
-    }
-    for (i = 0; i < n; i++)
-        for (k = 0; k < LF_N_LOG; k++)
-            if (strcmp(categories[i], lf_log_category_names[k]) == 0) inst->log_on[k] = loggingOn;
+    for (i = 0; i < n; i++) inst->log_on[category_index(categories[i])] = loggingOn;
     return fmi2OK;
+}
+
+static void instantiate_error(const fmi2CallbackFunctions *f, const char *name,
+                              const char *message) {
+    f->logger(f->componentEnvironment, name, fmi2Error, "logStatusError", message);
 }
 
 fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
@@ -86,7 +170,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
                               fmi2Boolean loggingOn) {
     LfAllocator alloc;
     LfInstance *c;
-    fmi2CallbackFunctions *cb;
+    Fmi2Env *env;
     const char *name = instanceName ? instanceName : "";
     int k;
     (void)resourceLocation;
@@ -94,39 +178,61 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
     if (!functions || !functions->logger || !functions->allocateMemory ||
         !functions->freeMemory)
         return NULL;
+    if (!instanceName || !instanceName[0]) {
+        instantiate_error(functions, name, "fmi2Instantiate: instanceName is NULL or empty "
+                          "(FMI 2.0 requires a non-empty name)");
+        return NULL;
+    }
     if (fmuType != fmi2CoSimulation) {
-        functions->logger(functions->componentEnvironment, name, fmi2Error, "logStatusError",
-                          "fmi2Instantiate: only fmi2CoSimulation is supported");
+        instantiate_error(functions, name, "fmi2Instantiate: only fmi2CoSimulation is supported");
         return NULL;
     }
     if (!fmuGUID || strcmp(fmuGUID, lf_model.guid) != 0) {
-        functions->logger(functions->componentEnvironment, name, fmi2Error, "logStatusError",
-                          "fmi2Instantiate: the GUID does not match this binary's");
+        instantiate_error(functions, name, "fmi2Instantiate: the GUID does not match this "
+                          "binary's");
         return NULL;
     }
     alloc.calloc = functions->allocateMemory;
     alloc.free = functions->freeMemory;
     /* the instance keeps its own copy of the callbacks */
-    cb = (fmi2CallbackFunctions *)alloc.calloc(1, sizeof *cb);
-    c = cb ? lf_instantiate(name, fmi2_log_bridge, cb, alloc) : NULL;
-    if (!c) {
-        if (cb) alloc.free(cb);
-        functions->logger(functions->componentEnvironment, name, fmi2Error, "logStatusError",
-                          "fmi2Instantiate: out of memory or solver registry mismatch");
+    env = (Fmi2Env *)alloc.calloc(1, sizeof *env);
+    if (env) env->cb = *functions;
+    c = env ? lf_instantiate(name, fmi2_log_bridge, env, alloc) : NULL;
+    if (!c || !live_add(c)) {
+        if (c) lf_free(c);
+        if (env) alloc.free(env);
+        instantiate_error(functions, name, c ? "fmi2Instantiate: too many live instances "
+                          "(1024) of this FMU" : "fmi2Instantiate: out of memory or solver "
+                          "registry mismatch");
         return NULL;
     }
-    *cb = *functions;
     c->log_on_start = loggingOn;
     for (k = 0; k < LF_N_LOG; k++) c->log_on[k] = loggingOn;
     return c;
 }
 
+static void free_states(LfInstance *inst) {
+    StateBlob *b = ENV(inst)->states;
+    while (b) {
+        StateBlob *next = b->next;
+        inst->alloc.free(b);
+        b = next;
+    }
+    ENV(inst)->states = NULL;
+}
+
+/* Frees the instance and every FMU state it made (FMI 2.0, 2.1.5).  A
+ * pointer that is not a live instance (NULL, freed already) is ignored. */
 void fmi2FreeInstance(fmi2Component c) {
-    LfInstance *inst = (LfInstance *)c;
-    void (*release)(void *) = inst ? inst->alloc.free : NULL;
-    void *cb = inst ? inst->log_env : NULL;
+    LfInstance *inst = live(c);
+    void (*release)(void *);
+    Fmi2Env *env;
+    if (!inst || !live_remove(inst)) return;
+    release = inst->alloc.free;
+    env = ENV(inst);
+    free_states(inst);
     lf_free(inst);
-    if (cb) release(cb);
+    release(env);
 }
 
 fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
@@ -135,13 +241,14 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
     LfInstance *inst = (LfInstance *)c;
     fmi2Status status = fmi2OK;
     CHECK("fmi2SetupExperiment", LF_ST_INSTANTIATED);
-    if (!isfinite(startTime) || (stopTimeDefined && !(stopTime >= startTime))) {
+    if (!isfinite(startTime) || (stopTimeDefined && !(isfinite(stopTime) &&
+                                                      stopTime >= startTime))) {
         lf_log(inst, LF_ERROR, LF_LOG_ERROR,
                "fmi2SetupExperiment: startTime = %g, stopTime = %g (expected finite, start <= "
-               "stop)", startTime, stopTimeDefined ? stopTime : INFINITY);
+               "stop); nothing set", startTime, stopTimeDefined ? stopTime : INFINITY);
         return fmi2Error;
     }
-    inst->t_start = inst->t = startTime;
+    inst->t_start = inst->t = inst->last_successful_time = startTime;
     inst->t_stop = stopTimeDefined ? stopTime : INFINITY;
     /* the importer's tolerance is the solvers' relative tolerance (it wins over
      * solver_rtol, which keeps its value); it is limited to solver_rtol's range */
@@ -167,15 +274,31 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
     return fmi2OK;
 }
 
+/* The importer's tolerance wins over a solver_rtol the importer set: say so
+ * when it takes effect, with both values. */
+static int log_rtol_override(LfInstance *inst) {
+    const char *name = lf_model.real_names[LF_SET_RTOL];
+    if (!(inst->rtol_importer > 0) || !ENV(inst)->rtol_set ||
+        inst->r[LF_SET_RTOL] == inst->rtol_importer)
+        return 0;
+    lf_log(inst, LF_WARNING, LF_LOG_WARNING,
+           "t = %.17g: %s = %g is overridden by the importer's tolerance = %g of "
+           "fmi2SetupExperiment; the solvers use %g", inst->t_start, name,
+           inst->r[LF_SET_RTOL], inst->rtol_importer, inst->rtol_importer);
+    return 1;
+}
+
 fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     LfInstance *inst = (LfInstance *)c;
+    int warned;
     CHECK("fmi2ExitInitializationMode", LF_ST_INIT);
+    warned = log_rtol_override(inst);
     if (lf_initialize(inst) != LF_OK) {
         inst->state = LF_ST_ERROR;
         return fmi2Error;
     }
     inst->state = LF_ST_STEP_COMPLETE;
-    return fmi2OK;
+    return warned ? fmi2Warning : fmi2OK;
 }
 
 fmi2Status fmi2Terminate(fmi2Component c) {
@@ -187,6 +310,7 @@ fmi2Status fmi2Terminate(fmi2Component c) {
 fmi2Status fmi2Reset(fmi2Component c) {
     CHECK("fmi2Reset", ANY_STATE);
     lf_reset_values((LfInstance *)c);
+    ENV((LfInstance *)c)->rtol_set = 0;
     return fmi2OK;
 }
 
@@ -196,39 +320,102 @@ fmi2Status fmi2Reset(fmi2Component c) {
  * before initialization, in it and after a completed step */
 #define GET_STATES (LF_ST_INIT | RUNNING | LF_ST_TERMINATED | LF_ST_ERROR)
 #define SET_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | LF_ST_STEP_COMPLETE)
+#define N_INTEGER (LF_VR_Q0 + LF_NQ + (LF_ND > 0))
+/* Longest value-reference array accepted: FMI 2.0 allows a reference more
+ * than once, but a request this long cannot be a real one and is refused
+ * before either array is read.  (Arrays shorter than nvr below this limit
+ * cannot be detected in C.) */
+#define NVR_LIMIT(n_vars) (16 * (size_t)(n_vars) + 16)
+
+/* The arrays of a get/set call: present if nvr > 0, nvr plausible, every
+ * value reference of the type (checked before any value is read or written). */
+static int check_vrs(LfInstance *c, const char *fn, const fmi2ValueReference vr[], size_t nvr,
+                     const void *value, unsigned n_vars) {
+    size_t i;
+    if (nvr == 0) return 1;
+    if (!vr || !value) {
+        null_arg(c, fn, !vr ? "vr (with nvr > 0)" : "value (with nvr > 0)");
+        return 0;
+    }
+    if (nvr > NVR_LIMIT(n_vars)) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: nvr = %lu, expected at most %lu (the "
+               "FMU has %u variables of this type); no value read or written", c->t, fn,
+               (unsigned long)nvr, (unsigned long)NVR_LIMIT(n_vars), n_vars);
+        return 0;
+    }
+    for (i = 0; i < nvr; i++)
+        if (vr[i] >= n_vars) {
+            lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: vr[%lu] = %u is not a variable of "
+                   "this type (expected < %u); no value read or written", c->t, fn,
+                   (unsigned long)i, (unsigned)vr[i], n_vars);
+            return 0;
+        }
+    return 1;
+}
 
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        fmi2Real value[]) {
     size_t i;
     CHECK("fmi2GetReal", GET_STATES);
+    if (!check_vrs((LfInstance *)c, "fmi2GetReal", vr, nvr, value, LF_NREAL)) return fmi2Error;
     for (i = 0; i < nvr; i++)
         if (lf_get_real((LfInstance *)c, vr[i], &value[i]) != LF_OK) return fmi2Error;
     return fmi2OK;
 }
 
-fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                       const fmi2Real value[]) {
-    size_t i;
-    fmi2Status worst = fmi2OK;
-    CHECK("fmi2SetReal", SET_STATES);
-    for (i = 0; i < nvr; i++) {
-        LfStatus st = lf_set_real((LfInstance *)c, vr[i], value[i]);
-        if (st > LF_WARNING) return fmi2Error;
-        if (st == LF_WARNING) worst = fmi2Warning;
-    }
-    return worst;
+/* What fmi2SetReal/fmi2SetInteger can change, to undo a call that fails
+ * part way: a refused call changes nothing. */
+typedef struct {
+    double r[LF_NREAL];
+    int x_set[LF_DIM(LF_NX)];
+    int inputs_changed, outputs_valid, solver_id, delay_interp;
+} SetUndo;
+
+static void undo_save(const LfInstance *c, SetUndo *u) {
+    memcpy(u->r, c->r, sizeof u->r);
+    memcpy(u->x_set, c->x_set, sizeof u->x_set);
+    u->inputs_changed = c->inputs_changed;
+    u->outputs_valid = c->outputs_valid;
+    u->solver_id = c->solver_id;
+    u->delay_interp = c->delay_interp;
 }
 
-static fmi2Status no_such(LfInstance *c, const char *fn, const char *type, fmi2ValueReference vr) {
-    lf_log(c, LF_ERROR, LF_LOG_ERROR, "%s: there is no %s variable with value reference %u",
-           fn, type, (unsigned)vr);
+static fmi2Status undo(LfInstance *c, const SetUndo *u) {
+    memcpy(c->r, u->r, sizeof u->r);
+    memcpy(c->x_set, u->x_set, sizeof u->x_set);
+    c->inputs_changed = u->inputs_changed;
+    c->outputs_valid = u->outputs_valid;
+    c->solver_id = u->solver_id;
+    c->delay_interp = u->delay_interp;
     return fmi2Error;
+}
+
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                       const fmi2Real value[]) {
+    LfInstance *inst = (LfInstance *)c;
+    SetUndo u;
+    size_t i;
+    int rtol_set = 0;
+    fmi2Status worst = fmi2OK;
+    CHECK("fmi2SetReal", SET_STATES);
+    if (!check_vrs(inst, "fmi2SetReal", vr, nvr, value, LF_NREAL)) return fmi2Error;
+    undo_save(inst, &u);
+    for (i = 0; i < nvr; i++) {
+        LfStatus st = lf_set_real(inst, vr[i], value[i]);
+        if (st > LF_WARNING) return undo(inst, &u);
+        if (st == LF_WARNING) worst = fmi2Warning;
+        if (vr[i] == LF_SET_RTOL) rtol_set = 1;
+    }
+    if (rtol_set) ENV(inst)->rtol_set = 1;
+    return worst;
 }
 
 fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           fmi2Integer value[]) {
     size_t i;
     CHECK("fmi2GetInteger", GET_STATES);
+    if (!check_vrs((LfInstance *)c, "fmi2GetInteger", vr, nvr, value, N_INTEGER))
+        return fmi2Error;
     for (i = 0; i < nvr; i++) {
         int v;
         if (lf_get_integer((LfInstance *)c, vr[i], &v) != LF_OK) return fmi2Error;
@@ -239,78 +426,104 @@ fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
 
 fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           const fmi2Integer value[]) {
+    LfInstance *inst = (LfInstance *)c;
+    SetUndo u;
     size_t i;
     CHECK("fmi2SetInteger", SET_STATES);
+    if (!check_vrs(inst, "fmi2SetInteger", vr, nvr, value, N_INTEGER)) return fmi2Error;
+    undo_save(inst, &u);
     for (i = 0; i < nvr; i++)
-        if (lf_set_integer((LfInstance *)c, vr[i], value[i]) != LF_OK) return fmi2Error;
+        if (lf_set_integer(inst, vr[i], value[i]) != LF_OK) return undo(inst, &u);
     return fmi2OK;
+}
+
+/* Boolean and String: this FMU has none, so any reference is refused */
+static fmi2Status none_of_type(fmi2Component c, const char *fn, const fmi2ValueReference vr[],
+                               size_t nvr, const void *value) {
+    return check_vrs((LfInstance *)c, fn, vr, nvr, value, 0) ? fmi2OK : fmi2Error;
 }
 
 fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           fmi2Boolean value[]) {
-    (void)value;
     CHECK("fmi2GetBoolean", GET_STATES);
-    return nvr ? no_such((LfInstance *)c, "fmi2GetBoolean", "Boolean", vr[0]) : fmi2OK;
+    return none_of_type(c, "fmi2GetBoolean", vr, nvr, value);
 }
 
 fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           const fmi2Boolean value[]) {
-    (void)value;
     CHECK("fmi2SetBoolean", SET_STATES);
-    return nvr ? no_such((LfInstance *)c, "fmi2SetBoolean", "Boolean", vr[0]) : fmi2OK;
+    return none_of_type(c, "fmi2SetBoolean", vr, nvr, value);
 }
 
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                          fmi2String value[]) {
-    (void)value;
     CHECK("fmi2GetString", GET_STATES);
-    return nvr ? no_such((LfInstance *)c, "fmi2GetString", "String", vr[0]) : fmi2OK;
+    return none_of_type(c, "fmi2GetString", vr, nvr, value);
 }
 
 fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                          const fmi2String value[]) {
-    (void)value;
     CHECK("fmi2SetString", SET_STATES);
-    return nvr ? no_such((LfInstance *)c, "fmi2SetString", "String", vr[0]) : fmi2OK;
+    return none_of_type(c, "fmi2SetString", vr, nvr, value);
 }
 
 /* ---- not provided (declared absent in the model description) ---------- */
 
 static fmi2Status unsupported(fmi2Component c, const char *fn) {
-    if (c) lf_log((LfInstance *)c, LF_ERROR, LF_LOG_ERROR,
-                  "%s is not supported by this FMU (see modelDescription.xml)", fn);
+    if (live(c)) lf_log((LfInstance *)c, LF_ERROR, LF_LOG_ERROR,
+                        "%s is not supported by this FMU (see modelDescription.xml)", fn);
     return fmi2Error;
 }
 
-/* ---- FMU state (lf_state.c): a blob of its size and the bytes ----------- */
-
-typedef struct {
-    size_t n;
-    unsigned char data[1];
-} StateBlob;
+/* ---- FMU state (lf_state.c): blobs in the instance's list --------------- */
 
 #define STATE_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING | LF_ST_TERMINATED)
+/* FMI 2.0, 2.1.3: after fmi2Error a stored state may be set again */
+#define RESTORE_STATES (STATE_STATES | LF_ST_ERROR)
 
 static StateBlob *blob_alloc(LfInstance *c, size_t n) {
-    StateBlob *b = (StateBlob *)c->alloc.calloc(1, sizeof(StateBlob) + n);
-    if (b) b->n = n;
-    else lf_log(c, LF_ERROR, LF_LOG_ERROR, "FMU state: out of memory (%lu bytes)",
-                (unsigned long)n);
+    StateBlob *b = (StateBlob *)c->alloc.calloc(1, offsetof(StateBlob, data) + n);
+    if (!b) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "FMU state: out of memory (%lu bytes)",
+               (unsigned long)n);
+        return NULL;
+    }
+    b->n = n;
+    b->next = ENV(c)->states;
+    ENV(c)->states = b;
     return b;
+}
+
+/* Where the instance's list holds `s`, or NULL (logged) if it is not one of
+ * its states: never dereferences a pointer it did not make. */
+static StateBlob **find_state(LfInstance *c, const char *fn, fmi2FMUstate s) {
+    StateBlob **p = &ENV(c)->states;
+    while (*p && (void *)*p != s) p = &(*p)->next;
+    if (*p) return p;
+    lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: FMU state %p was not made by this "
+           "instance or was freed; nothing done", c->t, fn, s);
+    return NULL;
+}
+
+static void blob_free(LfInstance *c, StateBlob **at) {
+    StateBlob *b = *at;
+    *at = b->next;
+    c->alloc.free(b);
 }
 
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
     LfInstance *inst = (LfInstance *)c;
+    StateBlob **old = NULL, *b;
     size_t n;
-    StateBlob *b;
     CHECK("fmi2GetFMUstate", STATE_STATES);
+    if (!state) return null_arg(inst, "fmi2GetFMUstate", "FMUstate");
+    if (*state && !(old = find_state(inst, "fmi2GetFMUstate", *state))) return fmi2Error;
     n = lf_state_size(inst);
-    b = (StateBlob *)*state;
-    if (!b || b->n != n) {
-        if (b) inst->alloc.free(b);
-        *state = NULL;
-        b = blob_alloc(inst, n);
-        if (!b) return fmi2Error;
+    if (old && (*old)->n == n) {
+        b = *old;
+    } else {
+        if (!(b = blob_alloc(inst, n))) return fmi2Error; /* *state left as it was */
+        if (*state) blob_free(inst, find_state(inst, "fmi2GetFMUstate", *state));
     }
     lf_state_write(inst, b->data);
     *state = b;
@@ -318,59 +531,68 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
 }
 
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
-    const StateBlob *b = (const StateBlob *)state;
-    CHECK("fmi2SetFMUstate", STATE_STATES);
-    if (!b) {
-        lf_log((LfInstance *)c, LF_ERROR, LF_LOG_ERROR, "fmi2SetFMUstate: state is NULL");
-        return fmi2Error;
-    }
-    return (fmi2Status)lf_state_read((LfInstance *)c, b->data, b->n);
+    LfInstance *inst = (LfInstance *)c;
+    StateBlob **b;
+    CHECK("fmi2SetFMUstate", RESTORE_STATES);
+    if (!state) return null_arg(inst, "fmi2SetFMUstate", "FMUstate");
+    if (!(b = find_state(inst, "fmi2SetFMUstate", state))) return fmi2Error;
+    return lf_state_read(inst, (*b)->data, (*b)->n) == LF_OK ? fmi2OK : fmi2Error;
 }
 
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {
-    CHECK("fmi2FreeFMUstate", STATE_STATES | LF_ST_ERROR);
-    if (state && *state) ((LfInstance *)c)->alloc.free(*state);
-    if (state) *state = NULL;
+    LfInstance *inst = (LfInstance *)c;
+    StateBlob **b;
+    CHECK("fmi2FreeFMUstate", RESTORE_STATES);
+    if (!state) return null_arg(inst, "fmi2FreeFMUstate", "FMUstate");
+    if (!*state) return fmi2OK; /* FMI 2.0: a NULL state is ignored */
+    if (!(b = find_state(inst, "fmi2FreeFMUstate", *state))) return fmi2Error;
+    blob_free(inst, b);
+    *state = NULL;
     return fmi2OK;
 }
 
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *n) {
-    CHECK("fmi2SerializedFMUstateSize", STATE_STATES);
-    if (!state) {
-        lf_log((LfInstance *)c, LF_ERROR, LF_LOG_ERROR, "fmi2SerializedFMUstateSize: NULL state");
-        return fmi2Error;
-    }
-    *n = ((const StateBlob *)state)->n;
+    LfInstance *inst = (LfInstance *)c;
+    StateBlob **b;
+    CHECK("fmi2SerializedFMUstateSize", RESTORE_STATES);
+    if (!n) return null_arg(inst, "fmi2SerializedFMUstateSize", "size");
+    if (!(b = find_state(inst, "fmi2SerializedFMUstateSize", state))) return fmi2Error;
+    *n = (*b)->n;
     return fmi2OK;
 }
 
 fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte bytes[],
                                  size_t n) {
-    const StateBlob *b = (const StateBlob *)state;
-    CHECK("fmi2SerializeFMUstate", STATE_STATES);
-    if (!b || n < b->n) {
-        lf_log((LfInstance *)c, LF_ERROR, LF_LOG_ERROR,
+    LfInstance *inst = (LfInstance *)c;
+    StateBlob **b;
+    CHECK("fmi2SerializeFMUstate", RESTORE_STATES);
+    if (!bytes) return null_arg(inst, "fmi2SerializeFMUstate", "serializedState");
+    if (!(b = find_state(inst, "fmi2SerializeFMUstate", state))) return fmi2Error;
+    if (n < (*b)->n) {
+        lf_log(inst, LF_ERROR, LF_LOG_ERROR,
                "fmi2SerializeFMUstate: expected a buffer of %lu bytes but was %lu",
-               (unsigned long)(b ? b->n : 0), (unsigned long)n);
+               (unsigned long)(*b)->n, (unsigned long)n);
         return fmi2Error;
     }
-    memcpy(bytes, b->data, b->n);
+    memcpy(bytes, (*b)->data, (*b)->n);
     return fmi2OK;
 }
 
+/* The bytes are copied; they are checked (checksum, this FMU, every field)
+ * when the state is set. */
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t n,
                                    fmi2FMUstate *state) {
     LfInstance *inst = (LfInstance *)c;
-    StateBlob *b;
-    CHECK("fmi2DeSerializeFMUstate", STATE_STATES);
-    if (state && *state) {
-        inst->alloc.free(*state);
-        *state = NULL;
-    }
-    b = blob_alloc(inst, n);
-    if (!b) return fmi2Error;
+    StateBlob **old = NULL, *b;
+    CHECK("fmi2DeSerializeFMUstate", RESTORE_STATES);
+    if (!bytes) return null_arg(inst, "fmi2DeSerializeFMUstate", "serializedState");
+    if (!state) return null_arg(inst, "fmi2DeSerializeFMUstate", "FMUstate");
+    if (*state && !(old = find_state(inst, "fmi2DeSerializeFMUstate", *state)))
+        return fmi2Error;
+    if (!(b = blob_alloc(inst, n))) return fmi2Error;
     memcpy(b->data, bytes, n);
-    *state = b; /* checked against this FMU when set */
+    if (*state) blob_free(inst, find_state(inst, "fmi2DeSerializeFMUstate", *state));
+    *state = b;
     return fmi2OK;
 }
 
@@ -395,13 +617,31 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
 
 /* ---- co-simulation ------------------------------------------------------ */
 
+/* A step the runtime can integrate: finite time and step, h > 0, and an end
+ * that is a later time than the FMU's (t + h == t below the resolution of
+ * time at t).  Otherwise refused, with nothing changed. */
+static int step_integrable(LfInstance *c, double t, double h) {
+    const char *why = NULL;
+    if (!isfinite(t)) why = "currentCommunicationPoint is not finite";
+    else if (!isfinite(h) || !(h > 0)) why = "communicationStepSize is not finite and > 0";
+    else if (!isfinite(t + h)) why = "the end of the step is not finite";
+    else if (!(t + h > c->t))
+        why = "the step does not advance time (below the resolution of time here)";
+    if (!why) return 1;
+    lf_log(c, LF_ERROR, LF_LOG_ERROR,
+           "t = %.17g: fmi2DoStep(currentCommunicationPoint = %.17g, communicationStepSize = "
+           "%g): %s (time resolution at t: %g s); step refused, nothing changed", c->t, t, h,
+           why, nextafter(c->t, INFINITY) - c->t);
+    return 0;
+}
+
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetPrior) {
     LfInstance *inst = (LfInstance *)c;
     LfStatus st;
     (void)noSetPrior;
     CHECK("fmi2DoStep", LF_ST_STEP_COMPLETE);
     /* an invalid call (bad step, past stopTime) is refused and changes nothing */
-    if (lf_check_step(inst, t, h) != LF_OK) return fmi2Error;
+    if (!step_integrable(inst, t, h) || lf_check_step(inst, t, h) != LF_OK) return fmi2Error;
     st = lf_do_step(inst, t, h);
     if (st == LF_DISCARD) inst->state = LF_ST_STEP_FAILED;
     else if (st != LF_OK && st != LF_WARNING) inst->state = LF_ST_ERROR;
@@ -420,37 +660,39 @@ static fmi2Status status_kind_unknown(fmi2Component c, const char *fn, fmi2Statu
     return fmi2Discard;
 }
 
+#define STATUS_CHECK(fn)                                                             \
+    do {                                                                             \
+        CHECK(fn, RUNNING | LF_ST_TERMINATED);                                       \
+        if (!value) return null_arg((LfInstance *)c, fn, "value");                   \
+    } while (0)
+
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
-    CHECK("fmi2GetStatus", RUNNING | LF_ST_TERMINATED);
+    STATUS_CHECK("fmi2GetStatus");
     if (s != fmi2DoStepStatus) return status_kind_unknown(c, "fmi2GetStatus", s);
     *value = ((LfInstance *)c)->state == LF_ST_STEP_FAILED ? fmi2Discard : fmi2OK;
     return fmi2OK;
 }
 
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
-    CHECK("fmi2GetRealStatus", RUNNING | LF_ST_TERMINATED);
+    STATUS_CHECK("fmi2GetRealStatus");
     if (s != fmi2LastSuccessfulTime) return status_kind_unknown(c, "fmi2GetRealStatus", s);
     *value = ((LfInstance *)c)->last_successful_time;
     return fmi2OK;
 }
 
 fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
-    (void)s;
-    (void)value;
-    CHECK("fmi2GetIntegerStatus", RUNNING | LF_ST_TERMINATED);
+    STATUS_CHECK("fmi2GetIntegerStatus");
     return status_kind_unknown(c, "fmi2GetIntegerStatus", s);
 }
 
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
-    CHECK("fmi2GetBooleanStatus", RUNNING | LF_ST_TERMINATED);
+    STATUS_CHECK("fmi2GetBooleanStatus");
     if (s != fmi2Terminated) return status_kind_unknown(c, "fmi2GetBooleanStatus", s);
     *value = fmi2False;
     return fmi2OK;
 }
 
 fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
-    (void)s;
-    (void)value;
-    CHECK("fmi2GetStringStatus", RUNNING | LF_ST_TERMINATED);
+    STATUS_CHECK("fmi2GetStringStatus");
     return status_kind_unknown(c, "fmi2GetStringStatus", s);
 }

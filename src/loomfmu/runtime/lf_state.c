@@ -6,42 +6,28 @@
  * layout is fixed by method and size) and the history of delayed values
  * (only the samples in use).  Pointers, the logger and the allocator are not
  * part of the state: a state can be set in another instance of the same FMU
- * (checked by GUID and sizes), also after a round trip through bytes. */
+ * (checked by GUID and sizes), also after a round trip through bytes.
+ *
+ * Bytes from outside are not trusted: a checksum over the whole blob, then
+ * every field against its range, every count against its capacity, every
+ * number for finiteness, before anything is changed (lf_state_read). */
+#include <math.h>
 #include <string.h>
 
 #include "lf_runtime.h"
 #include "lf_state.h"
 
-#define LF_STATE_MAGIC 0x4C465331u /* "LFS1" */
+#define RUNNING_OR_DONE (LF_ST_STEP_COMPLETE | LF_ST_STEP_FAILED | LF_ST_TERMINATED)
 
-typedef struct {
-    unsigned magic;
-    unsigned n_real, nx, nq, nd, ne;
-    size_t work_len;
-    int method;
-    char guid[40];
-} Header;
-
-/* The instance's plain-value fields, in one struct for one memcpy each way. */
-typedef struct {
-    double r[LF_NREAL];
-    double q[LF_DIM(LF_NQ)];
-    double w_cur[LF_DIM(LF_NW)];
-    double e_old[LF_DIM(LF_NE)];
-    double dval[LF_DIM(LF_ND)];
-    double tau[LF_DIM(LF_ND)];
-    double bp[LF_MAX_BP];
-    long hist_count[LF_DIM(LF_ND)];
-    int x_set[LF_DIM(LF_NX)];
-    double t, t_start, last_successful_time;
-    long max_steps, n_events, n_newton_fail;
-    int solver_id, outputs_valid, inputs_changed, delay_interp, n_bp, solver_ready, state;
-    /* solver fields (the work buffer follows separately) */
-    double s_t, s_t_old, s_h;
-    LfSolverOptions s_opt;
-    int s_fsal_valid;
-    long s_steps, s_rejected, s_rhs, s_jac, s_lu;
-} Values;
+static unsigned long long fnv1a(const unsigned char *p, size_t n) {
+    unsigned long long hash = LF_FNV_OFFSET;
+    size_t i;
+    for (i = 0; i < n; i++) {
+        hash ^= p[i];
+        hash *= LF_FNV_PRIME;
+    }
+    return hash;
+}
 
 static int method_index(const LfInstance *c) {
     size_t k;
@@ -58,176 +44,396 @@ static size_t hist_doubles(const LfInstance *c) {
     return n;
 }
 
+static size_t fixed_bytes(void) {
+    return sizeof(LfStateHeader) + sizeof(LfStateValues) + sizeof(unsigned long long);
+}
+
 size_t lf_state_size(const LfInstance *c) {
     size_t work = c->solver_ready ? c->solver.work_len : 0;
-    return sizeof(Header) + sizeof(Values) + sizeof(double) * (work + hist_doubles(c));
+    return fixed_bytes() + sizeof(double) * (work + hist_doubles(c));
 }
 
 static double *hist_at(const LfInstance *c, int k, long i) {
     return &c->hist[((size_t)k * LF_HIST_CAP + (size_t)((c->hist_start[k] + i) % LF_HIST_CAP)) * 3];
 }
 
-void lf_state_write(const LfInstance *c, unsigned char *buf) {
-    Header h;
-    Values v;
+static void write_values(const LfInstance *c, LfStateValues *v) {
     const LfSolver *s = &c->solver;
+    memset(v, 0, sizeof *v);
+    memcpy(v->r, c->r, sizeof v->r);
+    memcpy(v->q, c->q, sizeof v->q);
+    memcpy(v->w_cur, c->w_cur, sizeof v->w_cur);
+    memcpy(v->e_old, c->e_old, sizeof v->e_old);
+    memcpy(v->dval, c->dval, sizeof v->dval);
+    memcpy(v->tau, c->tau, sizeof v->tau);
+    memcpy(v->bp, c->bp, sizeof v->bp);
+    memcpy(v->hist_count, c->hist_count, sizeof v->hist_count);
+    memcpy(v->x_set, c->x_set, sizeof v->x_set);
+    v->t = c->t;
+    v->t_start = c->t_start;
+    v->t_stop = c->t_stop;
+    v->rtol_importer = c->rtol_importer;
+    v->last_successful_time = c->last_successful_time;
+    v->max_steps = c->max_steps;
+    v->n_events = c->n_events;
+    v->n_newton_fail = c->n_newton_fail;
+    v->solver_id = c->solver_id;
+    v->outputs_valid = c->outputs_valid;
+    v->inputs_changed = c->inputs_changed;
+    v->delay_interp = c->delay_interp;
+    v->n_bp = c->n_bp;
+    v->solver_ready = c->solver_ready;
+    v->state = (int)c->state;
+    if (!c->solver_ready) return;
+    v->s_t = s->t;
+    v->s_t_old = s->t_old;
+    v->s_h = s->h;
+    v->s_opt = s->opt;
+    v->s_fsal_valid = s->fsal_valid;
+    v->s_steps = s->n_steps;
+    v->s_rejected = s->n_rejected;
+    v->s_rhs = s->n_rhs;
+    v->s_jac = s->n_jac;
+    v->s_lu = s->n_lu;
+}
+
+void lf_state_write(const LfInstance *c, unsigned char *buf) {
+    LfStateHeader h;
+    LfStateValues v;
+    unsigned char *p = buf;
+    unsigned long long sum;
     int k;
     long i;
     memset(&h, 0, sizeof h);
-    memset(&v, 0, sizeof v);
     h.magic = LF_STATE_MAGIC;
     h.n_real = LF_NREAL;
     h.nx = LF_NX;
     h.nq = LF_NQ;
     h.nd = LF_ND;
     h.ne = LF_NE;
-    h.work_len = c->solver_ready ? s->work_len : 0;
+    h.nw = LF_NW;
+    h.size = lf_state_size(c);
+    h.work_len = c->solver_ready ? c->solver.work_len : 0;
     h.method = method_index(c);
     strncpy(h.guid, lf_model.guid, sizeof h.guid - 1);
-    memcpy(v.r, c->r, sizeof v.r);
-    memcpy(v.q, c->q, sizeof v.q);
-    memcpy(v.w_cur, c->w_cur, sizeof v.w_cur);
-    memcpy(v.e_old, c->e_old, sizeof v.e_old);
-    memcpy(v.dval, c->dval, sizeof v.dval);
-    memcpy(v.tau, c->tau, sizeof v.tau);
-    memcpy(v.bp, c->bp, sizeof v.bp);
-    memcpy(v.hist_count, c->hist_count, sizeof v.hist_count);
-    memcpy(v.x_set, c->x_set, sizeof v.x_set);
-    v.t = c->t;
-    v.t_start = c->t_start;
-    v.last_successful_time = c->last_successful_time;
-    v.max_steps = c->max_steps;
-    v.n_events = c->n_events;
-    v.n_newton_fail = c->n_newton_fail;
-    v.solver_id = c->solver_id;
-    v.outputs_valid = c->outputs_valid;
-    v.inputs_changed = c->inputs_changed;
-    v.delay_interp = c->delay_interp;
-    v.n_bp = c->n_bp;
-    v.solver_ready = c->solver_ready;
-    v.state = (int)c->state;
+    write_values(c, &v);
+    memcpy(p, &h, sizeof h);
+    p += sizeof h;
+    memcpy(p, &v, sizeof v);
+    p += sizeof v;
     if (c->solver_ready) {
-        v.s_t = s->t;
-        v.s_t_old = s->t_old;
-        v.s_h = s->h;
-        v.s_opt = s->opt;
-        v.s_fsal_valid = s->fsal_valid;
-        v.s_steps = s->n_steps;
-        v.s_rejected = s->n_rejected;
-        v.s_rhs = s->n_rhs;
-        v.s_jac = s->n_jac;
-        v.s_lu = s->n_lu;
-    }
-    memcpy(buf, &h, sizeof h);
-    buf += sizeof h;
-    memcpy(buf, &v, sizeof v);
-    buf += sizeof v;
-    if (c->solver_ready) {
-        memcpy(buf, s->work, sizeof(double) * s->work_len);
-        buf += sizeof(double) * s->work_len;
+        memcpy(p, c->solver.work, sizeof(double) * c->solver.work_len);
+        p += sizeof(double) * c->solver.work_len;
     }
     for (k = 0; k < LF_ND; k++)
         for (i = 0; i < c->hist_count[k]; i++) {
-            memcpy(buf, hist_at(c, k, i), 3 * sizeof(double));
-            buf += 3 * sizeof(double);
+            memcpy(p, hist_at(c, k, i), 3 * sizeof(double));
+            p += 3 * sizeof(double);
         }
+    sum = fnv1a(buf, (size_t)(p - buf));
+    memcpy(p, &sum, sizeof sum);
+}
+
+/* ---- checks: each logs the first problem it finds and returns 0 -------- */
+
+static int refuse(LfInstance *c, const char *what, double value, const char *expected) {
+    lf_log(c, LF_ERROR, LF_LOG_ERROR,
+           "t = %.17g: FMU state refused: %s = %.17g, expected %s; the instance keeps its "
+           "state", c->t, what, value, expected);
+    return 0;
+}
+
+#define REQUIRE(cond, what, value, expected)                                         \
+    do {                                                                             \
+        if (!(cond)) return refuse(c, what, (double)(value), expected);              \
+    } while (0)
+
+static int is_flag(int v) { return v == 0 || v == 1; }
+
+/* Integrity: size, checksum, this FMU, sizes of its arrays. */
+static int check_header(LfInstance *c, const unsigned char *buf, size_t n, LfStateHeader *h) {
+    unsigned long long sum;
+    char guid[LF_STATE_GUID_LEN];
+    REQUIRE(n >= fixed_bytes(), "size of the state (bytes)", n, "at least the fixed part");
+    memcpy(&sum, buf + n - sizeof sum, sizeof sum);
+    if (sum != fnv1a(buf, n - sizeof sum)) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR,
+               "t = %.17g: FMU state refused: its checksum does not match its %lu bytes "
+               "(corrupted or truncated); the instance keeps its state", c->t,
+               (unsigned long)n);
+        return 0;
+    }
+    memcpy(h, buf, sizeof *h);
+    REQUIRE(h->magic == LF_STATE_MAGIC, "format tag", h->magic, "a loomfmu state (LFS2)");
+    memset(guid, 0, sizeof guid);
+    strncpy(guid, lf_model.guid, sizeof guid - 1);
+    if (memcmp(guid, h->guid, sizeof guid) != 0) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR,
+               "t = %.17g: FMU state refused: it is a state of another FMU (GUID differs "
+               "from %s); the instance keeps its state", c->t, lf_model.guid);
+        return 0;
+    }
+    REQUIRE(h->n_real == LF_NREAL, "number of Reals", h->n_real, "this FMU's");
+    REQUIRE(h->nx == LF_NX && h->nq == LF_NQ && h->nd == LF_ND && h->ne == LF_NE &&
+                h->nw == LF_NW,
+            "number of states", h->nx, "this FMU's sizes of states, modes, delays, events");
+    REQUIRE(h->size == n, "size of the state (bytes)", n, "the size it was written with");
+    return 1;
+}
+
+static int check_times(LfInstance *c, const LfStateValues *v) {
+    REQUIRE(isfinite(v->t_start), "t_start", v->t_start, "finite");
+    REQUIRE(isfinite(v->t) && v->t >= v->t_start, "t", v->t, "finite, >= t_start");
+    REQUIRE(isfinite(v->last_successful_time) && v->last_successful_time >= v->t_start &&
+                v->last_successful_time <= v->t,
+            "last_successful_time", v->last_successful_time, "finite, in [t_start, t]");
+    REQUIRE(v->t_stop == INFINITY || (isfinite(v->t_stop) && v->t_stop >= v->t_start),
+            "t_stop", v->t_stop, "finite and >= t_start, or none");
+    REQUIRE(v->rtol_importer == 0 || (v->rtol_importer >= lf_model.real_min[LF_SET_RTOL] &&
+                                      v->rtol_importer <= lf_model.real_max[LF_SET_RTOL]),
+            "importer tolerance", v->rtol_importer, "0 (none) or within solver_rtol's range");
+    return 1;
+}
+
+static int check_flags(LfInstance *c, const LfStateValues *v) {
+    int i, st = v->state, running = (st & RUNNING_OR_DONE) != 0;
+    REQUIRE(st == LF_ST_INSTANTIATED || st == LF_ST_INIT || st == LF_ST_STEP_COMPLETE ||
+                st == LF_ST_STEP_FAILED || st == LF_ST_TERMINATED,
+            "interface state", st, "one of instantiated, initialization, stepping, terminated");
+    REQUIRE(is_flag(v->solver_ready) && v->solver_ready == running, "solver_ready",
+            v->solver_ready, "1 after initialization, 0 before");
+    REQUIRE(v->solver_id >= 1 && v->solver_id <= (int)lf_n_methods, "solver", v->solver_id,
+            "a solver of this FMU");
+    REQUIRE(is_flag(v->outputs_valid), "outputs_valid", v->outputs_valid, "0 or 1");
+    REQUIRE(is_flag(v->inputs_changed), "inputs_changed", v->inputs_changed, "0 or 1");
+    REQUIRE(v->delay_interp == LF_DELAY_HERMITE || v->delay_interp == LF_DELAY_LINEAR,
+            "delay_interpolation", v->delay_interp, "1 (hermite) or 2 (linear)");
+    REQUIRE(v->max_steps > 0, "max_steps", v->max_steps, "> 0");
+    REQUIRE(v->n_events >= 0 && v->n_newton_fail >= 0, "event/Newton counters", v->n_events,
+            ">= 0");
+    for (i = 0; i < LF_DIM(LF_NX); i++)
+        REQUIRE(is_flag(v->x_set[i]), "x_set", v->x_set[i], "0 or 1");
+    return 1;
+}
+
+/* Reals by kind: settings and parameters within their ranges (as
+ * fmi2SetReal enforces), inputs finite, states finite (or not yet computed
+ * before initialization), calculated values finite or not yet computed. */
+static int check_reals(LfInstance *c, const LfStateValues *v) {
+    unsigned vr;
+    char what[160];
+    for (vr = 0; vr < LF_NREAL; vr++) {
+        double x = v->r[vr];
+        LfKind kind = lf_model.real_kind[vr];
+        int ok;
+        if (kind == LF_KIND_SETTING || kind == LF_KIND_PARAMETER)
+            ok = isfinite(x) && x >= lf_model.real_min[vr] && x <= lf_model.real_max[vr];
+        else if (kind == LF_KIND_INPUT)
+            ok = isfinite(x);
+        else if (kind == LF_KIND_STATE)
+            ok = isfinite(x) || (isnan(x) && !v->solver_ready);
+        else
+            ok = isfinite(x) || isnan(x);
+        if (!ok) {
+            strncpy(what, lf_model.real_names[vr], sizeof what - 1);
+            what[sizeof what - 1] = '\0';
+            return refuse(c, what, x, "finite and within its range");
+        }
+    }
+    return 1;
+}
+
+static int all_finite(const double *x, size_t n) {
+    size_t i;
+    for (i = 0; i < n; i++)
+        if (!isfinite(x[i])) return 0;
+    return 1;
+}
+
+static int check_modes_delays(LfInstance *c, const LfStateValues *v) {
+    int k, j;
+    for (k = 0; k < LF_NQ; k++) {
+        int found = 0;
+        for (j = lf_model.mode_value_offset[k]; j < lf_model.mode_value_offset[k + 1]; j++)
+            if (v->q[k] == lf_model.mode_values[j]) found = 1;
+        REQUIRE(found, lf_model.mode_names[k], v->q[k], "one of the mode's values");
+    }
+    REQUIRE(all_finite(v->w_cur, LF_DIM(LF_NW)), "unknowns w (Newton start)", NAN, "finite");
+    REQUIRE(all_finite(v->e_old, LF_DIM(LF_NE)), "event indicators", NAN, "finite");
+    REQUIRE(all_finite(v->dval, LF_DIM(LF_ND)), "delayed values", NAN, "finite");
+    REQUIRE(v->n_bp >= 0 && v->n_bp <= LF_MAX_BP, "number of delay breakpoints", v->n_bp,
+            "0 ... 256");
+    REQUIRE(all_finite(v->bp, (size_t)v->n_bp), "delay breakpoint", NAN, "finite");
+    for (k = 0; k < LF_DIM(LF_ND); k++) {
+        double tau_max = k < LF_ND ? lf_model.delay_max[k] : 0.0;
+        long cap = k < LF_ND ? LF_HIST_CAP : 0;
+        REQUIRE(v->tau[k] >= 0 && v->tau[k] <= tau_max, "delay", v->tau[k],
+                "0 ... the FMU's longest delay");
+        REQUIRE(v->hist_count[k] >= 0 && v->hist_count[k] <= cap, "history samples",
+                v->hist_count[k], "0 ... 65536");
+    }
+    return 1;
+}
+
+static int check_solver(LfInstance *c, const LfStateHeader *h, const LfStateValues *v,
+                        const double *work) {
+    const LfSolverOptions *o = &v->s_opt;
+    size_t len, i;
+    if (!v->solver_ready) {
+        REQUIRE(h->method == -1 && h->work_len == 0, "solver method", h->method,
+                "none before initialization");
+        return 1;
+    }
+    REQUIRE(h->method >= 0 && h->method < (int)lf_n_methods && h->method == v->solver_id - 1,
+            "solver method", h->method, "the solver the instance was set up with");
+    len = 2 * (size_t)LF_NX + lf_methods[h->method]->work_size(LF_NX);
+    REQUIRE(h->work_len == len, "solver work length", (double)h->work_len,
+            "the method's length for this FMU");
+    REQUIRE(isfinite(v->s_t) && fabs(v->s_t - v->t) <= 1e-9 * fmax(1.0, fabs(v->t)),
+            "solver time", v->s_t, "the instance's time");
+    REQUIRE(isfinite(v->s_t_old) && v->s_t_old <= v->s_t, "solver previous time", v->s_t_old,
+            "finite, <= solver time");
+    REQUIRE(isfinite(v->s_h) && v->s_h >= 0, "solver step size", v->s_h, "finite, >= 0");
+    REQUIRE(isfinite(o->rtol) && o->rtol > 0 && isfinite(o->atol) && o->atol > 0,
+            "solver tolerance", o->rtol, "finite, > 0");
+    REQUIRE(o->h_max > 0 && isfinite(o->h_fixed) && o->h_fixed > 0, "solver step limit",
+            o->h_max, "> 0");
+    REQUIRE(is_flag(v->s_fsal_valid), "solver flag", v->s_fsal_valid, "0 or 1");
+    REQUIRE(v->s_steps >= 0 && v->s_rejected >= 0 && v->s_rhs >= 0 && v->s_jac >= 0 &&
+                v->s_lu >= 0,
+            "solver counters", v->s_steps, ">= 0");
+    /* the states at t and t_old: finite, and at t those of the instance */
+    REQUIRE(all_finite(work, 2 * (size_t)LF_NX), "solver states", NAN, "finite");
+    for (i = 0; i < (size_t)LF_NX; i++)
+        REQUIRE(work[i] == v->r[LF_VR_X0 + i], lf_model.real_names[LF_VR_X0 + i], work[i],
+                "the solver's state at t");
+    return 1;
+}
+
+/* History samples (t, g, dg/dt): finite, times in order. */
+static int check_history(LfInstance *c, const LfStateValues *v, const double *hist) {
+    int k;
+    long i;
+    for (k = 0; k < LF_ND; k++) {
+        for (i = 0; i < v->hist_count[k]; i++, hist += 3) {
+            REQUIRE(all_finite(hist, 3), "history sample", hist[0], "finite");
+            REQUIRE(i == 0 || hist[0] >= hist[-3], "history time", hist[0],
+                    "not before the previous sample");
+        }
+    }
+    return 1;
+}
+
+/* ---- restore ------------------------------------------------------------- */
+
+/* A solver of the state's method and size, made before the old one is given
+ * up, so that a failure leaves the instance as it was. */
+static int prepare_solver(LfInstance *c, const LfStateHeader *h, const LfStateValues *v,
+                          LfSolver *fresh) {
+    const LfMethod *m = lf_methods[h->method];
+    if (c->solver_ready && c->solver.method == m && c->solver.work_len == h->work_len) {
+        *fresh = c->solver;
+        return 1;
+    }
+    if (lf_solver_init(fresh, m, lf_ode_of(c), v->s_opt, v->s_t, &v->r[LF_VR_X0],
+                       &c->alloc) != LF_OK || fresh->work_len != h->work_len) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR,
+               "t = %.17g: FMU state refused: cannot make its solver (%s); the instance "
+               "keeps its state", c->t, fresh->message);
+        if (fresh->work) lf_solver_free(fresh, &c->alloc);
+        return 0;
+    }
+    if (c->solver_ready) lf_solver_free(&c->solver, &c->alloc);
+    return 1;
+}
+
+static void apply_solver(LfSolver *s, const LfStateValues *v, const double *work) {
+    memcpy(s->work, work, sizeof(double) * s->work_len);
+    s->t = v->s_t;
+    s->t_old = v->s_t_old;
+    s->h = v->s_h;
+    s->opt = v->s_opt;
+    s->fsal_valid = v->s_fsal_valid;
+    s->n_steps = v->s_steps;
+    s->n_rejected = v->s_rejected;
+    s->n_rhs = v->s_rhs;
+    s->n_jac = v->s_jac;
+    s->n_lu = v->s_lu;
+    s->message[0] = '\0';
+}
+
+static void apply_values(LfInstance *c, const LfStateValues *v, const double *hist) {
+    int k;
+    long i;
+    memcpy(c->r, v->r, sizeof v->r);
+    memcpy(c->q, v->q, sizeof v->q);
+    memcpy(c->w_cur, v->w_cur, sizeof v->w_cur);
+    memcpy(c->e_old, v->e_old, sizeof v->e_old);
+    memcpy(c->dval, v->dval, sizeof v->dval);
+    memcpy(c->tau, v->tau, sizeof v->tau);
+    memcpy(c->bp, v->bp, sizeof v->bp);
+    memcpy(c->x_set, v->x_set, sizeof v->x_set);
+    c->t = v->t;
+    c->t_start = v->t_start;
+    c->t_stop = v->t_stop;
+    c->rtol_importer = v->rtol_importer;
+    c->last_successful_time = v->last_successful_time;
+    c->max_steps = v->max_steps;
+    c->n_events = v->n_events;
+    c->n_newton_fail = v->n_newton_fail;
+    c->solver_id = v->solver_id;
+    c->outputs_valid = 0;
+    c->inputs_changed = v->inputs_changed;
+    c->delay_interp = v->delay_interp;
+    c->n_bp = v->n_bp;
+    c->t_bp_step = INFINITY;
+    c->state = (LfState)v->state;
+    for (k = 0; k < LF_ND; k++) {
+        c->hist_start[k] = 0;
+        c->hist_count[k] = v->hist_count[k];
+        for (i = 0; i < v->hist_count[k]; i++, hist += 3) memcpy(hist_at(c, k, i), hist, 3 * sizeof(double));
+    }
 }
 
 LfStatus lf_state_read(LfInstance *c, const unsigned char *buf, size_t n) {
-    Header h;
-    Values v;
-    LfSolver *s = &c->solver;
-    size_t need;
+    LfStateHeader h;
+    LfStateValues v;
+    LfSolver fresh;
+    size_t need, hist_len = 0;
+    const double *work, *hist;
     int k;
-    long i;
-    if (n < sizeof h + sizeof v) {
-        lf_log(c, LF_ERROR, LF_LOG_ERROR, "FMU state: %lu bytes, expected at least %lu",
-               (unsigned long)n, (unsigned long)(sizeof h + sizeof v));
-        return LF_ERROR;
-    }
-    memcpy(&h, buf, sizeof h);
+    if (!check_header(c, buf, n, &h)) return LF_ERROR;
     memcpy(&v, buf + sizeof h, sizeof v);
-    if (h.magic != LF_STATE_MAGIC || strncmp(h.guid, lf_model.guid, sizeof h.guid - 1) != 0 ||
-        h.n_real != LF_NREAL || h.nx != LF_NX || h.nq != LF_NQ || h.nd != LF_ND ||
-        h.ne != LF_NE) {
-        lf_log(c, LF_ERROR, LF_LOG_ERROR, "FMU state: not a state of this FMU (GUID or sizes differ)");
+    if (!check_times(c, &v) || !check_flags(c, &v) || !check_modes_delays(c, &v))
+        return LF_ERROR;
+    for (k = 0; k < LF_ND; k++) hist_len += 3 * (size_t)v.hist_count[k];
+    need = h.work_len <= n / sizeof(double)
+               ? fixed_bytes() + sizeof(double) * ((size_t)h.work_len + hist_len) : 0;
+    if (n != need) {
+        refuse(c, "size of the state (bytes)", (double)n, "header + values + work + history");
         return LF_ERROR;
     }
-    need = sizeof h + sizeof v + sizeof(double) * h.work_len;
-    for (k = 0; k < LF_ND; k++) {
-        if (v.hist_count[k] < 0 || v.hist_count[k] > LF_HIST_CAP) {
-            lf_log(c, LF_ERROR, LF_LOG_ERROR, "FMU state: corrupt history size");
-            return LF_ERROR;
-        }
-        need += 3 * sizeof(double) * (size_t)v.hist_count[k];
-    }
-    if (n != need || (v.solver_ready && (h.method < 0 || h.method >= (int)lf_n_methods))) {
-        lf_log(c, LF_ERROR, LF_LOG_ERROR, "FMU state: %lu bytes, expected %lu",
-               (unsigned long)n, (unsigned long)need);
+    /* the doubles are copied out: the bytes need not be aligned */
+    work = (const double *)c->alloc.calloc((size_t)h.work_len + hist_len + 1, sizeof(double));
+    if (!work) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: FMU state: out of memory", c->t);
         return LF_ERROR;
     }
-    if (v.solver_ready) { /* a solver of the state's method and size */
-        if (c->solver_ready &&
-            (c->solver.method != lf_methods[h.method] || c->solver.work_len != h.work_len)) {
-            lf_solver_free(&c->solver, &c->alloc);
-            c->solver_ready = 0;
-        }
-        if (!c->solver_ready) {
-            LfOde ode = lf_ode_of(c);
-            if (lf_solver_init(s, lf_methods[h.method], ode, v.s_opt, v.s_t,
-                               &v.r[LF_VR_X0], &c->alloc) != LF_OK ||
-                s->work_len != h.work_len) {
-                /* the old solver is gone: this instance cannot step any more */
-                lf_log(c, LF_ERROR, LF_LOG_ERROR, "FMU state: cannot restore the solver");
-                c->state = LF_ST_ERROR;
-                return LF_ERROR;
-            }
-            c->solver_ready = 1;
-        }
-        memcpy(s->work, buf + sizeof h + sizeof v, sizeof(double) * h.work_len);
-        s->t = v.s_t;
-        s->t_old = v.s_t_old;
-        s->h = v.s_h;
-        s->opt = v.s_opt;
-        s->fsal_valid = v.s_fsal_valid;
-        s->n_steps = v.s_steps;
-        s->n_rejected = v.s_rejected;
-        s->n_rhs = v.s_rhs;
-        s->n_jac = v.s_jac;
-        s->n_lu = v.s_lu;
-        s->message[0] = '\0';
+    memcpy((void *)work, buf + sizeof h + sizeof v, sizeof(double) * ((size_t)h.work_len + hist_len));
+    hist = work + h.work_len;
+    if (!check_reals(c, &v) || !check_solver(c, &h, &v, work) || !check_history(c, &v, hist) ||
+        (v.solver_ready && !prepare_solver(c, &h, &v, &fresh))) {
+        c->alloc.free((void *)work);
+        return LF_ERROR;
+    }
+    if (v.solver_ready) {
+        c->solver = fresh;
+        apply_solver(&c->solver, &v, work);
     } else if (c->solver_ready) {
         lf_solver_free(&c->solver, &c->alloc);
-        c->solver_ready = 0;
     }
-    memcpy(c->r, v.r, sizeof v.r);
-    memcpy(c->q, v.q, sizeof v.q);
-    memcpy(c->w_cur, v.w_cur, sizeof v.w_cur);
-    memcpy(c->e_old, v.e_old, sizeof v.e_old);
-    memcpy(c->dval, v.dval, sizeof v.dval);
-    memcpy(c->tau, v.tau, sizeof v.tau);
-    memcpy(c->bp, v.bp, sizeof v.bp);
-    memcpy(c->x_set, v.x_set, sizeof v.x_set);
-    c->t = v.t;
-    c->t_start = v.t_start;
-    c->last_successful_time = v.last_successful_time;
-    c->max_steps = v.max_steps;
-    c->n_events = v.n_events;
-    c->n_newton_fail = v.n_newton_fail;
-    c->solver_id = v.solver_id;
-    c->outputs_valid = 0;
-    c->inputs_changed = v.inputs_changed;
-    c->delay_interp = v.delay_interp;
-    c->n_bp = v.n_bp;
-    c->state = (LfState)v.state;
-    buf += sizeof h + sizeof v + sizeof(double) * h.work_len; /* the history follows */
-    for (k = 0; k < LF_ND; k++) {
-        c->hist_start[k] = 0;
-        c->hist_count[k] = v.hist_count[k];
-        for (i = 0; i < v.hist_count[k]; i++) {
-            memcpy(hist_at(c, k, i), buf, 3 * sizeof(double));
-            buf += 3 * sizeof(double);
-        }
-    }
+    c->solver_ready = v.solver_ready;
+    apply_values(c, &v, hist);
+    c->alloc.free((void *)work);
     return LF_OK;
 }

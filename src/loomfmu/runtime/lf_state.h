@@ -1,16 +1,60 @@
-/* loomfmu shared runtime: the FMU state as a flat byte string (lf_state.c). */
+/* loomfmu shared runtime: the FMU state as a flat byte string (lf_state.c).
+ *
+ * Layout: LfStateHeader | LfStateValues | solver work (work_len doubles) |
+ * history samples (3 doubles each, delay by delay) | checksum.  The checksum
+ * is the 64-bit FNV-1a hash of every byte before it (padding included: the
+ * writer zeroes the structs first), stored as an unsigned long long in the
+ * machine's byte order.  The layout is declared here so that tests can
+ * corrupt single fields and seal the blob again. */
 #ifndef LF_STATE_H
 #define LF_STATE_H
 
 #include <stddef.h>
 #include "lf_runtime.h"
 
+#define LF_STATE_MAGIC 0x4C465332u /* "LFS2" */
+#define LF_STATE_GUID_LEN 64
+#define LF_FNV_OFFSET 0xcbf29ce484222325ULL
+#define LF_FNV_PRIME 0x100000001b3ULL
+
+typedef struct {
+    unsigned magic;
+    unsigned n_real, nx, nq, nd, ne, nw;
+    int method;                /* index into lf_methods[], -1: no solver */
+    unsigned long long size;   /* bytes of the whole state, checksum included */
+    unsigned long long work_len;
+    char guid[LF_STATE_GUID_LEN];
+} LfStateHeader;
+
+/* The instance's plain-value fields, in one struct for one memcpy each way. */
+typedef struct {
+    double r[LF_NREAL];
+    double q[LF_DIM(LF_NQ)];
+    double w_cur[LF_DIM(LF_NW)];
+    double e_old[LF_DIM(LF_NE)];
+    double dval[LF_DIM(LF_ND)];
+    double tau[LF_DIM(LF_ND)];
+    double bp[LF_MAX_BP];
+    long hist_count[LF_DIM(LF_ND)];
+    int x_set[LF_DIM(LF_NX)];
+    double t, t_start, t_stop, rtol_importer, last_successful_time;
+    long max_steps, n_events, n_newton_fail;
+    int solver_id, outputs_valid, inputs_changed, delay_interp, n_bp, solver_ready, state;
+    /* solver fields (the work buffer follows separately) */
+    double s_t, s_t_old, s_h;
+    LfSolverOptions s_opt;
+    int s_fsal_valid;
+    long s_steps, s_rejected, s_rhs, s_jac, s_lu;
+} LfStateValues;
+
 /* Bytes needed for the instance's current state. */
 size_t lf_state_size(const LfInstance *c);
-/* Write the state into buf (lf_state_size bytes). */
+/* Write the state into buf (lf_state_size bytes), checksum included. */
 void lf_state_write(const LfInstance *c, unsigned char *buf);
-/* Restore a state written by lf_state_write of an instance of this FMU;
- * LF_ERROR with a log line if it is not one. */
+/* Restore buf (n bytes) if it is an intact state of this FMU: checksum,
+ * GUID, sizes, every field in its range, every count within its capacity.
+ * A state that fails any check is refused with LF_ERROR and a log line
+ * naming the field, and the instance keeps its state. */
 LfStatus lf_state_read(LfInstance *c, const unsigned char *buf, size_t n);
 
 #endif
