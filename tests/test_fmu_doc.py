@@ -112,6 +112,8 @@ def test_write_documentation_refuses_what_it_cannot_document(heald_frame_rigid_f
         write_documentation(heald_frame_rigid_fmu.path, load_model("backrest"))
     with pytest.raises(ValueError, match="verification"):
         html_for(load_model("heald_frame_rigid"), {"errors": {}})
+    with pytest.raises(ValueError, match="verification"):
+        html_for(load_model("heald_frame_rigid"), [("dopri5", {})])
 
 
 def _mm(description: str) -> float:

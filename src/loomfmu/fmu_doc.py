@@ -125,7 +125,8 @@ def html_for(model: Model, verification: dict | None = None, *,
     from ``model`` as the builder does).  members: the FMU's file names, to
     point at the generated sources.
     """
-    if verification is not None and not isinstance(verification.get("solvers"), dict):
+    if verification is not None and not (isinstance(verification, dict) and
+                                         isinstance(verification.get("solvers"), dict)):
         raise ValueError("verification: expected the dict of loomfmu.verify.verify "
                          "(with a 'solvers' mapping) or None")
     if model_description_xml is None:
