@@ -64,13 +64,22 @@ SETTINGS = (
             "solvers", 1e-9, 1e6),
     Setting("solver_h_fixed", "LF_SET_H_FIXED", "s", "step of the fixed-step solver rk4",
             1e-9, 1e3),
+    Setting("solver_max_steps", "LF_SET_MAX_STEPS", "", "most solver steps (accepted and "
+            "rejected, event location included) in one fmi2DoStep: past it the call returns "
+            "fmi2Discard with a log line, the outputs readable at the last accepted time "
+            "(fmi2GetRealStatus(fmi2LastSuccessfulTime)); bounds the wall time of one call",
+            1.0, 1e9),
 )
+
+#: Default of solver_max_steps: about a second of work per fmi2DoStep for the
+#: models here (measured: benchmarks/runtime_checks.py, "runaway").
+MAX_STEPS_DEFAULT = 100000
 
 
 def setting_starts(model: Model) -> dict[str, float]:
     h_max = model.h_max if math.isfinite(model.h_max) else model.stop_time
     return {"solver_rtol": 1e-6, "solver_atol": 1e-9, "solver_h_max": h_max,
-            "solver_h_fixed": model.h_fixed}
+            "solver_h_fixed": model.h_fixed, "solver_max_steps": float(MAX_STEPS_DEFAULT)}
 
 
 @dataclass

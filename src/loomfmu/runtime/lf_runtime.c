@@ -82,7 +82,7 @@ void lf_reset_values(LfInstance *c) {
     c->outputs_valid = 0;
     c->inputs_changed = 0;
     c->n_events = 0;
-    c->max_steps = 10000000L;
+    c->max_steps = (long)lf_model.real_start[LF_SET_MAX_STEPS];
     if (c->solver_ready) {
         lf_solver_free(&c->solver, &c->alloc);
         c->solver_ready = 0;

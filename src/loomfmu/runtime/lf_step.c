@@ -3,6 +3,7 @@
  * Inputs are held constant over a communication step (zero-order hold); a
  * change of an input restarts the solver at the communication point. */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "lf_internal.h"
@@ -52,6 +53,7 @@ LfStatus lf_initialize(LfInstance *c) {
     opt.atol = c->r[LF_SET_ATOL];
     opt.h_max = c->r[LF_SET_H_MAX];
     opt.h_fixed = c->r[LF_SET_H_FIXED];
+    c->max_steps = (long)c->r[LF_SET_MAX_STEPS];
     opt.max_steps = c->max_steps;
     c->t = c->last_successful_time = c->t_start;
     if (check_constraints(c) != LF_OK) return LF_ERROR;
@@ -80,8 +82,8 @@ static LfStatus fail_step(LfInstance *c, LfStatus st, const char *what) {
     c->t = c->last_successful_time = s->t;
     c->outputs_valid = 0;
     lf_log(c, st, st == LF_DISCARD ? LF_LOG_DISCARD : LF_LOG_ERROR,
-           "t = %.17g: solver %s failed: %s; state kept at the last accepted time", s->t,
-           s->method->name, what);
+           "t = %.17g: step not completed (solver %s): %s; state and outputs kept at the last "
+           "accepted time t = %.17g", s->t, s->method->name, what, s->t);
     return st;
 }
 
@@ -105,10 +107,52 @@ LfStatus lf_check_step(LfInstance *c, double t0, double h) {
     return LF_OK;
 }
 
+/* Largest magnitude a state may reach: beyond sqrt(DBL_MAX) ~ 1.3e154 its
+ * square (energies, norms, reactions) overflows; no quantity of these
+ * models in SI units comes near.  Declared finite ranges are checked too. */
+#define LF_HUGE 1e150
+
+/* Index of the first state that is not finite, beyond LF_HUGE or outside
+ * its declared range, or -1. */
+static int runaway_state(const double *x) {
+    int i;
+    for (i = 0; i < LF_NX; i++) {
+        unsigned vr = LF_VR_X0 + (unsigned)i;
+        if (!isfinite(x[i]) || fabs(x[i]) > LF_HUGE || x[i] < lf_model.real_min[vr] ||
+            x[i] > lf_model.real_max[vr])
+            return i;
+    }
+    return -1;
+}
+
+/* The accepted step ended with a state out of bounds: take it back (the
+ * solver restarts at its previous point, where events and history are
+ * still consistent) and discard the communication step there. */
+static LfStatus refuse_runaway(LfInstance *c, int i) {
+    LfSolver *s = &c->solver;
+    unsigned vr = LF_VR_X0 + (unsigned)i;
+    char why[256];
+    snprintf(why, sizeof why, "state %s = %g at t = %.17g is not finite, beyond %g in "
+             "magnitude or outside its range [%g, %g] (a runaway input or parameter?)",
+             lf_model.real_names[vr], s->x[i], s->t, LF_HUGE, lf_model.real_min[vr],
+             lf_model.real_max[vr]);
+    memcpy(c->x_tmp, s->x_old, sizeof(double) * LF_NX);
+    lf_solver_reset(s, s->t_old, c->x_tmp);
+    return fail_step(c, LF_DISCARD, why);
+}
+
+/* The work of one fmi2DoStep is bounded by the setting solver_max_steps:
+ * the solver's steps, accepted and rejected (event location's redone steps
+ * included), counted from the solver's own counters.  Past it the call
+ * returns fmi2Discard at the last accepted time, whose outputs stay
+ * readable (fmi2GetRealStatus(fmi2LastSuccessfulTime) tells the time). */
+static long solver_work(const LfSolver *s) { return s->n_steps + s->n_rejected; }
+
 LfStatus lf_do_step(LfInstance *c, double t0, double h) {
     LfSolver *s = &c->solver;
     double t_end = t0 + h;
-    long steps = 0;
+    long work0 = solver_work(s);
+    int bad;
     LfStatus st = lf_check_step(c, t0, h);
     if (st != LF_OK) return st;
     if (c->inputs_changed) {
@@ -134,6 +178,8 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
         st = s->method->step(s, t_bound);
         c->t_bp_step = INFINITY;
         if (st != LF_OK) return fail_step(c, st, s->message);
+        bad = runaway_state(s->x);
+        if (bad >= 0) return refuse_runaway(c, bad);
         if (LF_NE > 0) {
             st = lf_handle_events(c);
             if (st != LF_OK) return fail_step(c, st, "event handling failed");
@@ -144,8 +190,14 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
             if (st != LF_OK) return fail_step(c, st, "history update failed");
             if (at_bp) lf_solver_reset(s, s->t, s->x); /* a delayed value jumps here */
         }
-        if (++steps > c->max_steps)
-            return fail_step(c, LF_DISCARD, "too many internal steps in one communication step");
+        if (s->t < t_end && solver_work(s) - work0 >= c->max_steps) {
+            char why[256];
+            snprintf(why, sizeof why, "solver_max_steps = %ld steps spent in this fmi2DoStep "
+                     "at t = %.17g of its end %.17g (step %g s); raise solver_max_steps, or "
+                     "check the tolerances, solver_h_max and the delays", c->max_steps, s->t,
+                     t_end, s->t - s->t_old);
+            return fail_step(c, LF_DISCARD, why);
+        }
     }
     memcpy(&c->r[LF_VR_X0], s->x, sizeof(double) * LF_NX);
     c->t = t_end;
