@@ -212,24 +212,39 @@ static LfStatus cross_gap(LfInstance *c, int k, double t_left, const double *x_l
  *    indicator's second difference over the step, |g(a) - 2 g(m) + g(b)|,
  *    which grows as h^2, may be at most LF_EVENT_CURV times its size
  *    max(|g|) (about 6 steps per period of an oscillating indicator).
- *    Without the bound a step could alias a whole oscillation, which no
- *    sampling inside it can see.  The bound never shrinks the step below
- *    a quarter of the last one at once. */
+ *    Where the curvature vanishes (an inflection) but the indicator
+ *    changes by more than LF_EVENT_CURV of its size over the step, the
+ *    next step is at most LF_EVENT_GROWTH times as long.  Without these
+ *    bounds a step could alias a whole oscillation, which no sampling
+ *    inside it can see.  The bound never shrinks the step below a quarter
+ *    of the last one at once. */
 #define LF_EVENT_SCAN_DEPTH 8
 #define LF_EVENT_VERTEX_MARGIN 0.5
 #define LF_EVENT_CURV 0.25
+#define LF_EVENT_GROWTH 2.0
 
-/* Could samples ga, gm, gb of one indicator at the start, middle and end of
- * an interval hide a sign change (two roots, or one already seen)? */
-static int may_hide_roots(double ga, double gm, double gb) {
-    double a = 2.0 * (ga - 2.0 * gm + gb), b = 4.0 * gm - 3.0 * ga - gb, th, v;
+/* Does the quadratic through samples ga, gm, gb of one indicator at the
+ * start, middle and end of an interval come closer to zero at its extremum
+ * than LF_EVENT_VERTEX_MARGIN times the midpoint's distance from the chord
+ * (or cross it)?  *th: where the extremum lies, in units of the interval
+ * (0 start, 1 end; may lie outside). */
+static int near_zero_extremum(double ga, double gm, double gb, double *th) {
+    double a = 2.0 * (ga - 2.0 * gm + gb), b = 4.0 * gm - 3.0 * ga - gb, v;
     double sgn = (ga > 0 || (ga == 0 && gb > 0)) ? 1.0 : -1.0;
-    if (crossed(ga, gm) || crossed(gm, gb)) return 1;
     if (a == 0) return 0;
-    th = -b / (2.0 * a); /* extremum of ga + b th + a th^2 */
-    if (!(th > 0 && th < 1)) return 0;
-    v = ga + th * (b + a * th);
+    *th = -b / (2.0 * a); /* extremum of ga + b th + a th^2 */
+    v = ga + *th * (b + a * *th);
     return sgn * v < LF_EVENT_VERTEX_MARGIN * 0.25 * fabs(a);
+}
+
+/* Could the samples hide a sign change: two seen, or an extremum near zero
+ * inside the interval or within half of it beyond either end (the
+ * quadratic is only a model: a shallow excursion that it puts just outside
+ * may lie just inside)? */
+static int may_hide_roots(double ga, double gm, double gb) {
+    double th;
+    if (crossed(ga, gm) || crossed(gm, gb)) return 1;
+    return near_zero_extremum(ga, gm, gb, &th) && th > -0.5 && th < 1.5;
 }
 
 static int any_crossed(const double *ga, const double *gb) {
@@ -260,10 +275,18 @@ static LfStatus scan_events(LfInstance *c, double ta, const double *ga, double t
         for (k = 0; k < LF_NE; k++) {
             if (may_hide_roots(ga[k], gm[k], gb[k])) resolved = 0;
             if (depth == 0) {
-                double d2 = fabs(ga[k] - 2.0 * gm[k] + gb[k]);
+                double d2 = fabs(ga[k] - 2.0 * gm[k] + gb[k]), h = tb - ta, th;
                 double size = fmax(fabs(ga[k]), fmax(fabs(gm[k]), fabs(gb[k])));
                 if (d2 > 0 && size > 0)
-                    out->h_bound = fmin(out->h_bound, (tb - ta) * sqrt(LF_EVENT_CURV * size / d2));
+                    out->h_bound = fmin(out->h_bound, h * sqrt(LF_EVENT_CURV * size / d2));
+                /* at an inflection d2 vanishes: a varying indicator's step grows
+                 * at most LF_EVENT_GROWTH-fold until its curvature shows again */
+                if (fabs(gb[k] - ga[k]) > LF_EVENT_CURV * size)
+                    out->h_bound = fmin(out->h_bound, LF_EVENT_GROWTH * h);
+                /* an extremum near zero just after the step: the next step
+                 * ends short of twice its distance */
+                if (near_zero_extremum(ga[k], gm[k], gb[k], &th) && th > 1.0 && th < 2.0)
+                    out->h_bound = fmin(out->h_bound, 2.0 * (th - 1.0) * h);
             }
         }
         if (!resolved) {
