@@ -125,7 +125,7 @@ def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
     declare_hinge_outputs(m, ld, mo, w, elastic=ca.dot(M_y, AY), reduced_mass=ca.sum1(M_y))
     if preset is not None:
         from loomfmu.heald.presets import preset_values
-        apply_values(m, preset_values(preset))
+        apply_values(m, preset_values(preset, m.name))
     # start at the static deflection under the warp load of the bottom dwell
     m.set_starts_from(ca.vertcat(X, Y), ca.vertcat(dx_f * w.f_x, -dy_f * w.f_y))
     m.port("shaft", "shaft", speed="omega", description="main shaft (speed imposed)")

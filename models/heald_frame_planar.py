@@ -49,7 +49,7 @@ def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
     declare_hinge_outputs(m, ld, mo, w, elastic=ca.dot(M_y, AY), reduced_mass=ca.sum1(M_y))
     if preset is not None:
         from loomfmu.heald.presets import preset_values
-        apply_values(m, preset_values(preset))
+        apply_values(m, preset_values(preset, m.name))
     m.set_starts_from(Y, -dy_f * w.f_y)
     m.port("shaft", "shaft", speed="omega", description="main shaft (speed imposed)")
     m.port("warp", "warp", elongation="dl", tension="T",

@@ -50,6 +50,8 @@ RTOL_MIN = 100 * np.finfo(float).eps
 MAX_HORIZONS = 1e4
 #: most output times of one reference
 MAX_OUTPUTS = 10**7
+#: output times up to this much (relative to max(1, t_end)) past t_end are taken as t_end
+T_ROUND = 1e-12
 
 
 def check_model(model) -> Model:
@@ -255,7 +257,10 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
                              f"step {model.step_size} s; allowed: at most {MAX_OUTPUTS} (pass "
                              "t_eval)")
         t_eval = np.linspace(0.0, t_end, n + 1)
-    t_eval = check_array("t_eval", t_eval, lo=0.0, hi=t_end, increasing=True, unit="s")
+    # a last time past t_end by rounding (e.g. accumulated communication points) is t_end
+    t_eval = check_array("t_eval", t_eval, lo=0.0, hi=t_end + T_ROUND * max(1.0, t_end),
+                         increasing=True, unit="s")
+    t_eval = np.minimum(t_eval, t_end)
     if len(t_eval) > MAX_OUTPUTS:
         raise ValueError(f"t_eval: {len(t_eval)} times; allowed: at most {MAX_OUTPUTS}")
 

@@ -118,8 +118,18 @@ def reduced_vertical_mass(l: float) -> float:
     return m_l + 2 * m_h + 2 * m_l * (l_n / l) * 33 / 140
 
 
-def preset_values(name: str) -> dict[str, float]:
-    """Parameter values of preset ``name`` (for load_model(preset=...) or FMPy start_values)."""
+#: the heald-frame models a preset applies to, and the preset parameters each
+#: lacks (the rigid frame has no slats, so no slat length l)
+MODEL_LACKS = {"heald_frame": (), "heald_frame_planar": (), "heald_frame_rigid": ("l",)}
+
+
+def preset_values(name: str, model: str | None = None) -> dict[str, float]:
+    """Parameter values of preset ``name`` (for load_model(preset=...) or FMPy
+    start_values).  model: a key of MODEL_LACKS, to get only the parameters
+    that model has (e.g. start values for the rigid frame's FMU, which
+    refuses names it does not have); None: every preset parameter."""
+    if model is not None:
+        check_choice("model", model, tuple(MODEL_LACKS))
     width, maker, yarn = parse(name)
     t2 = TABLE2[width]
     m_RR = TABLE1_KG[width][MAKERS.index(maker)]
@@ -129,8 +139,10 @@ def preset_values(name: str) -> dict[str, float]:
                          f"reduced masses {reduced_vertical_mass(l):.2f} kg")
     F_T = YARNS[yarn][0]
     T_max = F_T / _shed_sum(SHED["l_1"], SHED["k_z"], SHED["h_m"])
-    return {"l": l, "m_RR": m_RR, "m_heald": t2["heald_N"] / G_STD,
-            "n_n": float(t2["threads"]), "T_max": T_max, "T_min": T_RATIO * T_max}
+    values = {"l": l, "m_RR": m_RR, "m_heald": t2["heald_N"] / G_STD,
+              "n_n": float(t2["threads"]), "T_max": T_max, "T_min": T_RATIO * T_max}
+    lacks = MODEL_LACKS[model] if model is not None else ()
+    return {k: v for k, v in values.items() if k not in lacks}
 
 
 def warp_force(width_cm: int, yarn: str) -> float:
