@@ -1,4 +1,5 @@
-"""Tests of the embedded C ODE solvers (src/loomfmu/runtime/lf_solvers.c).
+"""Tests of the embedded C ODE solvers (src/loomfmu/runtime/lf_solvers.c, lf_dopri5.c,
+lf_rodas4.c).
 
 The C harness tests/c/solver_harness.c is compiled with strict warnings and
 driven through its command line; it prints "key value" lines.
@@ -14,7 +15,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 RUNTIME = ROOT / "src" / "loomfmu" / "runtime"
 HARNESS = ROOT / "tests" / "c" / "solver_harness.c"
-SOURCES = [RUNTIME / "lf_solvers.c", RUNTIME / "lf_linalg.c"]
+SOURCES = [RUNTIME / f for f in ("lf_solvers.c", "lf_dopri5.c", "lf_rodas4.c", "lf_linalg.c")]
 CFLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
           "-fvisibility=hidden", "-fPIC"]
 

@@ -1,4 +1,5 @@
-/* Standalone driver for the loomfmu embedded ODE solvers (lf_solvers.c).
+/* Standalone driver for the loomfmu embedded ODE solvers (lf_solvers.c,
+ * lf_dopri5.c, lf_rodas4.c).
  *
  * Usage:
  *   solver_harness run <method> <problem> <rtol> <atol> <t_end> <ncomm> <h_fixed> <h_max>

@@ -1,0 +1,47 @@
+/* loomfmu runtime: what the solver files (lf_solvers.c: helpers, rk4,
+ * registry and life cycle; lf_dopri5.c; lf_rodas4.c) share.  Not part of
+ * the solver contract, which is lf_solver.h. */
+#ifndef LF_SOLVER_IMPL_H
+#define LF_SOLVER_IMPL_H
+
+#include "lf_solver.h"
+
+#include <float.h>
+
+#define LF_UROUND DBL_EPSILON
+/* Give up a single step after this many failed attempts (guards against
+ * endless halving when t == 0 makes the relative underflow test vacuous). */
+#define LF_MAX_ATTEMPTS 200
+
+/* method-private data: after x and x_old in the work buffer */
+#define LF_PRIV(s) ((s)->work + 2 * (s)->ode.n)
+#define LF_CPRIV(s) ((const double *)((s)->work + 2 * (s)->ode.n))
+
+enum { CAUSE_NONE, CAUSE_ERRTEST, CAUSE_NONFINITE, CAUSE_SINGULAR };
+
+extern const LfMethod lf_dopri5;
+extern const LfMethod lf_rodas4;
+extern const LfMethod lf_rk4;
+
+void lf_sv_set_msg(LfSolver *s, const char *fmt, ...);
+int lf_sv_all_finite(const double *v, size_t n);
+void lf_sv_copy_vec(double *dst, const double *src, size_t n);
+/* f at (t, x): LF_OK only with finite values; LF_DISCARD for non-finite
+ * arguments/results or an f that reports LF_DISCARD; errors passed through */
+LfStatus lf_sv_eval_rhs(LfSolver *s, double t, const double *x, double *dx);
+/* Hairer's weighted RMS norm of err, scale atol + rtol max(|y0|, |y1|) */
+double lf_sv_err_norm(const LfSolver *s, const double *err, const double *y0, const double *y1);
+/* automatic initial step (Hairer's HINIT); f0 = f(t, x), y1, f1 scratch */
+double lf_sv_initial_step(LfSolver *s, const double *f0, double *y1, double *f1, double order,
+                          double hmax);
+LfStatus lf_sv_bad_bound(LfSolver *s, double t_bound);
+LfStatus lf_sv_start_failure(LfSolver *s, LfStatus st);
+LfStatus lf_sv_callback_error(LfSolver *s, LfStatus st, double t_at);
+LfStatus lf_sv_give_up(LfSolver *s, double h, double hmin, int cause, int too_many);
+/* limit h to the remaining interval; 1: step size underflow, give up */
+int lf_sv_plan_step(const LfSolver *s, double t_bound, double *h, double *t_new, int *last,
+                    double *hmin);
+/* forget rodas4's step-size controller history (after a restart) */
+void lf_rodas4_clear_history(LfSolver *s);
+
+#endif
