@@ -1,0 +1,171 @@
+"""What a scene knows of a component: its FMU interface, read from a
+``modelDescription.xml`` (variables with causality, unit and value
+reference; units as SI base-unit exponents with factor and offset; which
+outputs depend directly on which inputs), plus its ports.
+
+A registered model's interface comes from the model description its
+declaration generates (no compiler run); an FMU's from the file.  Ports are
+not part of FMI 2.0: a registered model's come from its declaration
+(``Model.ports``); an FMU given by path has none (connect its variables).
+"""
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from fmpy import read_model_description
+
+from ..units import UNITS
+
+#: SI base units in FMI's BaseUnit order
+BASE = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
+
+
+@dataclass(frozen=True)
+class UnitInfo:
+    """A unit as value_SI = factor * value + offset, with SI exponents."""
+
+    name: str
+    exponents: tuple[float, ...]
+    factor: float = 1.0
+    offset: float = 0.0
+
+
+@dataclass(frozen=True)
+class VarInfo:
+    name: str
+    causality: str       # FMI: parameter, calculatedParameter, input, output, local, independent
+    variability: str    # FMI: constant, fixed, tunable, discrete, continuous
+    type: str           # Real, Integer, Boolean, String, Enumeration
+    unit: str           # "" when dimensionless or not stated
+    vr: int
+    initial: str | None
+    description: str = ""
+    min: float = -math.inf
+    max: float = math.inf
+
+    @property
+    def range(self) -> tuple[float, float]:
+        return self.min, self.max
+
+
+@dataclass(frozen=True)
+class PortInfo:
+    name: str
+    kind: str
+    roles: dict[str, str]   # role -> variable name
+    description: str = ""
+
+
+@dataclass
+class Interface:
+    """The outside of one FMU: variables, units, direct feedthrough and ports."""
+
+    model_name: str
+    guid: str
+    variables: dict[str, VarInfo]
+    units: dict[str, UnitInfo]
+    feedthrough: dict[str, tuple[str, ...]]   # output -> inputs it depends on directly
+    ports: dict[str, PortInfo] = field(default_factory=dict)
+    can_get_set_state: bool = False
+
+    def unit(self, name: str) -> UnitInfo | None:
+        """The unit ``name``: from the model description, else loomfmu's table,
+        else None (a name only: compared by name)."""
+        if not name:
+            return UnitInfo("", (0.0,) * len(BASE))
+        if name in self.units:
+            return self.units[name]
+        if name in UNITS:
+            return unit_from_table(name)
+        return None
+
+
+def unit_from_table(name: str) -> UnitInfo:
+    """A unit of loomfmu.units.UNITS."""
+    entry = UNITS[name]
+    return UnitInfo(name, tuple(float(entry.get(b, 0)) for b in BASE),
+                    float(entry.get("factor", 1.0)), float(entry.get("offset", 0.0)))
+
+
+def conversion(src: UnitInfo | None, dst: UnitInfo | None, src_name: str,
+               dst_name: str) -> tuple[float, float] | None:
+    """(gain, bias) with value_dst = gain * value_src + bias, or None when the
+    units measure different quantities (or an unknown unit differs by name)."""
+    if src_name == dst_name:
+        return 1.0, 0.0
+    if src is None or dst is None or src.exponents != dst.exponents:
+        return None
+    gain = src.factor / dst.factor
+    bias = (src.offset - dst.offset) / dst.factor
+    return gain, bias
+
+
+def interface_from_description(md, ports: dict[str, PortInfo] | None = None) -> Interface:
+    """An :class:`Interface` from an fmpy ``ModelDescription``."""
+    variables = {}
+    for v in md.modelVariables:
+        unit = v.unit or (v.declaredType.unit if v.declaredType is not None and
+                          getattr(v.declaredType, "unit", None) else "") or ""
+        variables[v.name] = VarInfo(v.name, v.causality, v.variability, v.type, unit,
+                                    int(v.valueReference), v.initial, v.description or "",
+                                    _bound(v.min, -math.inf), _bound(v.max, math.inf))
+    units = {}
+    for u in md.unitDefinitions:
+        b = u.baseUnit
+        if b is None:
+            continue
+        units[u.name] = UnitInfo(u.name, tuple(float(getattr(b, k, 0)) for k in BASE),
+                                 float(b.factor), float(b.offset))
+    feed = {o.variable.name: tuple(d.name for d in (o.dependencies or ())
+                                   if d.causality == "input")
+            for o in md.outputs}
+    cs = md.coSimulation
+    if cs is None:
+        raise ValueError(f"model {md.modelName!r} has no CoSimulation interface; "
+                         "allowed: an FMI 2.0 co-simulation FMU")
+    return Interface(md.modelName, md.guid, variables, units, feed, dict(ports or {}),
+                     bool(cs.canGetAndSetFMUstate))
+
+
+def _bound(text, default: float) -> float:
+    try:
+        return float(text) if text is not None else default
+    except (TypeError, ValueError):
+        return default
+
+
+def interface_of_fmu(path: str | os.PathLike) -> Interface:
+    """The interface of the FMU at ``path`` (no ports)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"fmu = {str(path)!r}: no such file; allowed: a path to an .fmu")
+    try:
+        md = read_model_description(str(path))
+    except Exception as exc:  # not a zip, no modelDescription.xml, invalid XML
+        raise ValueError(f"fmu = {str(path)!r}: not a readable FMU ({exc})") from None
+    return interface_from_description(md)
+
+
+def interface_of_model(model) -> Interface:
+    """The interface of a declared model (loomfmu.declare.Model): its model
+    description, generated without compiling, and its declared ports."""
+    from ..fmi2_xml import model_description
+    from ..ode import dae_form
+    xml = model_description(model, dae_form(model), "{00000000-0000-0000-0000-000000000000}",
+                            ["model.c"])
+    with tempfile.TemporaryDirectory() as tmp:
+        f = Path(tmp) / "modelDescription.xml"
+        f.write_text(xml)
+        md = read_model_description(str(f))
+    ports = {p.name: PortInfo(p.name, p.kind, dict(p.variables), p.description)
+             for p in model.ports}
+    return interface_from_description(md, ports)
+
+
+def is_finite_number(value) -> bool:
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value))

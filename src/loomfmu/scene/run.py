@@ -1,0 +1,111 @@
+"""Run a scene on our master: fixed or adaptive communication steps; results
+as a numpy structured array (field ``time`` and one per recorded variable,
+named ``component.variable``) and CSV."""
+from __future__ import annotations
+
+import math
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..checks import check_number
+from ..progress import Progress
+from .declare import Scene
+from .fmus import build_fmus
+from .master import make_master
+from .system import System
+
+#: step-size controller of the adaptive run (error ~ h for a zero-order hold)
+SAFETY, FAC_MIN, FAC_MAX = 0.9, 0.2, 2.0
+
+
+@dataclass
+class Result:
+    """data: structured array; master: its name; steps: accepted and
+    rejected communication steps; h: the accepted step sizes."""
+
+    data: np.ndarray
+    master: str
+    accepted: int
+    rejected: int
+    h: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.data[name]
+
+    def to_csv(self, path) -> Path:
+        path = Path(path)
+        names = self.data.dtype.names
+        table = np.column_stack([self.data[n] for n in names])
+        np.savetxt(path, table, delimiter=",", header=",".join(names), comments="",
+                   fmt="%.17g")
+        return path
+
+
+def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
+        stop: float | None = None, adaptive: bool = False, rtol: float = 1e-3,
+        atol: float = 1e-6, h_min: float = 1e-9, h_max: float | None = None,
+        fmu_dir=None, fmus: dict | None = None, progress: bool = False,
+        master_options: dict | None = None) -> Result:
+    """Run ``scene`` from 0 to ``stop`` (default the scene's stop_time).
+
+    master: "jacobi" or "gauss-seidel"; step: the communication step (s;
+    default the scene's), the first step when ``adaptive``; adaptive: control
+    the step by the coupling error estimate (rtol, atol; h_min <= h <= h_max,
+    default stop / 10); fmu_dir: folder
+    the models are built into (default a temporary folder); fmus: component ->
+    FMU path, to skip the build; progress: show progress on stderr.
+    """
+    stop = check_number("stop", scene.stop_time if stop is None else stop, lo=0.0,
+                        lo_open=True, unit="s")
+    step = check_number("step", scene.step if step is None else step, lo=0.0, lo_open=True,
+                        hi=stop, unit="s")
+    h_min = check_number("h_min", h_min, lo=0.0, lo_open=True, hi=step, unit="s")
+    h_max = check_number("h_max", stop / 10 if h_max is None else h_max, lo=step, unit="s")
+    bar = Progress(100, f"scene {scene.name} ({master})") if progress else None
+    with tempfile.TemporaryDirectory() as tmp:
+        if fmus is None:
+            fmus = build_fmus(scene, fmu_dir if fmu_dir is not None else tmp, progress=bar)
+        system = System(scene, fmus)
+        try:
+            m = make_master(master, system, rtol=rtol, atol=atol, adaptive=adaptive,
+                            **(master_options or {}))
+            refs = scene.recorded_variables()
+            times, rows, hs = [0.0], [system.get(refs)], []
+            t, h, k, shown = 0.0, step, 0, 0
+            while t < stop * (1 - 1e-12):
+                h_try = min(h, stop - t)
+                if not adaptive:   # t_k = k h: no drift from summing steps
+                    h_try = min(step * (k + 1), stop) - t
+                res = m.step(t, h_try)
+                if res.accepted:
+                    k += 1
+                    t = t + h_try if adaptive else min(step * k, stop)
+                    times.append(t)
+                    rows.append(system.get(refs))
+                    hs.append(h_try)
+                    done = int(100 * t / stop)
+                    if bar is not None and done > shown:
+                        bar.advance(f"t = {t:.4g} s, h = {h_try:.3g} s", n=done - shown)
+                        shown = done
+                if adaptive:
+                    fac = (SAFETY / max(res.error, 1e-10) if math.isfinite(res.error)
+                           else FAC_MIN)
+                    h = min(h_max, max(h_try * min(FAC_MAX, max(FAC_MIN, fac)), h_min))
+                    if not res.accepted and h_try <= h_min:
+                        raise RuntimeError(f"scene {scene.name}: step rejected at t = {t:.9g}"
+                                           f" s with h = h_min = {h_min:g} s (error "
+                                           f"{res.error:.3g}) {res.message}")
+        finally:
+            system.close()
+            if bar is not None:
+                bar.close()
+    names = ["time"] + [f"{c}.{v}" for c, v in refs]
+    data = np.zeros(len(times), dtype=[(n, "f8") for n in names])
+    data["time"] = times
+    values = np.array(rows, dtype=float)
+    for j, n in enumerate(names[1:]):
+        data[n] = values[:, j]
+    return Result(data, m.name, m.n_accepted, m.n_rejected, np.array(hs))

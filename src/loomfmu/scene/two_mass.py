@@ -1,0 +1,168 @@
+"""The two-mass benchmark: its scene and the exact co-simulation map.
+
+Two masses on wall springs, coupled by a spring-damper, split into two FMUs
+(models/two_mass.py): "force" holds mass 1 and the coupling element (inputs
+x2, v2; output F, with direct feedthrough), "disp" holds mass 2 (input F;
+outputs x2, v2).  With each input held constant over a communication step H
+and each FMU integrating exactly, one step of a master is a linear map of
+z = (x1, v1, x2, v2) (derivation: docs/scenes.md):
+
+    subsystem i:  z_i' = A_i z_i + B_i u_i,   over a step with u_i held:
+                  z_i(t + H) = Phi_i z_i(t) + Gam_i u_i,
+                  Phi_i = exp(A_i H),  Gam_i = int_0^H exp(A_i s) ds B_i
+    coupling:     u_1 = z_2,   F = C_1 z_1 + D_1 u_1,   u_2 = F
+
+    Jacobi:                 [[Phi1, Gam1], [Gam2 C1, Phi2 + Gam2 D1]]
+    Gauss-Seidel, force first:
+                            [[Phi1, Gam1], [Gam2 C1 Phi1, Phi2 + Gam2 (C1 Gam1 + D1)]]
+    Gauss-Seidel, disp first:
+                            [[Phi1 + Gam1 Gam2 C1, Gam1 (Phi2 + Gam2 D1)],
+                             [Gam2 C1, Phi2 + Gam2 D1]]
+
+The co-simulation is stable when the map's spectral radius is below 1.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+from scipy.linalg import expm
+from scipy.optimize import brentq
+
+from .declare import Scene, declare_model
+
+#: the exact-integration settings of the FMUs in the benchmark
+TIGHT = {"solver_rtol": 1e-12, "solver_atol": 1e-14}
+#: the algorithms the map is derived for
+ALGORITHMS = ("jacobi", "gauss-seidel:force-first", "gauss-seidel:disp-first")
+
+
+@dataclass(frozen=True)
+class Params:
+    """The benchmark's parameters (defaults: the models' declared values)."""
+
+    m1: float
+    k1: float
+    d1: float
+    kc: float
+    dc: float
+    m2: float
+    k2: float
+    d2: float
+
+    @classmethod
+    def declared(cls, **overrides) -> "Params":
+        values = {}
+        for side in ("force", "displacement"):
+            model = declare_model(f"two_mass_{side}", {})
+            values.update({v.name: v.start for v in model.of_kind("parameter")})
+        values.update(overrides)
+        return cls(**{f.name: float(values[f.name]) for f in fields(cls)})
+
+    def force_side(self) -> dict:
+        return {k: getattr(self, k) for k in ("m1", "k1", "d1", "kc", "dc")}
+
+    def disp_side(self) -> dict:
+        return {k: getattr(self, k) for k in ("m2", "k2", "d2")}
+
+
+def scene(params: Params | None = None, *, x1_0: float = 0.1, stop_time: float = 2.0,
+          step: float = 1e-3, tight: bool = True) -> Scene:
+    """The two-mass scene: mass 1 starts displaced by ``x1_0`` (m) at rest;
+    ``tight``: the FMUs integrate at rtol 1e-12 (exact for the theory)."""
+    p = params or Params.declared()
+    s = Scene("two_mass", description="two masses coupled by a spring-damper, split "
+              "into two FMUs with force-displacement coupling", stop_time=stop_time,
+              step=step)
+    settings = TIGHT if tight else {}
+    s.add("force", model="two_mass_force", parameters={**settings, **p.force_side()},
+          start={"x1": x1_0})
+    s.add("disp", model="two_mass_displacement", parameters={**settings, **p.disp_side()})
+    s.connect("force.coupling", "disp.coupling")
+    s.record("force.x1_out", "force.v1_out", "disp.x2_out", "disp.v2_out", "force.F_c")
+    return s
+
+
+# -- the exact co-simulation map --------------------------------------------------
+def matrices(p: Params):
+    """(A1, B1, C1, D1, A2, B2): subsystem 1 (force side) z1' = A1 z1 + B1 u1,
+    F = C1 z1 + D1 u1 with u1 = (x2, v2); subsystem 2 z2' = A2 z2 + B2 F."""
+    A1 = np.array([[0.0, 1.0], [-(p.k1 + p.kc) / p.m1, -(p.d1 + p.dc) / p.m1]])
+    B1 = np.array([[0.0, 0.0], [p.kc / p.m1, p.dc / p.m1]])
+    C1 = np.array([[p.kc, p.dc]])
+    D1 = np.array([[-p.kc, -p.dc]])
+    A2 = np.array([[0.0, 1.0], [-p.k2 / p.m2, -p.d2 / p.m2]])
+    B2 = np.array([[0.0], [1.0 / p.m2]])
+    return A1, B1, C1, D1, A2, B2
+
+
+def monolithic(p: Params) -> np.ndarray:
+    """The coupled system's matrix: z' = A z, z = (x1, v1, x2, v2)."""
+    A1, B1, C1, D1, A2, B2 = matrices(p)
+    return np.block([[A1, B1], [B2 @ C1, A2 + B2 @ D1]])
+
+
+def hold(A: np.ndarray, B: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """(Phi, Gam): the exact step of z' = A z + B u over h with u held."""
+    n, m = B.shape
+    M = np.zeros((n + m, n + m))
+    M[:n, :n], M[:n, n:] = A, B
+    E = expm(M * h)
+    return E[:n, :n], E[:n, n:]
+
+
+def cosim_map(p: Params, h: float, algorithm: str) -> np.ndarray:
+    """The 4 x 4 matrix of one communication step of ``algorithm`` (ALGORITHMS)."""
+    if algorithm not in ALGORITHMS:
+        raise ValueError(f"algorithm = {algorithm!r}; allowed: {', '.join(ALGORITHMS)}")
+    A1, B1, C1, D1, A2, B2 = matrices(p)
+    P1, G1 = hold(A1, B1, h)
+    P2, G2 = hold(A2, B2, h)
+    if algorithm == "jacobi":
+        return np.block([[P1, G1], [G2 @ C1, P2 + G2 @ D1]])
+    if algorithm == "gauss-seidel:force-first":
+        return np.block([[P1, G1], [G2 @ C1 @ P1, P2 + G2 @ (C1 @ G1 + D1)]])
+    return np.block([[P1 + G1 @ G2 @ C1, G1 @ (P2 + G2 @ D1)], [G2 @ C1, P2 + G2 @ D1]])
+
+
+def spectral_radius(p: Params, h: float, algorithm: str) -> float:
+    return float(max(abs(np.linalg.eigvals(cosim_map(p, h, algorithm)))))
+
+
+def exact_radius(p: Params, h: float) -> float:
+    """Spectral radius of the exact step exp(A H) (below 1: the system is damped)."""
+    return float(max(abs(np.linalg.eigvals(expm(monolithic(p) * h)))))
+
+
+def trajectory(p: Params, h: float, n: int, z0, algorithm: str) -> np.ndarray:
+    """z at t = 0, h, ..., n h under the co-simulation map (n + 1 rows)."""
+    M = cosim_map(p, h, algorithm)
+    z = np.zeros((n + 1, 4))
+    z[0] = z0
+    for k in range(n):
+        z[k + 1] = M @ z[k]
+    return z
+
+
+def exact_solution(p: Params, t: np.ndarray, z0) -> np.ndarray:
+    """The monolithic solution z(t) (rows)."""
+    A = monolithic(p)
+    return np.array([expm(A * ti) @ np.asarray(z0, float) for ti in t])
+
+
+def stability_limit(p: Params, algorithm: str, *, h_lo: float = 1e-5,
+                    h_hi: float = 1.0, n: int = 400) -> float:
+    """The smallest communication step at which the spectral radius reaches 1
+    (scanned on a log grid from h_lo to h_hi, then located by brentq);
+    inf when it stays below 1."""
+    hs = np.geomspace(h_lo, h_hi, n)
+    rho = np.array([spectral_radius(p, h, algorithm) for h in hs]) - 1.0
+    above = np.nonzero(rho >= 0)[0]
+    if above.size == 0:
+        return float("inf")
+    k = int(above[0])
+    if k == 0:
+        raise ValueError(f"{algorithm}: unstable already at h_lo = {h_lo:g} s; allowed: a "
+                         "smaller h_lo")
+    return float(brentq(lambda h: spectral_radius(p, h, algorithm) - 1.0, hs[k - 1], hs[k],
+                        xtol=1e-14, rtol=1e-12))
