@@ -449,6 +449,8 @@ def cases() -> list[Case]:
         lambda fx: _rotor("equivalent_support", I2, I2, I2, I2, 1.0, 0.0))
     add("film_damping(1, [1, 2], 1, 1, 0, form='x')", "form",
         lambda fx: _rotor("film_damping", 1.0, [1.0, 2.0], 1.0, 1.0, 0.0, form="x"))
+    add("isotropic(-1)", "k", lambda fx: _rotor("isotropic", -1.0))
+    add("isotropic(1, nan)", "k_cross", lambda fx: _rotor("isotropic", 1.0, NAN))
     add("coil_spring_stiffness(2e11, 1e-3, 0.01, [0.01])", "radii",
         lambda fx: _rotor("coil_spring_stiffness", 2e11, 1e-3, 0.01, [0.01]))
 

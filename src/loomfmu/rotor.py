@@ -253,6 +253,7 @@ class Rotor:
 def isotropic(k, k_cross=0.0):
     """The 2x2 coefficients [[k, k_cross], [-k_cross, k]] of an isotropic
     support with cross-coupling (k_xy = -k_yx, as in a fluid film)."""
+    k, k_cross = _num("k", k, lo_open=False), _num("k_cross", k_cross, lo=-math.inf)
     return [[k, k_cross], [-k_cross, k]]
 
 
