@@ -1,0 +1,225 @@
+"""The printed equations are the equations that run.
+
+For every model in loomfmu.MODELS: every equation residual, every output's
+defining expression, every event indicator, mode rule, reinit, start
+expression, delay and constraint is converted to SymPy (loomfmu.readable),
+then the printed form (the Listing: shared subexpressions named once, the
+equations as lhs = rhs, the outputs) and the CasADi form are evaluated at
+random points and must agree to rounding.  A tampered op table must be
+caught by the same comparison.
+"""
+from __future__ import annotations
+
+import math
+import time
+import xml.dom.minidom
+
+import casadi as ca
+import numpy as np
+import pytest
+import sympy
+
+from loomfmu import MODELS, load_model
+from loomfmu import readable
+
+RTOL = 1e-9
+N_POINTS = 4
+MAX_TRIES = 12
+
+
+def _extras(model) -> list[ca.SX]:
+    """Every other expression of the declaration (besides equations and outputs)."""
+    out = [e.expr for e in model.events] + list(model.mode_valid.values())
+    out += list(model.reinits.values()) + list(model.initials.values())
+    out += [d.expr for d in model.delays] + [d.tau for d in model.delays]
+    out += [c.expr for c in model.constraints]
+    return [ca.SX(e) for e in out]
+
+
+def _scale(model, name: str) -> tuple[float, float, bool]:
+    """(centre, spread, is_parameter) of a sensible random value for symbol ``name``."""
+    if name == model.t.name():
+        return 0.5, 0.5, False
+    inner = name[4:-1] if name.startswith("der(") else name
+    if inner.startswith("delay("):
+        inner = next(d.expr for d in model.delays if d.sym.name() == inner)
+        inner = ca.symvar(ca.SX(inner))[0].name()
+    var = model.var(inner)
+    size = abs(var.start) if var.start else (var.nominal or 1.0)
+    if var.kind == "parameter":
+        return var.start, 0.2 * abs(var.start), True
+    if var.kind == "mode":
+        return 0.0, 0.0, False
+    return 0.0, size, False
+
+
+def _points(model, names: list[str], rng: np.random.Generator, shrink: float) -> np.ndarray:
+    """One random point per row: parameters within +-20 % of their defaults
+    (clipped to their range), other variables within their own magnitude
+    (times ``shrink``), modes at one of their allowed values."""
+    pts = np.empty((N_POINTS, len(names)))
+    for j, name in enumerate(names):
+        centre, spread, is_par = _scale(model, name)
+        if name in model.mode_values:
+            pts[:, j] = rng.choice(model.mode_values[name], N_POINTS)
+            continue
+        pts[:, j] = centre + spread * (1 if is_par else shrink) * rng.uniform(-1, 1, N_POINTS)
+        if name in (v.name for v in model.variables):
+            var = model.var(name)
+            pts[:, j] = np.clip(pts[:, j], var.min, var.max)
+    return pts
+
+
+def _printed_function(model, lst: readable.Listing, extras_sym, args):
+    """The Listing (what the reports print) as one numeric function of args:
+    the shared definitions in order, then each residual lhs - rhs, each
+    output expression and each extra expression."""
+    exprs = [lhs - rhs for lhs, rhs in lst.equations] + [e for _, e in lst.outputs]
+    exprs += extras_sym
+    return sympy.lambdify(args, exprs, modules="numpy",
+                          cse=lambda es: (list(lst.shared), list(es)))
+
+
+def _compare(model, *, ops=None, lst=None) -> tuple[int, int, list[str]]:
+    """Evaluate CasADi and the printed SymPy form (``lst``, default the
+    model's listing); return (rows, least points compared, mismatches)."""
+    casadi_rows = list(model.equations) + [ca.SX(v.expr) for v in model.of_kind("output")]
+    extras = _extras(model)
+    every = ca.vertcat(*casadi_rows, *extras)
+    syms = ca.symvar(every)
+    names = [s.name() for s in syms]
+    f = ca.Function("f", [ca.vertcat(*syms)], [ca.densify(every)])
+    table = readable.symbols(model)
+    if ops is None:
+        lst = lst or readable.listing(model)
+        extras_sym = [readable.to_sympy(e, table) for e in extras]
+    else:  # the tampered path: convert without the listing
+        residuals = readable.to_sympy(ca.vertcat(*casadi_rows), table, ops=ops)
+        lst = readable.Listing([], [(r, 0) for r in residuals[:len(model.equations)]],
+                               [(None, r) for r in residuals[len(model.equations):]])
+        extras_sym = [readable.to_sympy(e, table, ops=ops) for e in extras]
+    args = [table[n] for n in names]
+    g = _printed_function(model, lst, extras_sym, args)
+    rng = np.random.default_rng(14)
+    rows = every.numel()
+    ok = np.zeros(rows, dtype=int)
+    bad: list[str] = []
+    shrink = 1.0
+    for attempt in range(MAX_TRIES):
+        pts = _points(model, names, rng, shrink)
+        for p in pts:
+            want = f(p).full().ravel()
+            with np.errstate(all="ignore"):
+                got = np.array([float(v) for v in g(*p)], dtype=float)
+            finite = np.isfinite(want)
+            close = np.abs(got - want) <= RTOL * np.maximum(np.abs(want), 1e-300) + 1e-15
+            for i in np.flatnonzero(finite & ~close):
+                bad.append(f"row {i} at {dict(zip(names, p))}: casadi {want[i]!r}, "
+                           f"sympy {got[i]!r}")
+            ok += finite & close
+        if bad or ok.min() >= N_POINTS:
+            break
+        shrink *= 0.3  # singular somewhere (e.g. a film formula): come closer to rest
+    return rows, int(ok.min()), bad
+
+
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_printed_form_evaluates_as_casadi(name):
+    model = load_model(name)
+    t0 = time.perf_counter()
+    rows, least, bad = _compare(model)
+    assert not bad, f"{name}: {len(bad)} mismatches, first: {bad[:3]}"
+    assert least >= N_POINTS, f"{name}: some row was finite at only {least} points"
+    assert rows >= len(model.equations) + len(model.of_kind("output"))
+    assert time.perf_counter() - t0 < 30
+
+
+def test_tampered_op_is_detected():
+    """Mapping one op wrongly (sin as cos) must make the comparison fail."""
+    tampered = {**readable.OPS, ca.OP_SIN: sympy.cos}
+    _, _, bad = _compare(load_model("backrest"), ops=tampered)
+    assert bad, "a wrong sin mapping went unnoticed"
+    tampered = {**readable.OPS, ca.OP_SUB: lambda a, b: a + b}
+    _, _, bad = _compare(load_model("heald_frame_rigid"), ops=tampered)
+    assert bad, "a wrong sub mapping went unnoticed"
+
+
+def test_tampered_listing_is_detected():
+    """A shared definition off by one part in a million must be caught."""
+    model = load_model("backrest")
+    lst = readable.listing(model)
+    sym, definition = lst.shared[0]
+    lst.shared[0] = (sym, definition * (1 + sympy.Rational(1, 10**6)))
+    _, _, bad = _compare(model, lst=lst)
+    assert bad, "a wrong shared definition went unnoticed"
+
+
+def test_untampered_compare_path_agrees():
+    """The same comparison without the listing passes with the true table."""
+    _, least, bad = _compare(load_model("backrest"), ops=dict(readable.OPS))
+    assert not bad and least >= N_POINTS
+
+
+def test_unsupported_op_is_named():
+    x = ca.SX.sym("x")
+    with pytest.raises(ValueError, match="OP_FMOD"):
+        readable.to_sympy(ca.fmod(x, 2.0))
+    ops = {k: v for k, v in readable.OPS.items() if k != ca.OP_TANH}
+    with pytest.raises(ValueError, match="OP_TANH"):
+        readable.to_sympy(ca.tanh(x), ops=ops)
+
+
+def test_to_sympy_rejects_a_matrix():
+    with pytest.raises(ValueError, match="expr"):
+        readable.to_sympy(ca.SX.sym("A", 2, 2))
+
+
+def test_logic_and_constants_convert_exactly():
+    x, y = ca.SX.sym("x"), ca.SX.sym("y")
+    e = readable.to_sympy(ca.vertcat(ca.if_else(x < y, x * math.pi / 30, 0.1 * y),
+                                     ca.logic_and(x > 0, ca.logic_not(y >= 1))))
+    sx, sy = readable.Var("x"), readable.Var("y")
+    assert sympy.simplify(e[0].subs({sx: 1, sy: 2}) - sympy.pi / 30) == 0
+    assert e[0].subs({sx: 3, sy: 2}) == sympy.Rational(1, 5)
+    assert e[1].subs({sx: 1, sy: 0.5}) == 1 and e[1].subs({sx: 1, sy: 2}) == 0
+
+
+@pytest.mark.parametrize("name, latex", [
+    ("der(phi)", r"\dot{\phi}"), ("alpha1", r"\alpha_{1}"), ("T_min", r"T_{\mathrm{min}}"),
+    ("der(n3.vax)", r"\dot{v}_{\mathrm{ax},\mathrm{n3}}"), ("delay(u)", r"u^{\mathrm{del}}"),
+    ("h_ddot", r"\ddot{h}"), ("dphi1", r"d\phi_{1}"), ("eps", r"\varepsilon"),
+    ("time", "t"), ("delta0", r"\delta_{0}"), ("mu", r"\mu"), ("tau", r"\tau"),
+])
+def test_names_print_as_written(name, latex):
+    assert readable.latex_name(name) == latex
+
+
+def test_reports_print_every_line():
+    model = load_model("heald_frame_rigid")
+    lst = readable.listing(model)
+    n = len(lst.shared) + len(lst.equations) + len(lst.outputs)
+    tex = readable.latex(model).splitlines()
+    assert len(tex) == n and r"\dot{\phi} = \omega" in tex
+    html = readable.mathml(model)
+    maths = html.splitlines()
+    assert len(maths) == n
+    for m in maths:  # each line is well-formed XML
+        xml.dom.minidom.parseString(m)
+    assert "\u03c6" in html or "&#966;" in html  # phi printed as the Greek letter
+
+
+def test_shared_subexpressions_are_named_once():
+    model = load_model("spindle")
+    lst = readable.listing(model)
+    assert lst.shared, "the spindle's equations share subexpressions"
+    for sym, definition in lst.shared:
+        assert sympy.count_ops(definition) >= 3
+    used = [e for pair in lst.equations for e in pair] + [e for _, e in lst.outputs]
+    used += [d for _, d in lst.shared]
+    for sym, _ in lst.shared:
+        assert any(sym in e.free_symbols for e in used)
+
+
+def test_listing_rejects_bad_min_ops():
+    with pytest.raises(ValueError, match="min_ops"):
+        readable.listing(load_model("heald_frame_rigid"), min_ops=-1)
