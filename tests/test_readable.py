@@ -4,7 +4,8 @@ For every model in loomfmu.MODELS: every equation residual, every output's
 defining expression, every event indicator, mode rule, reinit, start
 expression, delay and constraint is converted to SymPy (loomfmu.readable),
 then the printed form (the Listing: shared subexpressions named once, the
-equations as lhs = rhs, the outputs) and the CasADi form are evaluated at
+equations as lhs = rhs, the outputs, event indicators and mode rules; the
+rest converted directly) and the CasADi form are evaluated at
 random points and must agree to rounding.  A tampered op table must be
 caught by the same comparison.
 """
@@ -28,9 +29,9 @@ MAX_TRIES = 12
 
 
 def _extras(model) -> list[ca.SX]:
-    """Every other expression of the declaration (besides equations and outputs)."""
-    out = [e.expr for e in model.events] + list(model.mode_valid.values())
-    out += list(model.reinits.values()) + list(model.initials.values())
+    """Every other expression of the declaration (besides the listing's
+    equations, outputs, event indicators and mode rules)."""
+    out = list(model.reinits.values()) + list(model.initials.values())
     out += [d.expr for d in model.delays] + [d.tau for d in model.delays]
     out += [c.expr for c in model.constraints]
     return [ca.SX(e) for e in out]
@@ -74,7 +75,8 @@ def _printed_function(model, lst: readable.Listing, extras_sym, args):
     """The Listing (what the reports print) as one numeric function of args:
     the shared definitions in order, then each residual lhs - rhs, each
     output expression and each extra expression."""
-    exprs = [lhs - rhs for lhs, rhs in lst.equations] + [e for _, e in lst.outputs]
+    exprs = [lhs - rhs for lhs, rhs in lst.equations]
+    exprs += [e for group in (lst.outputs, lst.events, lst.modes) for _, e in group]
     exprs += extras_sym
     return sympy.lambdify(args, exprs, modules="numpy",
                           cse=lambda es: (list(lst.shared), list(es)))
@@ -84,6 +86,9 @@ def _compare(model, *, ops=None, lst=None) -> tuple[int, int, list[str]]:
     """Evaluate CasADi and the printed SymPy form (``lst``, default the
     model's listing); return (rows, least points compared, mismatches)."""
     casadi_rows = list(model.equations) + [ca.SX(v.expr) for v in model.of_kind("output")]
+    casadi_rows += [e.expr for e in model.events]
+    casadi_rows += [model.mode_valid[v.name] for v in model.of_kind("mode")
+                    if v.name in model.mode_valid]
     extras = _extras(model)
     every = ca.vertcat(*casadi_rows, *extras)
     syms = ca.symvar(every)
@@ -174,6 +179,16 @@ def test_to_sympy_rejects_a_matrix():
         readable.to_sympy(ca.SX.sym("A", 2, 2))
 
 
+def test_comparisons_print_as_iverson_brackets():
+    x, y = ca.SX.sym("phi"), ca.SX.sym("omega")
+    e = readable.to_sympy(ca.if_else(x < y, x, 0) + (x >= 1))
+    tex = readable.to_latex(e)
+    assert r"\left[\phi \geq 1\right]" in tex and r"\begin{cases}" in tex
+    ml = readable.mathml_line(e)
+    xml.dom.minidom.parseString(ml)
+    assert "<mtable" in ml and "piecewise" not in ml.lower()
+
+
 def test_logic_and_constants_convert_exactly():
     x, y = ca.SX.sym("x"), ca.SX.sym("y")
     e = readable.to_sympy(ca.vertcat(ca.if_else(x < y, x * math.pi / 30, 0.1 * y),
@@ -197,7 +212,8 @@ def test_names_print_as_written(name, latex):
 def test_reports_print_every_line():
     model = load_model("heald_frame_rigid")
     lst = readable.listing(model)
-    n = len(lst.shared) + len(lst.equations) + len(lst.outputs)
+    n = sum(map(len, (lst.shared, lst.equations, lst.outputs, lst.events, lst.modes)))
+    assert len(lst.events) == 3
     tex = readable.latex(model).splitlines()
     assert len(tex) == n and r"\dot{\phi} = \omega" in tex
     html = readable.mathml(model)

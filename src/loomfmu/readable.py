@@ -31,18 +31,20 @@ from __future__ import annotations
 import itertools
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fractions import Fraction
 from html.entities import html5
 
 import casadi as ca
 import sympy
 from sympy.core.parameters import distribute
-from sympy.printing.mathml import mathml as _sympy_mathml
+from sympy.printing.latex import LatexPrinter
+from sympy.printing.mathml import MathMLPresentationPrinter
 from sympy.printing.pretty.pretty_symbology import greek_unicode
 
 __all__ = ["OPS", "Var", "Shared", "Listing", "latex_name", "to_sympy", "symbols",
-           "equations", "outputs", "listing", "latex", "mathml", "mathml_line"]
+           "equations", "outputs", "events", "mode_rules", "listing", "latex", "mathml",
+           "mathml_line", "to_latex"]
 
 # -- names ---------------------------------------------------------------------
 
@@ -227,10 +229,8 @@ def _indicator(cond) -> sympy.Expr:
 
 def _cond(e: sympy.Expr):
     """The condition a CasADi number stands for (nonzero is true)."""
-    if isinstance(e, sympy.Piecewise) and len(e.args) == 2 and e.args[0].expr == 1 \
-            and e.args[1].expr == 0 and e.args[1].cond is sympy.true:
-        return e.args[0].cond
-    return sympy.Ne(e, 0)
+    cond = _indicator_cond(e)
+    return sympy.Ne(e, 0) if cond is None else cond
 
 
 #: CasADi op code -> function of the SymPy arguments.  Names: casadi.OP_*.
@@ -393,15 +393,38 @@ def outputs(model) -> list[tuple[Var, sympy.Expr]]:
     return [(Var(v.name), e) for v, e in zip(outs, exprs)]
 
 
+def events(model) -> list[tuple[Var, sympy.Expr]]:
+    """Each event indicator (a symbol named as the event) and its expression."""
+    if not model.events:
+        return []
+    exprs = to_sympy(ca.vertcat(*[e.expr for e in model.events]), symbols(model))
+    exprs = exprs if isinstance(exprs, list) else [exprs]
+    return [(Var(e.name), x) for e, x in zip(model.events, exprs)]
+
+
+def mode_rules(model) -> list[tuple[Var, sympy.Expr]]:
+    """Each mode and its validity expression (>= 0 where the mode's value holds)."""
+    modes = [v for v in model.of_kind("mode") if v.name in model.mode_valid]
+    if not modes:
+        return []
+    exprs = to_sympy(ca.vertcat(*[model.mode_valid[v.name] for v in modes]), symbols(model))
+    exprs = exprs if isinstance(exprs, list) else [exprs]
+    return [(Var(v.name), x) for v, x in zip(modes, exprs)]
+
+
 @dataclass
 class Listing:
     """What the reports print: ``shared`` subexpressions (:class:`Shared`
-    symbol, definition, in order of use), then the ``equations`` (lhs, rhs)
-    and the ``outputs`` (symbol, expression), written with the shared names."""
+    symbol, definition, in order of use), then the ``equations`` (lhs, rhs),
+    the ``outputs``, the ``events`` (indicator expressions) and the
+    ``modes`` (validity expressions), each (symbol, expression), all written
+    with the shared names."""
 
     shared: list[tuple[Shared, sympy.Expr]]
     equations: list[tuple[sympy.Expr, sympy.Expr]]
     outputs: list[tuple[Var, sympy.Expr]]
+    events: list[tuple[Var, sympy.Expr]] = field(default_factory=list)
+    modes: list[tuple[Var, sympy.Expr]] = field(default_factory=list)
 
 
 def listing(model, *, min_ops: int = 3) -> Listing:
@@ -412,8 +435,9 @@ def listing(model, *, min_ops: int = 3) -> Listing:
     """
     if not isinstance(min_ops, int) or min_ops < 0:
         raise ValueError(f"min_ops = {min_ops!r}; allowed: an integer >= 0")
-    eqs, outs = equations(model), outputs(model)
-    flat = [e for pair in eqs for e in pair] + [e for _, e in outs]
+    eqs = equations(model)
+    named = [outputs(model), events(model), mode_rules(model)]
+    flat = [e for pair in eqs for e in pair] + [e for group in named for _, e in group]
     temps = (sympy.Symbol(f"_cse{k}") for k in itertools.count())
     repl, reduced = sympy.cse(flat, symbols=temps, order="none")
     inline: dict = {}
@@ -430,20 +454,77 @@ def listing(model, *, min_ops: int = 3) -> Listing:
     shared = [(names[s], d.xreplace(sub)) for s, d in kept]
     reduced = [e.xreplace(sub) for e in reduced]
     n = 2 * len(eqs)
-    return Listing(shared, list(zip(reduced[0:n:2], reduced[1:n:2])),
-                   [(y, e) for (y, _), e in zip(outs, reduced[n:])])
+    rest = iter(reduced[n:])
+    groups = [[(y, next(rest)) for y, _ in group] for group in named]
+    return Listing(shared, list(zip(reduced[0:n:2], reduced[1:n:2])), *groups)
 
 
 def _lines(lst: Listing) -> list[sympy.Eq]:
-    return ([sympy.Eq(s, d, evaluate=False) for s, d in lst.shared]
-            + [sympy.Eq(lhs, rhs, evaluate=False) for lhs, rhs in lst.equations]
-            + [sympy.Eq(y, e, evaluate=False) for y, e in lst.outputs])
+    pairs = lst.shared + lst.equations + lst.outputs + lst.events + lst.modes
+    return [sympy.Eq(a, b, evaluate=False) for a, b in pairs]
 
 
 def latex(model, *, min_ops: int = 3) -> str:
     """The model's :func:`listing` as LaTeX, one ``lhs = rhs`` per line
-    (shared subexpressions, then equations, then outputs)."""
-    return "\n".join(sympy.latex(line) for line in _lines(listing(model, min_ops=min_ops)))
+    (shared subexpressions, equations, outputs, event indicators, mode
+    validity)."""
+    return "\n".join(to_latex(line) for line in _lines(listing(model, min_ops=min_ops)))
+
+
+def _indicator_cond(e):
+    """The condition of ``Piecewise((1, c), (0, True))`` (CasADi's 1/0 of a
+    comparison), else None."""
+    if isinstance(e, sympy.Piecewise) and len(e.args) == 2 and e.args[0].expr == 1 \
+            and e.args[1].expr == 0 and e.args[1].cond is sympy.true:
+        return e.args[0].cond
+    return None
+
+
+class _Latex(LatexPrinter):
+    """SymPy's LaTeX, with CasADi's 1/0 comparisons as Iverson brackets [c]."""
+
+    def _print_Piecewise(self, expr):
+        cond = _indicator_cond(expr)
+        if cond is not None:
+            return r"\left[%s\right]" % self._print(cond)
+        rows = [r"%s & \text{if } %s" % (self._print(e), self._print(c))
+                if c is not sympy.true else r"%s & \text{otherwise}" % self._print(e)
+                for e, c in expr.args]
+        return r"\begin{cases} %s \end{cases}" % r" \\ ".join(rows)
+
+
+class _MathML(MathMLPresentationPrinter):
+    """SymPy's presentation MathML, with Piecewise as cases and CasADi's 1/0
+    comparisons as Iverson brackets [c]."""
+
+    def _el(self, tag, *children, text=None, **attrs):
+        el = self.dom.createElement(tag)
+        for k, v in attrs.items():
+            el.setAttribute(k, v)
+        if text is not None:
+            el.appendChild(self.dom.createTextNode(text))
+        for c in children:
+            el.appendChild(c)
+        return el
+
+    def _print_Piecewise(self, expr):
+        cond = _indicator_cond(expr)
+        if cond is not None:
+            return self._el("mrow", self._el("mo", text="["), self._print(cond),
+                            self._el("mo", text="]"))
+        rows = []
+        for e, c in expr.args:
+            when = (self._el("mtext", text="otherwise") if c is sympy.true else
+                    self._el("mrow", self._el("mtext", text="if\u00a0"), self._print(c)))
+            rows.append(self._el("mtr", self._el("mtd", self._print(e)), self._el("mtd", when)))
+        return self._el("mrow", self._el("mo", text="{"),
+                        self._el("mtable", *rows, columnalign="left"))
+
+
+def to_latex(expr) -> str:
+    """LaTeX of a SymPy object (model symbols as written, CasADi's 1/0
+    comparisons as Iverson brackets)."""
+    return _Latex().doprint(expr)
 
 
 _ENTITY = re.compile(r"&([A-Za-z][A-Za-z0-9]*);")
@@ -459,10 +540,13 @@ def _entity_char(m: re.Match) -> str:
     return html5[f"{name};"]
 
 
-def mathml_line(expr) -> str:
-    """One SymPy expression or equation as a block MathML element."""
-    body = _ENTITY.sub(_entity_char, _sympy_mathml(expr, printer="presentation"))
-    return ('<math xmlns="http://www.w3.org/1998/Math/MathML" display="block">'
+def mathml_line(expr, *, display: str = "block") -> str:
+    """One SymPy expression or equation as a MathML ``<math>`` element;
+    display: "block" (a line of its own) or "inline" (within text)."""
+    if display not in ("block", "inline"):
+        raise ValueError(f"display = {display!r}; allowed: 'block', 'inline'")
+    body = _ENTITY.sub(_entity_char, _MathML().doprint(expr))
+    return (f'<math xmlns="http://www.w3.org/1998/Math/MathML" display="{display}">'
             f"{body}</math>")
 
 
