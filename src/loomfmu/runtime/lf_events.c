@@ -237,12 +237,14 @@ static int near_zero_extremum(double ga, double gm, double gb, double *th) {
     return sgn * v < LF_EVENT_VERTEX_MARGIN * 0.25 * fabs(a);
 }
 
-/* Could the samples hide a sign change: two seen, or an extremum near zero
- * inside the interval or within half of it beyond either end (the
- * quadratic is only a model: a shallow excursion that it puts just outside
- * may lie just inside)? */
+/* Could the samples hide a sign change?  Not if the ends differ in sign
+ * (one crossing, which locate_root brackets); yes if two sign changes show,
+ * or if the extremum comes near zero inside the interval or within half of
+ * it beyond either end (the quadratic is only a model: a shallow excursion
+ * that it puts just outside may lie just inside). */
 static int may_hide_roots(double ga, double gm, double gb) {
     double th;
+    if (crossed(ga, gb)) return 0;
     if (crossed(ga, gm) || crossed(gm, gb)) return 1;
     return near_zero_extremum(ga, gm, gb, &th) && th > -0.5 && th < 1.5;
 }
@@ -294,7 +296,7 @@ static LfStatus scan_events(LfInstance *c, double ta, const double *ga, double t
             if (st != LF_OK || out->found) return st;
             return scan_events(c, tm, gm, tb, gb, depth + 1, out);
         }
-        /* a single sign change, in one of the halves */
+        /* no hidden sign change: a crossing is in one of the halves */
         if (any_crossed(ga, gm)) {
             tb = tm;
             gb = gm;
