@@ -12,6 +12,7 @@ caught by the same comparison.
 from __future__ import annotations
 
 import math
+import re
 import time
 import xml.dom.minidom
 
@@ -239,3 +240,88 @@ def test_shared_subexpressions_are_named_once():
 def test_listing_rejects_bad_min_ops():
     with pytest.raises(ValueError, match="min_ops"):
         readable.listing(load_model("heald_frame_rigid"), min_ops=-1)
+
+
+# -- loomfmu inspect ------------------------------------------------------------
+
+from html.parser import HTMLParser  # noqa: E402
+
+from loomfmu import inspect_report  # noqa: E402
+from loomfmu.ode import dae_form  # noqa: E402
+
+
+class _Tags(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.tags: list[str] = []
+        self.urls: list[str] = []
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append(tag)
+        self.urls += [v for k, v in attrs if k in ("src", "href") and v]
+
+
+@pytest.mark.parametrize("name", ["backrest", "drive", "heald_frame_rigid"])
+def test_inspect_report_in_every_format(name, tmp_path):
+    model = load_model(name)
+    title, sections = inspect_report.document(model)
+    page = inspect_report.render_html(title, sections)
+    tags = _Tags()
+    tags.feed(page)
+    assert "script" not in tags.tags and "link" not in tags.tags and not tags.urls
+    maths = page.count("<math ")
+    lst = readable.listing(model)
+    assert maths >= sum(map(len, (lst.shared, lst.equations, lst.outputs, lst.events)))
+    for v in model.variables:  # every variable is listed with its unit
+        assert f"<code>{v.name}</code>" in page
+    dae = dae_form(model)
+    nnz = ca.jacobian(dae.F, dae.w).nnz()
+    assert f"{nnz} structural non-zeros" in page
+    assert ("by Newton" in page) == dae.implicit
+    md = inspect_report.render_md(title, sections)
+    assert md.count("$$") == 2 * sum(len(b.lines) for s in sections for b in _blocks(s)
+                                      if isinstance(b, inspect_report.Equations))
+    tex = inspect_report.render_tex(title, sections)
+    assert tex.startswith(r"\documentclass") and tex.rstrip().endswith(r"\end{document}")
+    assert tex.count(r"\begin{equation*}") == tex.count(r"\end{equation*}") > 0
+    inside = False  # text is escaped: no bare underscore outside math and verbatim
+    for line in tex.splitlines():
+        if line in (r"\begin{equation*}", r"{\scriptsize\begin{verbatim}"):
+            inside = True
+        elif line in (r"\end{equation*}", r"\end{verbatim}}"):
+            inside = False
+        elif not inside:
+            text = re.sub(r"\$[^$]*\$", "", line).replace(r"\_", "")
+            assert "_" not in text, line
+    if model.delays:
+        assert "Delays" in md and r"\tau" in md
+    if model.events:
+        assert all(e.name in md for e in model.events)
+
+
+def _blocks(section):
+    for b in section.blocks:
+        if isinstance(b, inspect_report.Section):
+            yield from _blocks(b)
+        else:
+            yield b
+
+
+def test_inspect_main_writes_the_file(tmp_path, capsys):
+    out = tmp_path / "sub" / "r.md"
+    assert inspect_report.main(["heald_frame_rigid", "--format", "md", "--out", str(out)]) == 0
+    assert out.read_text().startswith("# heald_frame_rigid")
+    assert str(out) in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv", [["no_such_model"], ["backrest", "--format", "pdf"], []])
+def test_inspect_usage_errors_exit_2(argv, capsys):
+    with pytest.raises(SystemExit) as exc:
+        inspect_report.main(argv)
+    assert exc.value.code == 2
+    assert "usage: loomfmu inspect" in capsys.readouterr().err
+
+
+def test_inspect_report_rejects_unknown_format():
+    with pytest.raises(ValueError, match="fmt"):
+        inspect_report.report(load_model("heald_frame_rigid"), "pdf")

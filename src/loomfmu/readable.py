@@ -210,16 +210,17 @@ class Shared(sympy.Symbol):
 # -- the op table ----------------------------------------------------------------
 
 def _constant(v: float) -> sympy.Expr:
-    """Exact small rationals and rational multiples of pi print as such;
-    other constants as floats (the very same double)."""
+    """Rationals (denominator up to 100 000) and their multiples of pi or 1/pi
+    that round to this very double print as such; other constants as floats
+    (the same double; printed to 15 digits)."""
     if not math.isfinite(v):
         return {math.inf: sympy.oo, -math.inf: -sympy.oo}.get(v, sympy.nan)
     for unit, factor in ((1.0, sympy.Integer(1)), (math.pi, sympy.pi),
                          (1 / math.pi, 1 / sympy.pi)):
-        frac = Fraction(v / unit).limit_denominator(360)
+        frac = Fraction(v / unit).limit_denominator(100_000)
         if frac and float(frac) * unit == v or (not frac and v == 0.0):
             return sympy.Rational(frac.numerator, frac.denominator) * factor
-    return sympy.Float(v, 17)
+    return sympy.Float(v, precision=53)  # the same double; prints 15 digits
 
 
 def _indicator(cond) -> sympy.Expr:
@@ -517,7 +518,7 @@ class _MathML(MathMLPresentationPrinter):
             when = (self._el("mtext", text="otherwise") if c is sympy.true else
                     self._el("mrow", self._el("mtext", text="if\u00a0"), self._print(c)))
             rows.append(self._el("mtr", self._el("mtd", self._print(e)), self._el("mtd", when)))
-        return self._el("mrow", self._el("mo", text="{"),
+        return self._el("mrow", self._el("mo", text="{", stretchy="true", fence="true"),
                         self._el("mtable", *rows, columnalign="left"))
 
 
