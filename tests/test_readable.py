@@ -226,9 +226,9 @@ def test_reports_print_every_line():
 
 
 def test_shared_subexpressions_are_named_once():
-    model = load_model("spindle")
+    model = load_model("heald_frame")
     lst = readable.listing(model)
-    assert lst.shared, "the spindle's equations share subexpressions"
+    assert lst.shared, "the heald frame's equations share subexpressions"
     for sym, definition in lst.shared:
         assert sympy.count_ops(definition) >= 3
     used = [e for pair in lst.equations for e in pair] + [e for _, e in lst.outputs]

@@ -46,9 +46,6 @@ class Code:
     text: str
 
 
-Cell = "str | Math | Code"
-
-
 @dataclass
 class Table:
     head: list[str]
@@ -243,6 +240,70 @@ def document(model) -> tuple[str, list[Section]]:
 
 # -- renderers -------------------------------------------------------------------
 
+#: a display equation longer than this (characters of SymPy's plain print, a
+#: rough measure of its printed width) is broken after a term of its right side
+WRAP = 110
+
+
+def _rows(e) -> list[list] | None:
+    """The right side's terms, in printed order, in rows that fit WRAP; None
+    when ``e`` fits on one line (or its right side is not a sum)."""
+    if not isinstance(e, sympy.Eq) or not isinstance(e.rhs, sympy.Add) or len(str(e)) <= WRAP:
+        return None
+    rows, row, width = [], [], len(str(e.lhs)) + 3
+    for term in e.rhs.as_ordered_terms():
+        w = len(str(term)) + 3
+        if row and width + w > WRAP:
+            rows.append(row)
+            row, width = [], 4
+        row.append(term)
+        width += w
+    rows.append(row)
+    return rows if len(rows) > 1 else None
+
+
+def _signed(term) -> tuple[str, object]:
+    """("-", -term) for a negative term, else ("+", term)."""
+    return ("-", -term) if term.could_extract_minus_sign() else ("+", term)
+
+
+def _latex_display(e) -> str:
+    rows = _rows(e)
+    if rows is None:
+        return readable.to_latex(e)
+    lines = []
+    for k, row in enumerate(rows):
+        parts = []
+        for j, term in enumerate(row):
+            sign, mag = _signed(term)
+            first = k == 0 and j == 0
+            parts.append(("-" if sign == "-" else "") if first else sign)
+            parts.append(readable.to_latex(mag))
+        head = readable.to_latex(e.lhs) + " ={}& " if k == 0 else r"&\quad "
+        lines.append(head + " ".join(p for p in parts if p))
+    return r"\begin{aligned} " + r" \\ ".join(lines) + r" \end{aligned}"
+
+
+def _mathml_display(e) -> str:
+    rows = _rows(e)
+    if rows is None:
+        return readable.mathml_line(e)
+    trs = []
+    for k, row in enumerate(rows):
+        cells = []
+        for j, term in enumerate(row):
+            sign, mag = _signed(term)
+            if not (k == 0 and j == 0 and sign == "+"):
+                cells.append("<mo>%s</mo>" % ("\u2212" if sign == "-" else "+"))
+            cells.append(readable.mathml_body(mag))
+        left = readable.mathml_body(e.lhs) if k == 0 else ""
+        mid = "<mo>=</mo>" if k == 0 else "<mspace width=\"1em\"/>"
+        trs.append(f'<mtr><mtd style="text-align:right">{left}</mtd><mtd style="text-align:'
+                   f'left"><mrow>{mid}{"".join(cells)}</mrow></mtd></mtr>')
+    return ('<math xmlns="http://www.w3.org/1998/Math/MathML" display="block">'
+            f'<mtable displaystyle="true">{"".join(trs)}</mtable></math>')
+
+
 def _flat(sections: list[Section]):
     for s in sections:
         yield s, True
@@ -289,7 +350,7 @@ def render_html(title: str, sections: list[Section]) -> str:
                     for row in b.rows]
             out.append("</table>")
         elif isinstance(b, Equations):
-            out += [f'<div class="eq">{readable.mathml_line(e)}'
+            out += [f'<div class="eq">{_mathml_display(e)}'
                     + (f'<span class="tag">({tag})</span>' if tag else "") + "</div>"
                     for e, tag in b.lines]
         elif isinstance(b, Pre):
@@ -323,7 +384,7 @@ def render_md(title: str, sections: list[Section]) -> str:
             out.append("")
         elif isinstance(b, Equations):
             for e, tag in b.lines:
-                out += ["$$", readable.to_latex(e) + (f" \\tag{{{tag}}}" if tag else ""), "$$", ""]
+                out += ["$$", _latex_display(e) + (f" \\tag{{{tag}}}" if tag else ""), "$$", ""]
         elif isinstance(b, Pre):
             out += ["```", b.text, "```", ""]
     return "\n".join(out)
@@ -365,7 +426,7 @@ def render_tex(title: str, sections: list[Section]) -> str:
             out.append(r"\end{longtable}")
         elif isinstance(b, Equations):
             for e, tag in b.lines:
-                out += [r"\begin{equation*}", readable.to_latex(e)
+                out += [r"\begin{equation*}", _latex_display(e)
                         + (f" \\tag{{{tag}}}" if tag else ""), r"\end{equation*}"]
         elif isinstance(b, Pre):
             out += [r"{\scriptsize\begin{verbatim}", b.text, r"\end{verbatim}}"]

@@ -44,7 +44,7 @@ from sympy.printing.pretty.pretty_symbology import greek_unicode
 
 __all__ = ["OPS", "Var", "Shared", "Listing", "latex_name", "to_sympy", "symbols",
            "equations", "outputs", "events", "mode_rules", "listing", "latex", "mathml",
-           "mathml_line", "to_latex"]
+           "mathml_line", "mathml_body", "to_latex"]
 
 # -- names ---------------------------------------------------------------------
 
@@ -494,6 +494,9 @@ class _Latex(LatexPrinter):
         return r"\begin{cases} %s \end{cases}" % r" \\ ".join(rows)
 
 
+_LEFT = "text-align:left"  # MathML Core has no columnalign; browsers follow CSS
+
+
 class _MathML(MathMLPresentationPrinter):
     """SymPy's presentation MathML, with Piecewise as cases and CasADi's 1/0
     comparisons as Iverson brackets [c]."""
@@ -517,7 +520,8 @@ class _MathML(MathMLPresentationPrinter):
         for e, c in expr.args:
             when = (self._el("mtext", text="otherwise") if c is sympy.true else
                     self._el("mrow", self._el("mtext", text="if\u00a0"), self._print(c)))
-            rows.append(self._el("mtr", self._el("mtd", self._print(e)), self._el("mtd", when)))
+            rows.append(self._el("mtr", self._el("mtd", self._print(e), style=_LEFT),
+                                 self._el("mtd", when, style=_LEFT)))
         return self._el("mrow", self._el("mo", text="{", stretchy="true", fence="true"),
                         self._el("mtable", *rows, columnalign="left"))
 
@@ -541,14 +545,18 @@ def _entity_char(m: re.Match) -> str:
     return html5[f"{name};"]
 
 
+def mathml_body(expr) -> str:
+    """The presentation MathML of a SymPy object, without the ``<math>`` element."""
+    return _ENTITY.sub(_entity_char, _MathML().doprint(expr))
+
+
 def mathml_line(expr, *, display: str = "block") -> str:
     """One SymPy expression or equation as a MathML ``<math>`` element;
     display: "block" (a line of its own) or "inline" (within text)."""
     if display not in ("block", "inline"):
         raise ValueError(f"display = {display!r}; allowed: 'block', 'inline'")
-    body = _ENTITY.sub(_entity_char, _MathML().doprint(expr))
     return (f'<math xmlns="http://www.w3.org/1998/Math/MathML" display="{display}">'
-            f"{body}</math>")
+            f"{mathml_body(expr)}</math>")
 
 
 def mathml(model, *, min_ops: int = 3) -> str:
