@@ -13,7 +13,9 @@ the value its source had at the step's start (or, for Gauss-Seidel, when it
 was set); at the step's end the source has moved on.  The difference between
 the held input and the source's new value is the error of the zero-order
 hold at the step's end, O(h).  Each connection's difference is scaled by
-``atol + rtol * max(|held|, |new|)``; the step's error is the largest.  A
+``atol + rtol * s`` with ``s`` the largest magnitude the signal has had so
+far (a signal crossing zero is measured against its amplitude, not against
+its value near zero); the step's error is the largest scaled difference.  A
 step with error > 1 is rejected when the master is ``adaptive``: every FMU
 goes back to the step's start through fmi2SetFMUstate and the step is redone
 shorter.
@@ -59,6 +61,7 @@ class Master:
                 raise ValueError(f"adaptive = True: components {bad} cannot get and set "
                                  "their state; allowed: adaptive = False")
         self.n_accepted = self.n_rejected = 0
+        self._size = [abs(system.source_value(i)) for i in range(len(system.connections))]
 
     def _advance(self, t: float, h: float) -> list[float]:
         """Exchange values and step every FMU from t to t + h; return, per
@@ -84,6 +87,7 @@ class Master:
             system.free_states(saved)
         if accepted:
             self.n_accepted += 1
+            self._size = [max(s, abs(u)) for s, u in zip(self._size, system.held)]
         else:
             self.n_rejected += 1
         return StepResult(accepted, error, message)
@@ -94,21 +98,39 @@ class Master:
             y = self.system.source_value(i)
             if not math.isfinite(y):
                 return math.inf
-            err = max(err, abs(y - u) / (self.atol + self.rtol * max(abs(u), abs(y))))
+            size = max(self._size[i], abs(u), abs(y))
+            err = max(err, abs(y - u) / (self.atol + self.rtol * size))
         return err
 
 
 class Jacobi(Master):
     """All inputs set at the step's start, then every FMU steps (they could
-    run in parallel).  The inputs are set in direct-feedthrough order, so an
-    output that depends on an input is read after that input has its new
-    value: the exchanged values are consistent at t."""
+    run in parallel).
+
+    resolve_feedthrough: True (default): the inputs are set in direct-
+    feedthrough order, so an output that depends on an input is read after
+    that input has its new value (the exchanged values are consistent at t).
+    False: every output is read before any input changes, as libcosim's
+    fixed-step algorithm does: an output with feedthrough passes on a value
+    computed with the previous step's inputs.
+    """
 
     name = "jacobi"
 
+    def __init__(self, system: System, *, resolve_feedthrough: bool = True, **kw):
+        if not isinstance(resolve_feedthrough, bool):
+            raise ValueError(f"resolve_feedthrough = {resolve_feedthrough!r}; allowed: "
+                             "True or False")
+        super().__init__(system, **kw)
+        self.resolve_feedthrough = resolve_feedthrough
+
     def _advance(self, t, h):
         system = self.system
-        system.exchange(range(len(system.connections)), t)
+        every = range(len(system.connections))
+        if self.resolve_feedthrough:
+            system.exchange(every, t)
+        else:
+            system.set_inputs(every, [system.source_value(i) for i in every], t)
         held = list(system.held)
         for name in system.instances:
             system.do_step(name, t, h)

@@ -105,9 +105,14 @@ class System:
         return c.gain * fmu.getReal([vr])[0] + c.bias
 
     def exchange(self, indices, t: float) -> None:
-        """Move values along connections ``indices`` (in that order)."""
+        """Move values along connections ``indices`` (in that order: each
+        source is read after the inputs set before it)."""
         for i in indices:
-            value = self.source_value(i)
+            self.set_inputs([i], [self.source_value(i)], t)
+
+    def set_inputs(self, indices, values, t: float) -> None:
+        """Set the inputs of connections ``indices`` to ``values``."""
+        for i, value in zip(indices, values):
             fmu, vr = self._dst[i]
             self._call(self.connections[i].dst, "fmi2SetReal (input)", t,
                        lambda: fmu.setReal([vr], [value]))

@@ -19,6 +19,12 @@ z = (x1, v1, x2, v2) (derivation: docs/scenes.md):
                             [[Phi1 + Gam1 Gam2 C1, Gam1 (Phi2 + Gam2 D1)],
                              [Gam2 C1, Phi2 + Gam2 D1]]
 
+libcosim's fixed-step master reads each output right after the step,
+before the inputs change, so the force it passes on was computed with the
+previous step's position: its map acts on w = (z1, z2, z2 of the step before),
+
+    libcosim:   z1+ = Phi1 z1 + Gam1 z2,   z2+ = Phi2 z2 + Gam2 (C1 z1 + D1 z2_old)
+
 The co-simulation is stable when the map's spectral radius is below 1.
 """
 from __future__ import annotations
@@ -34,7 +40,7 @@ from .declare import Scene, declare_model
 #: the exact-integration settings of the FMUs in the benchmark
 TIGHT = {"solver_rtol": 1e-12, "solver_atol": 1e-14}
 #: the algorithms the map is derived for
-ALGORITHMS = ("jacobi", "gauss-seidel:force-first", "gauss-seidel:disp-first")
+ALGORITHMS = ("jacobi", "gauss-seidel:force-first", "gauss-seidel:disp-first", "libcosim")
 
 
 @dataclass(frozen=True)
@@ -112,7 +118,9 @@ def hold(A: np.ndarray, B: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray
 
 
 def cosim_map(p: Params, h: float, algorithm: str) -> np.ndarray:
-    """The 4 x 4 matrix of one communication step of ``algorithm`` (ALGORITHMS)."""
+    """The matrix of one communication step of ``algorithm`` (ALGORITHMS):
+    4 x 4 on z = (x1, v1, x2, v2); 6 x 6 for "libcosim", on (z, x2 and v2 of
+    the step before)."""
     if algorithm not in ALGORITHMS:
         raise ValueError(f"algorithm = {algorithm!r}; allowed: {', '.join(ALGORITHMS)}")
     A1, B1, C1, D1, A2, B2 = matrices(p)
@@ -120,6 +128,9 @@ def cosim_map(p: Params, h: float, algorithm: str) -> np.ndarray:
     P2, G2 = hold(A2, B2, h)
     if algorithm == "jacobi":
         return np.block([[P1, G1], [G2 @ C1, P2 + G2 @ D1]])
+    if algorithm == "libcosim":
+        Z = np.zeros((2, 2))
+        return np.block([[P1, G1, Z], [G2 @ C1, P2, G2 @ D1], [Z, np.eye(2), Z]])
     if algorithm == "gauss-seidel:force-first":
         return np.block([[P1, G1], [G2 @ C1 @ P1, P2 + G2 @ (C1 @ G1 + D1)]])
     return np.block([[P1 + G1 @ G2 @ C1, G1 @ (P2 + G2 @ D1)], [G2 @ C1, P2 + G2 @ D1]])
@@ -137,11 +148,13 @@ def exact_radius(p: Params, h: float) -> float:
 def trajectory(p: Params, h: float, n: int, z0, algorithm: str) -> np.ndarray:
     """z at t = 0, h, ..., n h under the co-simulation map (n + 1 rows)."""
     M = cosim_map(p, h, algorithm)
-    z = np.zeros((n + 1, 4))
-    z[0] = z0
+    w = np.zeros((n + 1, M.shape[0]))
+    w[0, :4] = z0
+    if M.shape[0] > 4:      # libcosim starts with consistent inputs
+        w[0, 4:] = w[0, 2:4]
     for k in range(n):
-        z[k + 1] = M @ z[k]
-    return z
+        w[k + 1] = M @ w[k]
+    return w[:, :4]
 
 
 def exact_solution(p: Params, t: np.ndarray, z0) -> np.ndarray:
