@@ -87,8 +87,10 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
                     rows.append(system.get(refs))
                     hs.append(h_try)
                     done = int(100 * t / stop)
-                    if bar is not None and done > shown:
-                        bar.advance(f"t = {t:.4g} s, h = {h_try:.3g} s", n=done - shown)
+                    if bar is not None and done > shown:   # plain logs: a line per 10 %
+                        text = (f"t = {t:.4g} s, h = {h_try:.3g} s, {m.n_rejected} rejected"
+                                if done // 10 > shown // 10 else "")
+                        bar.advance(text, n=done - shown)
                         shown = done
                 if adaptive:
                     fac = (SAFETY / max(res.error, 1e-10) if math.isfinite(res.error)

@@ -1,0 +1,102 @@
+"""loomfmu scene {list, run, export}: co-simulation scenes (docs/scenes.md).
+
+Exit codes: 0 done; 1 the run failed (an FMU returned Error/Discard, the
+adaptive step fell below its minimum); 2 a usage error (one line).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .library import SCENES, load_scene
+from .master import MASTERS
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _parser(prog: str) -> argparse.ArgumentParser:
+    ap = _Parser(prog=prog, description="Co-simulation scenes: FMUs connected in Python, "
+                 "run on loomfmu's master or exported as SSP.")
+    sub = ap.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
+    sub.add_parser("list", help="the scenes, their components and connections")
+    r = sub.add_parser("run", help="run a scene on our master; print the final values")
+    r.add_argument("scene", help=f"one of {', '.join(sorted(SCENES))}")
+    r.add_argument("--master", choices=sorted(MASTERS), default="jacobi",
+                   help="master algorithm (default: jacobi)")
+    r.add_argument("--step", type=float, default=None,
+                   help="communication step in s (> 0; default: the scene's); with "
+                        "--adaptive the first step")
+    r.add_argument("--adaptive", action="store_true",
+                   help="control the step by the coupling error estimate (--rtol)")
+    r.add_argument("--rtol", type=float, default=1e-3,
+                   help="tolerance of the adaptive step (0 < rtol < 1; default 1e-3)")
+    r.add_argument("--stop", type=float, default=None,
+                   help="stop time in s (> 0; default: the scene's)")
+    r.add_argument("--csv", type=Path, default=None, help="write the results as CSV")
+    r.add_argument("--fmu-dir", type=Path, default=None,
+                   help="folder to build the FMUs into and reuse (default: a temporary one)")
+    e = sub.add_parser("export", help="write the scene as an SSP file")
+    e.add_argument("scene", help=f"one of {', '.join(sorted(SCENES))}")
+    e.add_argument("--out", type=Path, default=None,
+                   help="the .ssp file (default: ./<scene>.ssp)")
+    e.add_argument("--fmu-dir", type=Path, default=None,
+                   help="folder to build the FMUs into and reuse (default: a temporary one)")
+    return ap
+
+
+def _list() -> int:
+    for name, (factory, text) in sorted(SCENES.items()):
+        s = factory()
+        print(f"{name}: {text}")
+        for c in s.components.values():
+            print(f"  component {c.name}: {c.source}")
+        for c in s.connections:
+            print(f"  connection {c}" + (f"  [{c.port}]" if c.port else ""))
+    return 0
+
+
+def _run(args, prog: str) -> int:
+    from .run import run
+    from .system import FMUError
+    s = load_scene(args.scene)
+    try:
+        res = run(s, master=args.master, step=args.step, stop=args.stop,
+                  adaptive=args.adaptive, rtol=args.rtol, fmu_dir=args.fmu_dir,
+                  progress=True)
+    except (FMUError, RuntimeError) as exc:
+        print(f"{prog}: run failed: {exc}", file=sys.stderr)
+        return 1
+    last = res.data[-1]
+    print(f"scene {s.name}, master {res.master}: {res.accepted} steps accepted, "
+          f"{res.rejected} rejected, t = {last['time']:.6g} s")
+    for name in res.data.dtype.names[1:]:
+        comp, var = name.split(".", 1)
+        unit = s.components[comp].interface.variables[var].unit
+        print(f"  {name} = {last[name]:.9g}" + (f" {unit}" if unit else ""))
+    if args.csv is not None:
+        print(f"wrote {res.to_csv(args.csv)}")
+    return 0
+
+
+def main(argv=None, prog: str = "loomfmu scene") -> int:
+    args = _parser(prog).parse_args(argv)
+    try:
+        if args.cmd == "list":
+            return _list()
+        if args.cmd == "run":
+            return _run(args, f"{prog} run")
+        from .ssp import export_ssp
+        out = args.out if args.out is not None else Path(f"{args.scene}.ssp")
+        print(f"wrote {export_ssp(load_scene(args.scene), out, fmu_dir=args.fmu_dir)}")
+        return 0
+    except ValueError as exc:
+        print(f"{prog} {args.cmd}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
