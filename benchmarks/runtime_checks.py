@@ -1,11 +1,14 @@
 """Measure the runtime's behaviour at input changes, delay breakpoints, zero
 delays and touching event indicators, against closed forms and the scipy
-reference, and write docs/runtime_checks.json.
+reference; its independence of the communication step (backrest switches),
+the solvers' errors on a closed-form delay equation, and the wall time of
+calls that used to run away; write docs/runtime_checks.json.
 
     python benchmarks/runtime_checks.py
 
 The tests (tests/test_drive_fmu.py, tests/test_backrest.py,
-tests/test_events.py) assert bounds on the same quantities; this script
+tests/test_events.py, tests/test_comm_step.py, tests/test_delay_convergence.py,
+tests/test_runaway.py) assert bounds on the same quantities; this script
 prints the measured values quoted in the README.
 """
 from __future__ import annotations
@@ -15,6 +18,7 @@ import math
 import re
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -148,6 +152,116 @@ def touch(tmp, solver):
     return err
 
 
+def backrest_comm_step(path):
+    """Mode switches and outputs against the communication step (issue 12):
+    the default scene, one run per (rtol, comm), compared with comm = 1 ms."""
+    out = {}
+    for rtol in (1e-3, 1e-4, 1e-6, 1e-8):
+        fine = None
+        for comm in (1e-3, 1e-2, 1e-1, 1.0):
+            r = Run(path)
+            r.fmu.setupExperiment(startTime=0.0, tolerance=rtol)
+            r.fmu.enterInitializationMode()
+            r.fmu.exitInitializationMode()
+            names = [v.name for v in r.md.modelVariables if v.causality == "output"]
+            wall = time.perf_counter()
+            ys = []
+            for i in range(int(round(1.0 / comm))):
+                r.fmu.doStep(i * comm, comm)
+                ys.append(r.get(*names))
+            wall = time.perf_counter() - wall
+            r.fmu.freeInstance()
+            ys = np.array(ys)
+            switches = sum(1 for m in r.log if re.search(r"mode \S+: \S+ -> ", m))
+            if fine is None:
+                fine = ys
+            every = int(round(comm / 1e-3))
+            size = np.maximum(np.ptp(fine, axis=0), np.max(np.abs(fine), axis=0))
+            err = float(np.max(np.abs(ys - fine[every - 1::every]) / size))
+            out[f"rtol={rtol:g} comm={comm:g}"] = {"switches": switches,
+                                                   "max_diff_rel_size": err, "wall_s": wall}
+    return out
+
+
+def dde_model(t_end):
+    m = Model("dde", stop_time=t_end, step_size=0.1)
+    x = m.state("x", 1.0, description="x' = -x(t - tau), x = 1 before 0")
+    tau = m.parameter("tau", 1.0, unit="s", description="the delay", min=0.0, max=2.0,
+                      source="test problem")
+    m.eq(m.der(x), -m.delay("xd", x, tau, max_delay=2.0, description="x, tau ago"))
+    m.output("x_out", x, description="x")
+    return m
+
+
+def dde_exact(t, tau):
+    n = int(math.floor(t / tau)) + 1
+    return sum((-1) ** k * (t - (k - 1) * tau) ** k / math.factorial(k) for k in range(n + 1))
+
+
+def dde_errors(tmp):
+    """x' = -x(t - tau) against its closed form over 5 s (comm 0.1 s): max
+    error against rtol (atol = rtol / 1000), and with steps fixed by
+    solver_h_max (tolerances too loose to act) the observed order."""
+    path = build_fmu(dde_model(5.0), out_dir=tmp, validate=False).path
+    out = {}
+    for tau in (1.0, 0.3):
+        for solver in ("dopri5", "rodas4"):
+            row = {}
+            for rtol in (1e-4, 1e-6, 1e-8, 1e-10, 1e-12):
+                try:
+                    run = simulate(path, solver=solver, rtol=rtol, atol=rtol * 1e-3,
+                                   output_interval=0.1, values={"tau": tau}, output=["x_out"])
+                    row[f"rtol={rtol:g}"] = max(abs(y - dde_exact(t, tau))
+                                                for t, y in zip(run.t, run.y["x_out"]))
+                except Exception as e:  # a discarded step (history full): say so
+                    row[f"rtol={rtol:g}"] = f"failed: {str(e)[:160]}"
+            errs = []
+            for h in (0.1, 0.05, 0.025):
+                run = simulate(path, solver=solver, rtol=0.1, atol=1.0, output_interval=0.1,
+                               values={"tau": tau, "solver_h_max": h}, output=["x_out"])
+                errs.append(max(abs(y - dde_exact(t, tau)) for t, y in zip(run.t, run.y["x_out"])))
+            row["fixed_step_orders"] = [math.log2(a / b) for a, b in zip(errs, errs[1:])]
+            out[f"tau={tau} {solver}"] = row
+    return out
+
+
+def runaway(tmp):
+    """Wall time and outcome of one fmi2DoStep that used to run for minutes,
+    and of u_ext = 1e300 on the drive (100 steps of 0.01 s)."""
+    drive = build_fmu(load_model("drive"), out_dir=tmp, validate=False).path
+    backrest = build_fmu(load_model("backrest"), out_dir=tmp, validate=False).path
+    out = {}
+    for case, path, start, h in (("drive tau=1e-12 h=0.01", drive, {"tau": 1e-12}, 0.01),
+                                 ("drive h=1e9", drive, {}, 1e9),
+                                 ("backrest h=1e4", backrest, {}, 1e4)):
+        r = Run(path)
+        r.start(**start)
+        wall = time.perf_counter()
+        try:
+            r.fmu.doStep(0.0, h)
+            status = "OK"
+        except Exception as e:
+            status = str(e)
+        out[case] = {"wall_s": time.perf_counter() - wall, "status": status,
+                     "log": r.log[-1][:200] if r.log else ""}
+        r.fmu.freeInstance()
+    r = Run(drive)
+    r.start()
+    r.set(u_ext=1e300)
+    ok, status = 0, "OK"
+    for i in range(100):
+        try:
+            r.fmu.doStep(i * 0.01, 0.01)
+            ok += 1
+        except Exception as e:
+            status = str(e)
+            break
+    out["drive u_ext=1e300"] = {"steps_ok": ok, "status": status,
+                                "n_out_readable": r.get("n_out")[0], "log": r.log[-1][:200]}
+    r.fmu.freeInstance()
+    return out
+
+
 def main() -> int:
     out: dict = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -164,6 +278,9 @@ def main() -> int:
         out["backrest_warp_pull"] = {f"{kind} {SOLVERS[s]}": backrest_inputs(br, model, s, kind)
                                      for kind in ("step", "ramp") for s in (1, 2)}
         out["touch_x_max_err"] = {SOLVERS[s]: touch(tmp / f"t{s}", s) for s in SOLVERS}
+        out["backrest_comm_step"] = backrest_comm_step(br)
+        out["dde_errors"] = dde_errors(tmp / "dde")
+        out["runaway"] = runaway(tmp / "r")
     text = json.dumps(out, indent=2)
     (ROOT / "docs" / "runtime_checks.json").write_text(text + "\n")
     print(text)
