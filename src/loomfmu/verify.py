@@ -49,8 +49,9 @@ def simulate(fmu: Path | str, *, solver: str = "dopri5", rtol: float = 1e-6,
     check_choice("solver", solver, SOLVERS)
     rtol = check_number("rtol", rtol, lo=0.0, hi=0.1, lo_open=True)
     atol = check_number("atol", atol, lo=0.0, lo_open=True)
-    if not isinstance(fmu, (str, Path)) or not Path(fmu).is_file():
-        raise ValueError(f"fmu = {fmu!r:.80}; allowed: the path of an existing .fmu file")
+    if not isinstance(fmu, (str, Path)) or not Path(fmu).exists():
+        raise ValueError(f"fmu = {fmu!r:.80}; allowed: the path of an existing .fmu file "
+                         "or of its unzipped folder")
     if model_description is None:
         try:
             model_description = fmpy.read_model_description(str(fmu), validate=False)
