@@ -217,10 +217,15 @@ def main(argv: list[str] | None = None) -> int:
     import tempfile
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(args.work or tmp)
-        per_model = {}
+        per_model, failed = {}, []
         for name in models:
             print(f"{name}: building the sanitizer build and running the cases ...", flush=True)
-            per_model[name] = measure(name, work, args.corruptions, args.seed)
+            try:
+                per_model[name] = measure(name, work, args.corruptions, args.seed)
+            except (RuntimeError, subprocess.SubprocessError) as e:  # build failed
+                print(f"  {name} not measured: {e}", flush=True)
+                failed.append(name)
+                continue
             c = per_model[name]["cases"]
             print(f"  cases {c['tried']}: refused {c['refused']}, clean {c['clean']}, crashed "
                   f"{c['crashed']}, OK-with-wrong-answer {c['ok_with_wrong_answer']} "
@@ -243,6 +248,7 @@ def main(argv: list[str] | None = None) -> int:
             "corruptions_resealed": _total(per_model, "corruptions", "resealed"),
         },
         "models": per_model,
+        "not_measured": failed,
     }
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(report, indent=1) + "\n")
@@ -253,7 +259,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"written {args.out}")
     bad = (t["cases"]["crashed"] + t["cases"]["ok_with_wrong_answer"]
            + t["corruptions_stored"]["crashed"] + t["corruptions_resealed"]["crashed"])
-    return 1 if bad else 0
+    return 1 if bad or failed else 0
 
 
 if __name__ == "__main__":
