@@ -343,6 +343,11 @@ static int check_vrs(LfInstance *c, const char *fn, const fmi2ValueReference vr[
                (unsigned long)nvr, (unsigned long)NVR_LIMIT(n_vars), n_vars);
         return 0;
     }
+    if (n_vars == 0) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: vr[0] = %u, but the FMU has no "
+               "variable of this type; no value read or written", c->t, fn, (unsigned)vr[0]);
+        return 0;
+    }
     for (i = 0; i < nvr; i++)
         if (vr[i] >= n_vars) {
             lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: vr[%lu] = %u is not a variable of "
