@@ -22,6 +22,7 @@ from pathlib import Path
 
 import casadi as ca
 import sympy
+from sympy.printing.pretty.pretty_symbology import greek_unicode
 
 from . import readable
 from .codegen import generate_sources
@@ -186,19 +187,21 @@ def _events(model, lst: readable.Listing) -> Section | None:
     return sec
 
 
-def _delays(model) -> Section | None:
+def _delays(model, lst: readable.Listing) -> Section | None:
     if not model.delays:
         return None
     table = readable.symbols(model)
     rows = [[Code(d.name), Math(readable.Var(d.sym.name())),
-             Math(readable.to_sympy(d.expr, table)), Math(readable.to_sympy(d.tau, table)),
-             _fmt(d.max_delay), d.description] for d in model.delays]
+             Math(readable.to_sympy(d.tau, table)), _fmt(d.max_delay), d.description]
+            for d in model.delays]
     return Section("Delays", [
-        "Each delayed value is the expression taken \u03c4 seconds ago; the runtime keeps "
+        "Each delayed value is its expression taken \u03c4 seconds ago; the runtime keeps "
         "its history (constant at the start value before the start time) and restarts "
         "the step at the breakpoints t\u2080 + k\u03c4.",
-        Table(["delay", "symbol", "delayed expression", "\u03c4", "longest \u03c4 held (s)",
-               "description"], rows)])
+        Table(["delay", "symbol", "\u03c4", "longest \u03c4 held (s)", "description"], rows),
+        "The delayed expressions (with the shared subexpressions above), each taken at "
+        "t \u2212 \u03c4:",
+        Equations([(_eq(y, e), "") for y, e in lst.delays])])
 
 
 def _constraints(model) -> Section | None:
@@ -233,7 +236,7 @@ def document(model) -> tuple[str, list[Section]]:
                                                        for k, v in model.options.items()))
     lst = readable.listing(model)
     sections = [about, Section("Variables", _variables(model)), _equations(model, lst),
-                _solving(model, dae), _events(model, lst), _delays(model),
+                _solving(model, dae), _events(model, lst), _delays(model, lst),
                 _constraints(model), _c_size(model, dae)]
     return f"{model.name}: equations and solution", [s for s in sections if s]
 
@@ -394,9 +397,26 @@ _TEX_SPECIAL = re.compile(r"([\\&%$#_{}~^])")
 _TEX_REPL = {"\\": r"\textbackslash{}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}"}
 
 
+#: characters of our text that pdflatex's utf8 input does not know, as LaTeX
+_TEX_CHARS = {"\u2265": r"$\geq$", "\u2264": r"$\leq$", "\u2202": r"$\partial$",
+              "\u207b\u00b9": r"$^{-1}$", "\u00d7": r"$\times$", "\u2212": "$-$",
+              "\u2080": "$_0$", "\u00b7": r"$\cdot$", "\u2248": r"$\approx$",
+              "\u00b1": r"$\pm$", "\u00b0": r"$^\circ$", "\u2192": r"$\to$",
+              **{greek_unicode[n]: f"$\\{n}$" for n in greek_unicode
+                 if n.isalpha() and n != "lamda" and len(greek_unicode[n]) == 1}}
+_TEX_UNICODE = re.compile("|".join(re.escape(k) for k in sorted(_TEX_CHARS, key=len,
+                                                                 reverse=True)))
+_TEX_OTHER = re.compile(r"[^\x00-\xff]+")
+
+
 def _tex_text(s: str) -> str:
+    """Text with LaTeX's special characters escaped and symbols as math;
+    other characters outside Latin-1 (e.g. CJK in a description: pdflatex
+    has no font for them) are shown as [...]."""
     s = _TEX_SPECIAL.sub(lambda m: _TEX_REPL.get(m.group(1), "\\" + m.group(1)), str(s))
-    return s.replace("\u2265", r"$\geq$").replace("\u03c4", r"$\tau$")
+    s = _TEX_UNICODE.sub(lambda m: _TEX_CHARS[m.group(0)], s)
+    s = re.sub(r"(\\_|\.)(?=[A-Za-z])", r"\1\\allowbreak{}", s)  # long dotted names wrap
+    return _TEX_OTHER.sub(r"[\\ldots]", s)
 
 
 def _tex_cell(c) -> str:
@@ -419,8 +439,9 @@ def render_tex(title: str, sections: list[Section]) -> str:
         elif isinstance(b, str):
             out += [_tex_text(b), ""]
         elif isinstance(b, Table):
-            out += [r"\begin{longtable}{%s}" % ("l" * min(len(b.head), 3)
-                                                 + "p{4cm}" * max(len(b.head) - 3, 0)),
+            wide = len(b.head) - 3  # columns past the third wrap, sharing 60 % of the line
+            wrap = (r"p{%.3f\linewidth}" % (0.6 / wide)) * wide if wide > 0 else ""
+            out += [r"\begin{longtable}{%s}" % ("l" * min(len(b.head), 3) + wrap),
                     " & ".join(r"\textbf{%s}" % _tex_text(h) for h in b.head) + r" \\ \hline"]
             out += [" & ".join(_tex_cell(c) for c in row) + r" \\" for row in b.rows]
             out.append(r"\end{longtable}")
@@ -428,8 +449,9 @@ def render_tex(title: str, sections: list[Section]) -> str:
             for e, tag in b.lines:
                 out += [r"\begin{equation*}", _latex_display(e)
                         + (f" \\tag{{{tag}}}" if tag else ""), r"\end{equation*}"]
-        elif isinstance(b, Pre):
-            out += [r"{\scriptsize\begin{verbatim}", b.text, r"\end{verbatim}}"]
+        elif isinstance(b, Pre):  # verbatim takes no Unicode: the sparsity's marks as x .
+            text = b.text.replace("\u25a0", "x").replace("\u00b7", ".")
+            out += [r"{\scriptsize\begin{verbatim}", text, r"\end{verbatim}}"]
     return "\n".join(out + [r"\end{document}"]) + "\n"
 
 

@@ -43,7 +43,7 @@ from sympy.printing.mathml import MathMLPresentationPrinter
 from sympy.printing.pretty.pretty_symbology import greek_unicode
 
 __all__ = ["OPS", "Var", "Shared", "Listing", "latex_name", "to_sympy", "symbols",
-           "equations", "outputs", "events", "mode_rules", "listing", "latex", "mathml",
+           "equations", "outputs", "events", "mode_rules", "delays", "listing", "latex", "mathml",
            "mathml_line", "mathml_body", "to_latex"]
 
 # -- names ---------------------------------------------------------------------
@@ -413,32 +413,89 @@ def mode_rules(model) -> list[tuple[Var, sympy.Expr]]:
     return [(Var(v.name), x) for v, x in zip(modes, exprs)]
 
 
+def delays(model) -> list[tuple[Var, sympy.Expr]]:
+    """Each delayed value's symbol and the expression it delays (taken tau ago)."""
+    if not model.delays:
+        return []
+    exprs = to_sympy(ca.vertcat(*[d.expr for d in model.delays]), symbols(model))
+    exprs = exprs if isinstance(exprs, list) else [exprs]
+    return [(Var(d.sym.name()), x) for d, x in zip(model.delays, exprs)]
+
+
 @dataclass
 class Listing:
     """What the reports print: ``shared`` subexpressions (:class:`Shared`
-    symbol, definition, in order of use), then the ``equations`` (lhs, rhs),
-    the ``outputs``, the ``events`` (indicator expressions) and the
-    ``modes`` (validity expressions), each (symbol, expression), all written
-    with the shared names."""
+    symbol, definition; each defined before its first use), then the
+    ``equations`` (lhs, rhs), the ``outputs``, the ``events`` (indicator
+    expressions), the ``modes`` (validity expressions) and the ``delays``
+    (delayed expressions), each (symbol, expression), all written with the
+    shared names."""
 
     shared: list[tuple[Shared, sympy.Expr]]
     equations: list[tuple[sympy.Expr, sympy.Expr]]
     outputs: list[tuple[Var, sympy.Expr]]
     events: list[tuple[Var, sympy.Expr]] = field(default_factory=list)
     modes: list[tuple[Var, sympy.Expr]] = field(default_factory=list)
+    delays: list[tuple[Var, sympy.Expr]] = field(default_factory=list)
 
 
-def listing(model, *, min_ops: int = 3) -> Listing:
-    """The model's equations and outputs with shared subexpressions named once.
+#: a named subexpression shorter than this (characters of ``str``) is not worth a name
+_MIN_LIFT = 40
+
+
+def _lift(e, max_len: int, defs: list, temps) -> sympy.Basic:
+    """``e`` with its longest subexpressions named (appended to ``defs``,
+    innermost first) until every line is at most ``max_len`` characters of
+    ``str`` where that can be done."""
+    if e.is_Atom or len(str(e)) <= max_len:
+        return e
+    args = [_lift(a, max_len, defs, temps) for a in e.args]
+    if args != list(e.args):
+        e = e.func(*args)
+    while len(str(e)) > max_len:
+        candidates = [a for a in e.args if isinstance(a, sympy.Expr) and not a.is_Atom
+                      and len(str(a)) > _MIN_LIFT]
+        if not candidates:
+            break
+        big = max(candidates, key=lambda a: len(str(a)))
+        t = next(temps)
+        defs.append((t, big))
+        e = e.xreplace({big: t})
+    return e
+
+
+def listing(model, *, min_ops: int = 3, max_len: int | None = 240) -> Listing:
+    """The model's equations, outputs, event indicators, mode rules and
+    delayed expressions, with shared subexpressions named once (sympy.cse).
 
     min_ops: a repeated subexpression with fewer operations than this (e.g.
     ``sin(phi)``) is written out where it is used rather than named.
+    max_len: a line longer than this (characters of SymPy's ``str``, a rough
+    measure of printed width) has its longest subexpressions named too, even
+    when used once, so that it fits a page; None keeps long lines whole.
     """
     if not isinstance(min_ops, int) or min_ops < 0:
         raise ValueError(f"min_ops = {min_ops!r}; allowed: an integer >= 0")
+    if max_len is not None and (not isinstance(max_len, int) or max_len < 2 * _MIN_LIFT):
+        raise ValueError(f"max_len = {max_len!r}; allowed: None or an integer >= "
+                         f"{2 * _MIN_LIFT}")
     eqs = equations(model)
-    named = [outputs(model), events(model), mode_rules(model)]
+    named = [outputs(model), events(model), mode_rules(model), delays(model)]
     flat = [e for pair in eqs for e in pair] + [e for group in named for _, e in group]
+    with distribute(False):  # rebuilding c*(a + b) must not expand it
+        kept, reduced = _shared(flat, min_ops, max_len)
+    names = {sym: Shared(f"xi{k}") for k, (sym, _) in enumerate(kept, 1)}
+    with distribute(False):
+        shared = [(names[s], d.xreplace(names)) for s, d in kept]
+        reduced = [e.xreplace(names) for e in reduced]
+    n = 2 * len(eqs)
+    rest = iter(reduced[n:])
+    groups = [[(y, next(rest)) for y, _ in group] for group in named]
+    return Listing(shared, list(zip(reduced[0:n:2], reduced[1:n:2])), *groups)
+
+
+def _shared(flat: list, min_ops: int, max_len: int | None):
+    """(definitions in order of use, reduced expressions), with temporary symbols."""
     temps = (sympy.Symbol(f"_cse{k}") for k in itertools.count())
     repl, reduced = sympy.cse(flat, symbols=temps, order="none")
     inline: dict = {}
@@ -449,19 +506,20 @@ def listing(model, *, min_ops: int = 3) -> Listing:
             inline[sym] = definition
         else:
             kept.append((sym, definition))
-    names = {sym: Shared(f"xi{k}") for k, (sym, _) in enumerate(kept, 1)}
-    inline = {s: e.xreplace(names) for s, e in inline.items()}
-    sub = {**inline, **names}
-    shared = [(names[s], d.xreplace(sub)) for s, d in kept]
-    reduced = [e.xreplace(sub) for e in reduced]
-    n = 2 * len(eqs)
-    rest = iter(reduced[n:])
-    groups = [[(y, next(rest)) for y, _ in group] for group in named]
-    return Listing(shared, list(zip(reduced[0:n:2], reduced[1:n:2])), *groups)
+    reduced = [e.xreplace(inline) for e in reduced]
+    if max_len is None:
+        return kept, reduced
+    lifted = (sympy.Symbol(f"_lift{k}") for k in itertools.count())
+    defs: list = []
+    for sym, definition in kept:
+        definition = _lift(definition, max_len, defs, lifted)
+        defs.append((sym, definition))
+    out = [_lift(e, max_len, defs, lifted) for e in reduced]
+    return defs, out
 
 
 def _lines(lst: Listing) -> list[sympy.Eq]:
-    pairs = lst.shared + lst.equations + lst.outputs + lst.events + lst.modes
+    pairs = lst.shared + lst.equations + lst.outputs + lst.events + lst.modes + lst.delays
     return [sympy.Eq(a, b, evaluate=False) for a, b in pairs]
 
 
