@@ -31,7 +31,7 @@ def run(*args, cwd=None, env=None, timeout=600) -> subprocess.CompletedProcess:
 SUBCOMMANDS = [["list"], ["build"], ["simulate"], ["verify"], ["docs"], ["heald"],
                ["heald", "claims"], ["heald", "fidelity"], ["heald", "design"], ["drive"],
                ["drive", "table"], ["drive", "charts"], ["drive", "tracking"], ["rotor"],
-               ["bench"]]
+               ["bench"], ["inspect"], ["scene"], ["scene", "run"], ["scene", "export"]]
 
 
 def test_console_script_is_installed():

@@ -5,6 +5,8 @@
     loomfmu simulate MODEL|FMU        one run, printed, --csv / --plot
     loomfmu verify FMU                compare an FMU with its scipy reference
     loomfmu docs                      docs/models/<model>.md from the declarations
+    loomfmu inspect MODEL             the model's equations, readable
+    loomfmu scene list|run|export     co-simulation scenes and SSP files
     loomfmu heald|drive|rotor|bench   the analyses (each has --help)
 
 Exit codes: 0 done; 1 the work ran and failed (a verification above
@@ -30,6 +32,9 @@ ANALYSES = {
     "rotor": ("loomfmu.rotor_study", "spindle rotor: calibrate | trends | charts | all"),
     "bench": ("loomfmu.bench.cli", "benchmarks: charts | speed | friction"),
     "docs": ("loomfmu.docs", "docs/models/<model>.md from the declarations"),
+    "inspect": ("loomfmu.inspect_report",
+                "a model's equations as HTML (MathML), Markdown or LaTeX"),
+    "scene": ("loomfmu.scene.__main__", "co-simulation scenes: list | run | export"),
 }
 
 
