@@ -54,7 +54,7 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
     master: "jacobi" or "gauss-seidel"; step: the communication step (s;
     default the scene's), the first step when ``adaptive``; adaptive: control
     the step by the coupling error estimate (rtol, atol; h_min <= h <= h_max,
-    default stop / 10); fmu_dir: folder
+    default the larger of stop / 10 and step); fmu_dir: folder
     the models are built into (default a temporary folder); fmus: component ->
     FMU path, to skip the build; progress: show progress on stderr.
     """
@@ -63,7 +63,8 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
     step = check_number("step", scene.step if step is None else step, lo=0.0, lo_open=True,
                         hi=stop, unit="s")
     h_min = check_number("h_min", h_min, lo=0.0, lo_open=True, hi=step, unit="s")
-    h_max = check_number("h_max", stop / 10 if h_max is None else h_max, lo=step, unit="s")
+    h_max = check_number("h_max", max(stop / 10, step) if h_max is None else h_max, lo=step,
+                         unit="s")
     bar = Progress(100, f"scene {scene.name} ({master})") if progress else None
     with tempfile.TemporaryDirectory() as tmp:
         if fmus is None:
