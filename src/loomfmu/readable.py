@@ -372,53 +372,43 @@ def _split(residual: sympy.Expr, unknowns: set, memo: dict) -> tuple[sympy.Expr,
     return lhs, rhs
 
 
+def _convert(model, exprs: list) -> list[sympy.Expr]:
+    """Each CasADi expression of the model in SymPy (one conversion pass)."""
+    if not exprs:
+        return []
+    out = to_sympy(ca.vertcat(*[ca.SX(e) for e in exprs]), symbols(model))
+    return out if isinstance(out, list) else [out]
+
+
 def equations(model) -> list[tuple[sympy.Expr, sympy.Expr]]:
     """The model's equations as (lhs, rhs), lhs - rhs being the declared
     residual; terms with der(x) or algebraic unknowns are on the left."""
-    if not model.equations:
-        return []
-    res = to_sympy(ca.vertcat(*model.equations), symbols(model))
-    res = res if isinstance(res, list) else [res]
-    unknowns = _unknowns(model)
-    memo: dict = {}
-    return [_split(r, unknowns, memo) for r in res]
+    unknowns, memo = _unknowns(model), {}
+    return [_split(r, unknowns, memo) for r in _convert(model, model.equations)]
 
 
 def outputs(model) -> list[tuple[Var, sympy.Expr]]:
     """Each output and its defining expression (which may use other outputs)."""
     outs = model.of_kind("output")
-    if not outs:
-        return []
-    exprs = to_sympy(ca.vertcat(*[ca.SX(v.expr) for v in outs]), symbols(model))
-    exprs = exprs if isinstance(exprs, list) else [exprs]
-    return [(Var(v.name), e) for v, e in zip(outs, exprs)]
+    return [(Var(v.name), e) for v, e in zip(outs, _convert(model, [v.expr for v in outs]))]
 
 
 def events(model) -> list[tuple[Var, sympy.Expr]]:
     """Each event indicator (a symbol named as the event) and its expression."""
-    if not model.events:
-        return []
-    exprs = to_sympy(ca.vertcat(*[e.expr for e in model.events]), symbols(model))
-    exprs = exprs if isinstance(exprs, list) else [exprs]
+    exprs = _convert(model, [e.expr for e in model.events])
     return [(Var(e.name), x) for e, x in zip(model.events, exprs)]
 
 
 def mode_rules(model) -> list[tuple[Var, sympy.Expr]]:
     """Each mode and its validity expression (>= 0 where the mode's value holds)."""
     modes = [v for v in model.of_kind("mode") if v.name in model.mode_valid]
-    if not modes:
-        return []
-    exprs = to_sympy(ca.vertcat(*[model.mode_valid[v.name] for v in modes]), symbols(model))
-    exprs = exprs if isinstance(exprs, list) else [exprs]
+    exprs = _convert(model, [model.mode_valid[v.name] for v in modes])
     return [(Var(v.name), x) for v, x in zip(modes, exprs)]
 
 
 def delays(model) -> list[tuple[Var, sympy.Expr]]:
     """Each delayed value's symbol and the expression it delays (taken tau ago)."""
-    if not model.delays:
-        return []
-    exprs = to_sympy(ca.vertcat(*[d.expr for d in model.delays]), symbols(model))
-    exprs = exprs if isinstance(exprs, list) else [exprs]
+    exprs = _convert(model, [d.expr for d in model.delays])
     return [(Var(d.sym.name()), x) for d, x in zip(model.delays, exprs)]
 
 
