@@ -77,6 +77,9 @@ def _run(args, prog: str) -> int:
         comp, var = name.split(".", 1)
         unit = s.components[comp].interface.variables[var].unit
         print(f"  {name} = {last[name]:.9g}" + (f" {unit}" if unit else ""))
+    for comp, lines in res.log.items():
+        if lines:
+            print(f"  {comp} logged {len(lines)} line(s), the last: {lines[-1]}")
     if args.csv is not None:
         print(f"wrote {res.to_csv(args.csv)}")
     return 0

@@ -100,6 +100,10 @@ def _settable(v, what: str) -> bool:
             and v.initial in ("exact", "approx", None))
 
 
+def _a(word: str) -> str:
+    return ("an " if word[:1] in "aeiou" else "a ") + word
+
+
 def _names(items) -> str:
     items = sorted(items)
     return ", ".join(items) if items else "none"
@@ -137,7 +141,8 @@ class Scene:
         if (model is None) == (fmu is None):
             raise ValueError(f"component {name!r}: give model= or fmu=, not "
                              f"{'both' if model is not None else 'neither'}")
-        options = check_mapping(f"component {name!r}: options", options or {})
+        options = check_mapping(f"component {name!r}: options", options or {},
+                                numbers_only=False)
         if fmu is not None:
             if options:
                 raise ValueError(f"component {name!r}: options apply to model=, not fmu=")
@@ -160,12 +165,12 @@ class Scene:
         comp = self._component(component, "set")
         iface = comp.interface
         for what, values in (("parameters", parameters or {}), ("start", start or {})):
-            values = check_mapping(f"{component}: {what}", values)
+            values = check_mapping(f"{component}: {what}", values, numbers_only=False)
             for var, value in values.items():
                 v = iface.variables.get(var)
                 if v is None or not _settable(v, what):
                     allowed = [n for n, x in iface.variables.items() if _settable(x, what)]
-                    got = "no such variable" if v is None else f"a {v.causality} variable"
+                    got = "no such variable" if v is None else f"{_a(v.causality)} variable"
                     raise ValueError(f"{component}.{var} ({what}): {got}; allowed: "
                                      f"{_names(allowed)}")
                 driven = [c for c in self.connections if c.dst == component and
@@ -267,7 +272,7 @@ class Scene:
                                  f"allowed: an {want} of {comp.name} ({_names(allowed)})"
                                  + (f" or a port ({_names(ports)})" if ports else ""))
             if v.causality != want:
-                raise ValueError(f"{label}: {comp.name}.{ref} is a {v.causality} variable; "
+                raise ValueError(f"{label}: {comp.name}.{ref} is {_a(v.causality)} variable; "
                                  f"allowed: an {want} of {comp.name} ({_names(allowed)})")
         sv, dv = ca_.interface.variables[ra], cb_.interface.variables[rb]
         if sv.type != dv.type:
@@ -312,7 +317,7 @@ class Scene:
                 reals = [n for n, x in comp.interface.variables.items() if x.type == "Real"
                          and x.causality in ("output", "local", "input")]
                 raise ValueError(f"record {ref!r}: " + ("no such variable" if v is None else
-                                 f"a {v.type} variable") + f"; allowed: a Real variable of "
+                                 f"{_a(v.type)} variable") + f"; allowed: a Real variable of "
                                  f"{comp.name} ({_names(reals)})")
             if (comp.name, var) not in self.recorded:
                 self.recorded.append((comp.name, var))

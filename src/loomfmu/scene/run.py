@@ -23,14 +23,16 @@ SAFETY, FAC_MIN, FAC_MAX = 0.9, 0.2, 2.0
 
 @dataclass
 class Result:
-    """data: structured array; master: its name; steps: accepted and
-    rejected communication steps; h: the accepted step sizes."""
+    """data: structured array; master: its name; accepted, rejected:
+    communication steps; h: the accepted step sizes; log: each component's
+    FMU log lines (warnings such as an input outside its range)."""
 
     data: np.ndarray
     master: str
     accepted: int
     rejected: int
     h: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    log: dict[str, list[str]] = field(default_factory=dict)   # each FMU's log lines
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.data[name]
@@ -102,6 +104,7 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
                                            f" s with h = h_min = {h_min:g} s (error "
                                            f"{res.error:.3g}) {res.message}")
         finally:
+            logs = {n: list(i.log) for n, i in system.instances.items()}
             system.close()
             if bar is not None:
                 bar.close()
@@ -111,4 +114,4 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
     values = np.array(rows, dtype=float)
     for j, n in enumerate(names[1:]):
         data[n] = values[:, j]
-    return Result(data, m.name, m.n_accepted, m.n_rejected, np.array(hs))
+    return Result(data, m.name, m.n_accepted, m.n_rejected, np.array(hs), logs)

@@ -6,8 +6,12 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-from fmpy import extract, read_model_description
-from fmpy.fmi2 import FMU2Slave
+from fmpy import calloc, extract, free, read_model_description
+from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+
+#: FMU log lines kept per instance (the latest), shown when a call fails
+LOG_LINES = 200
 
 from .declare import Connection, Scene, feedthrough_order
 
@@ -27,10 +31,18 @@ class Instance:
         self.type = {v.name: v.type for v in self.md.modelVariables}
         self.log: list[str] = []
 
+        def logger(env, instance, status, category, message):
+            self.log.append(message.decode(errors="replace"))
+            del self.log[:-LOG_LINES]
+
+        self._callbacks = fmi2CallbackFunctions()
+        self._callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+        self._callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        self._callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
         self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir,
                              modelIdentifier=self.md.coSimulation.modelIdentifier,
                              instanceName=name)
-        self.fmu.instantiate(loggingOn=False)
+        self.fmu.instantiate(callbacks=self._callbacks, loggingOn=False)
 
     def set(self, values: dict[str, float]) -> None:
         for var, value in values.items():
@@ -90,12 +102,13 @@ class System:
             self._call(name, "fmi2ExitInitializationMode", t0, inst.fmu.exitInitializationMode)
         self.exchange(range(len(self.connections)), t0)
 
-    @staticmethod
-    def _call(name: str, what: str, t: float, fn):
+    def _call(self, name: str, what: str, t: float, fn):
         try:
             return fn()
         except Exception as exc:
-            raise FMUError(f"{name}: {what} failed at t = {t:.9g} s ({exc})") from None
+            inst = self.instances.get(name)
+            log = f"; its log: {inst.log[-1]}" if inst is not None and inst.log else ""
+            raise FMUError(f"{name}: {what} failed at t = {t:.9g} s ({exc}){log}") from None
 
     # -- values -----------------------------------------------------------
     def source_value(self, i: int) -> float:

@@ -1,0 +1,196 @@
+"""Scenes: every connection is checked at declaration (wrong kind, unit,
+direction, an input driven twice, an unknown variable, ...), values are
+checked, units are converted on the way, an SSP export validates against the
+SSP 1.0 schema, and the `loomfmu scene` command answers."""
+from __future__ import annotations
+
+import math
+import zipfile
+
+import numpy as np
+import pytest
+
+from loomfmu.scene import Scene, run
+from loomfmu.scene import two_mass as tm
+from loomfmu.scene.__main__ import main
+from loomfmu.scene.fmus import build_fmus
+from loomfmu.scene.ssp import ssd_text, validate_ssd
+
+#: rpm -> rad/s, written out independently of loomfmu.units
+RPM = 2 * math.pi / 60
+
+
+def loom() -> Scene:
+    s = Scene("loom_parts", stop_time=0.02, step=1e-3)
+    s.add("drive", model="drive", options={"harmonics": 1, "cam": "none"})
+    s.add("frame", model="heald_frame_rigid")
+    s.add("back", model="backrest")
+    return s
+
+
+def raises(match: str):
+    return pytest.raises(ValueError, match=match)
+
+
+# -- connection checks ----------------------------------------------------------------
+def test_port_kinds_must_match():
+    s = loom()
+    with raises(r"connection drive.spindles -> back.warp_front: port kinds differ "
+                r"\('shaft' and 'warp'\); allowed: a port of kind 'shaft' of back: none"):
+        s.connect("drive.spindles", "back.warp_front")
+    assert s.connections == []
+
+
+def test_direction_each_role_an_output_on_one_side_and_an_input_on_the_other():
+    s = loom()
+    # the heald frame's warp port returns elongation and tension: both outputs
+    with raises(r"connection frame.warp -> back.warp_front: role 'tension' is frame.T "
+                r"\(output\) and back.S2 \(output\); allowed: an output on one side"):
+        s.connect("frame.warp", "back.warp_front")
+    with raises(r"back.warp_pull is an input variable; allowed: an output of back"):
+        s.connect("back.warp_pull", "frame.omega")
+    with raises(r"frame.dl is an output variable; allowed: an input of frame"):
+        s.connect("drive.n_out", "frame.dl")
+    with raises(r"frame.k_z is a parameter variable; allowed: an input of frame"):
+        s.connect("drive.n_out", "frame.k_z")
+
+
+def test_units_must_measure_the_same_quantity_and_are_converted():
+    s = loom()
+    with raises(r"connection drive.n_out -> back.warp_pull: unit 'rpm' of drive.n_out "
+                r"cannot be converted to 'm' of back.warp_pull; allowed: units of the "
+                r"same quantity"):
+        s.connect("drive.n_out", "back.warp_pull")
+    (c,) = s.connect("drive.spindles", "frame.shaft")   # rpm out, rad/s in
+    assert (c.src, c.src_var, c.dst, c.dst_var) == ("drive", "n_out", "frame", "omega")
+    assert c.gain == pytest.approx(RPM, rel=1e-15) and c.bias == 0.0
+
+
+def test_an_input_is_driven_once():
+    s = loom()
+    s.add("drive2", model="drive", options={"harmonics": 1, "cam": "none"})
+    s.connect("drive.n_out", "frame.omega")
+    with raises(r"connection drive2.spindles -> frame.shaft: input frame.omega is already "
+                r"driven by drive.n_out -> frame.omega; allowed: one connection into each"):
+        s.connect("drive2.spindles", "frame.shaft")
+    with raises(r"frame.omega \(start\): driven by connection drive.n_out -> frame.omega"):
+        s.set("frame", start={"omega": 10.0})
+    assert len(s.connections) == 1
+
+
+def test_unknown_names_are_refused_with_what_is_allowed():
+    s = loom()
+    with raises(r"drive has no variable or port 'speed'; allowed: an output of drive "
+                r"\(.*n_out.*\) or a port \(spindles\)"):
+        s.connect("drive.speed", "frame.omega")
+    with raises(r"no component 'fram' in scene 'loom_parts'; allowed: back, drive, frame"):
+        s.connect("drive.n_out", "fram.omega")
+    with raises(r"'drive_n_out'; allowed: 'component.variable' or 'component.port'"):
+        s.connect("drive_n_out", "frame.omega")
+    with raises(r"drive.spindles is a port and frame.omega is not"):
+        s.connect("drive.spindles", "frame.omega")
+    with raises(r"both ends are in component 'back'"):
+        s.connect("back.S2", "back.warp_pull")
+    with raises(r"model = 'loom'; allowed: one of .*two_mass_force"):
+        s.add("x", model="loom")
+    with raises(r"component 'drive' is already in scene"):
+        s.add("drive", model="drive")
+    with raises(r"record 'frame.nope': no such variable"):
+        s.record("frame.nope")
+
+
+def test_values_are_checked():
+    s = loom()
+    with raises(r"drive.n_min = -5.0 rpm; allowed: a number in \[1, 100000\]"):
+        s.set("drive", parameters={"n_min": -5.0})
+    with raises(r"back.S2 \(start\): an output variable; allowed: .*letoff"):
+        s.set("back", start={"S2": 1.0})
+    with raises(r"back.omega1 \(parameters\): a local variable; allowed: .*S0"):
+        s.set("back", parameters={"omega1": 1.0})
+    with raises(r"back.S0 = nan; allowed: a finite number"):
+        s.set("back", parameters={"S0": float("nan")})
+    with raises(r"back.solver = 1.5; allowed: an integer"):
+        s.set("back", parameters={"solver": 1.5})
+    s.set("back", parameters={"S0": 2500.0, "solver": 2}, start={"omega1": 0.1})
+    assert s.components["back"].parameters == {"S0": 2500.0, "solver": 2}
+
+
+@pytest.fixture(scope="module")
+def fmu_dir(tmp_path_factory):
+    """The two-mass FMUs, built once for this module."""
+    path = tmp_path_factory.mktemp("scene_fmus")
+    build_fmus(tm.scene(), path)
+    return path
+
+
+def test_an_fmu_file_is_a_component_without_ports(fmu_dir, tmp_path):
+    fmus = build_fmus(tm.scene(), fmu_dir)
+    f = Scene("files")
+    f.add("a", fmu=fmus["force"], start={"x1": 0.2})
+    f.add("b", fmu=fmus["disp"])
+    with raises(r"a has no variable or port 'coupling'"):
+        f.connect("a.coupling", "b.coupling")
+    f.connect("a.F_c", "b.F_in")
+    f.connect("b.x2_out", "a.x2_in")
+    f.connect("b.v2_out", "a.v2_in")
+    with raises(r"fmu = '.*nothing.fmu': no such file"):
+        f.add("c", fmu=tmp_path / "nothing.fmu")
+    # the same system as the declared scene: the same trajectory
+    res = run(f, step=1e-3, stop=0.05)
+    ref = run(tm.scene(x1_0=0.2, tight=False), step=1e-3, stop=0.05, fmus=fmus)
+    assert np.allclose(res["a.x1_out"], ref["force.x1_out"], rtol=0, atol=1e-12)
+
+
+def test_a_unit_conversion_is_applied_in_the_run(tmp_path):
+    s = loom()
+    s.set("drive", parameters={"n_min": 2000.0})
+    s.connect("drive.spindles", "frame.shaft")
+    s.record("drive.n_out", "frame.omega")
+    res = run(s, fmu_dir=tmp_path)
+    assert res["drive.n_out"][-1] == pytest.approx(2000.0, rel=1e-9)
+    assert np.allclose(res["frame.omega"], RPM * res["drive.n_out"], rtol=1e-14, atol=0)
+    assert not any("outside its range" in line for line in res.log["frame"])
+
+
+# -- SSP ----------------------------------------------------------------------------
+def test_ssd_validates_and_carries_connections_values_and_conversions():
+    s = loom()
+    s.set("back", parameters={"S0": 2500.0})
+    s.connect("drive.spindles", "frame.shaft")
+    text = ssd_text(s)
+    assert validate_ssd(text) == []
+    assert ('<ssd:Connection startElement="drive" startConnector="n_out" endElement="frame" '
+            'endConnector="omega">') in text
+    assert f'<ssc:LinearTransformation factor="{RPM!r}" offset="0.0" />' in text
+    assert '<ssv:Parameter name="S0">' in text and '<ssv:Real value="2500.0" />' in text
+    assert '<ssc:Unit name="rpm">' in text
+    # the validator finds what is wrong
+    broken = text.replace("<ssd:Elements>", "<ssd:Elementz>").replace("</ssd:Elements>",
+                                                                       "</ssd:Elementz>")
+    assert validate_ssd(broken) and "Elementz" in " ".join(validate_ssd(broken))
+
+
+# -- the command ----------------------------------------------------------------------
+def test_scene_command(fmu_dir, tmp_path, capsys):
+    assert main(["list"]) == 0
+    assert "force.coupling <-> disp.coupling" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exc:
+        main(["run", "two_mass", "--master", "newton"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "invalid choice: 'newton'" in err
+    assert main(["run", "loom"]) == 2
+    assert capsys.readouterr().err.strip() == ("loomfmu scene run: error: scene = 'loom'; "
+                                               "allowed: two_mass")
+    assert main(["run", "two_mass", "--step", "-1"]) == 2
+    csv = tmp_path / "out.csv"
+    assert main(["run", "two_mass", "--stop", "0.01", "--csv", str(csv),
+                 "--fmu-dir", str(fmu_dir)]) == 0
+    table = np.genfromtxt(csv, delimiter=",", names=True)
+    assert len(table) == 11 and table["forcex1_out"][0] == pytest.approx(0.1)
+    out = tmp_path / "tm.ssp"
+    assert main(["export", "two_mass", "--out", str(out), "--fmu-dir", str(fmu_dir)]) == 0
+    with zipfile.ZipFile(out) as z:
+        assert sorted(z.namelist()) == ["SystemStructure.ssd", "resources/disp.fmu",
+                                        "resources/force.fmu"]
+    assert main(["export", "two_mass", "--out", str(tmp_path / "x.zip")]) == 2
