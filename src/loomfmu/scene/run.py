@@ -71,6 +71,10 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
     with tempfile.TemporaryDirectory() as tmp:
         if fmus is None:
             fmus = build_fmus(scene, fmu_dir if fmu_dir is not None else tmp, progress=bar)
+        missing = sorted(set(scene.components) - set(fmus))
+        if missing:
+            raise ValueError(f"fmus: no FMU for components {missing}; allowed: a dict "
+                             f"with a path for each of {sorted(scene.components)}")
         system = System(scene, fmus)
         try:
             m = make_master(master, system, rtol=rtol, atol=atol, adaptive=adaptive,

@@ -176,10 +176,21 @@ def trajectory(p: Params, h: float, n: int, z0, algorithm: str) -> np.ndarray:
     return w[:, :4]
 
 
-def exact_solution(p: Params, t: np.ndarray, z0) -> np.ndarray:
-    """The monolithic solution z(t) (rows)."""
+def exact_solution(p: Params, t, z0) -> np.ndarray:
+    """The monolithic solution z(t) (rows) at increasing times ``t`` (from
+    t[0], where z = z0), stepped by exp(A dt) (one matrix per distinct dt)."""
     A = monolithic(p)
-    return np.array([expm(A * ti) @ np.asarray(z0, float) for ti in t])
+    t = np.asarray(t, dtype=float)
+    z = np.zeros((len(t), 4))
+    z[0] = z0
+    cache: dict[float, np.ndarray] = {}
+    for k in range(1, len(t)):
+        dt = float(t[k] - t[k - 1])
+        key = round(dt, 15)
+        if key not in cache:
+            cache[key] = expm(A * dt)
+        z[k] = cache[key] @ z[k - 1]
+    return z
 
 
 def stability_limit(p: Params, algorithm: str, *, h_lo: float = 1e-5,
