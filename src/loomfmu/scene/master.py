@@ -166,6 +166,14 @@ MASTERS = {"jacobi": Jacobi, "gauss-seidel": GaussSeidel}
 
 
 def make_master(name: str, system: System, **kw) -> Master:
+    """Master ``name`` (a key of MASTERS) on ``system`` with keyword options."""
+    import inspect
     if name not in MASTERS:
         raise ValueError(f"master = {name!r:.40}; allowed: {', '.join(MASTERS)}")
+    allowed = {p for cls in MASTERS[name].__mro__[:-1] if "__init__" in vars(cls)
+               for p in inspect.signature(cls.__init__).parameters} - {"self", "system", "kw"}
+    unknown = sorted(set(kw) - allowed)
+    if unknown:
+        raise ValueError(f"master {name!r}: unknown options {unknown}; allowed: "
+                         f"{sorted(allowed)}")
     return MASTERS[name](system, **kw)

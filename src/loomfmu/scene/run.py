@@ -77,8 +77,12 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
                              f"with a path for each of {sorted(scene.components)}")
         system = System(scene, fmus)
         try:
-            m = make_master(master, system, rtol=rtol, atol=atol, adaptive=adaptive,
-                            **(master_options or {}))
+            opts = dict(master_options or {})
+            twice = sorted(set(opts) & {"rtol", "atol", "adaptive"})
+            if twice:
+                raise ValueError(f"master_options: {twice} are arguments of run(); "
+                                 "allowed: options of the master itself (e.g. order)")
+            m = make_master(master, system, rtol=rtol, atol=atol, adaptive=adaptive, **opts)
             refs = scene.recorded_variables()
             times, rows, hs = [0.0], [system.get(refs)], []
             t, h, k, shown = 0.0, step, 0, 0
