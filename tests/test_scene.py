@@ -194,3 +194,26 @@ def test_scene_command(fmu_dir, tmp_path, capsys):
         assert sorted(z.namelist()) == ["SystemStructure.ssd", "resources/disp.fmu",
                                         "resources/force.fmu"]
     assert main(["export", "two_mass", "--out", str(tmp_path / "x.zip")]) == 2
+
+
+def test_run_arguments_are_checked(fmu_dir):
+    s = tm.scene()
+    fmus = build_fmus(s, fmu_dir)
+    with raises(r"master = 'newton'; allowed: jacobi, gauss-seidel"):
+        run(s, master="newton", fmus=fmus, stop=0.01)
+    with raises(r"master 'jacobi': unknown options \['order'\]; allowed: .*"
+                r"resolve_feedthrough"):
+        run(s, master="jacobi", fmus=fmus, stop=0.01, master_options={"order": ["disp"]})
+    with raises(r"order = \['disp'\]; allowed: every component once"):
+        run(s, master="gauss-seidel", fmus=fmus, stop=0.01,
+            master_options={"order": ["disp"]})
+    with raises(r"fmus: no FMU for components \['force'\]"):
+        run(s, fmus={"disp": fmus["disp"]}, stop=0.01)
+    with raises(r"step = 0.5; allowed: a finite number in \(0, 0.01\] s"):
+        run(s, fmus=fmus, stop=0.01, step=0.5)
+    with raises(r"rtol = 2; allowed: a number in \(0, 1\)"):
+        run(s, fmus=fmus, stop=0.01, adaptive=True, rtol=2)
+    from loomfmu.scene.libcosim import step_ns
+    assert step_ns(1e-3) == 1_000_000
+    with raises(r"step = 1.15e-09 s is not a whole number of nanoseconds"):
+        step_ns(1.5e-10 + 1e-9)
