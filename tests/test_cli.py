@@ -104,6 +104,15 @@ def test_design_out_of_range_is_refused_with_the_range():
     assert "gap" in res.stderr and "Traceback" not in res.stderr
 
 
+def test_design_at_the_edge_of_its_range_says_so():
+    # a gap so wide that the narrowest slat in the search range already meets it
+    res = subprocess.run([sys.executable, "-m", "loomfmu.heald", "design", "--gap", "10"],
+                         capture_output=True, text=True, timeout=300,
+                         env={**os.environ, "LOOMFMU_PROGRESS": "plain"})
+    assert res.returncode == 2, res.stdout + res.stderr
+    assert "lower edge of b1_range" in res.stderr
+
+
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
     out = tmp_path_factory.mktemp("dist")

@@ -49,7 +49,7 @@ def test_out_of_range_value_is_rejected_in_python():
 
 
 def test_preset_at_run_time_without_rebuilding(heald_frame_rigid_fmu, slave_factory):
-    vals = preset_values("STB-180 Elitex")
+    vals = preset_values("STB-180 Elitex", "heald_frame_rigid")  # no slat length l
     run = simulate(heald_frame_rigid_fmu.path, values=vals, output=["G_rem"])
     assert run.y["G_rem"][0] == pytest.approx(5.2 * 9.80665 + 9.0)
     s = slave_factory(heald_frame_rigid_fmu.path)

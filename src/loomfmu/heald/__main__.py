@@ -79,3 +79,7 @@ def _print_design(res: dict) -> None:
             print(f"{labels[key]:<44}{value * 1e3:10.3f} mm")
         else:
             print(f"{key:<44}{value}")
+
+
+if __name__ == "__main__":
+    sys.exit(main(prog="python -m loomfmu.heald"))
