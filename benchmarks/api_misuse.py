@@ -212,6 +212,13 @@ def cases() -> list[Case]:
     add("load_model('heald_frame_rigid', end_dwell=None)", "end_dwell",
         lambda fx: _load("heald_frame_rigid", end_dwell=None))
     add("load_model('spindle', beem='euler')", "beem", lambda fx: _load("spindle", beem="euler"))
+    for key, v in (("n_cone", 10**6), ("n_low", 2.5), ("n_low", 0), ("n_turns", 1),
+                   ("damper", "x"), ("beam", "y"), ("n_turns", True)):
+        add(f"load_model('spindle', {key}={v!r})", key,
+            lambda fx, key=key, v=v: _load("spindle", **{key: v}))
+    for key, v in (("n_modes", 0), ("n_modes", 100), ("basis_rpm", NAN), ("basis_rpm", -1.0)):
+        add(f"load_model('spindle_modal', {key}={v!r})", key,
+            lambda fx, key=key, v=v: _load("spindle_modal", **{key: v}))
 
     # -- reference ------------------------------------------------------------------
     for v in (NAN, INF, -1.0, 0.0, "1", 1e300):

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
+from loomfmu.checks import check_choice, check_int
 from loomfmu.declare import Model
 from loomfmu.rotor import (Rotor, band_ldl_solve, circle_section, coil_spring_stiffness, film_damping,
                            film_stiffness, isotropic, spring_radii)
@@ -94,11 +95,13 @@ def declare_rotor(m: Model, Omega: ca.SX, *, beam: str = "euler", n_turns: int =
     bobbin_node: node of the bobbin's equivalent disk (default: the cone
     node nearest 0.5 L_up above the whorl).
     """
-    if beam not in ("euler", "timoshenko"):
-        raise ValueError(f"beam = {beam!r}; allowed: 'euler', 'timoshenko'")
-    for name, v in (("n_low", n_low), ("n_cone", n_cone)):
-        if not (isinstance(v, int) and v >= 1):
-            raise ValueError(f"{name} = {v!r}; allowed: integer >= 1")
+    check_choice("beam", beam, ("euler", "timoshenko"))
+    check_choice("damper", damper, ("corrected", "printed"))
+    # upper bounds: assumption, they keep the generated C compilable in about a
+    # minute (the default mesh, 2 + 4 elements, gives 69 states and 1 MB of C)
+    check_int("n_turns", n_turns, lo=2, hi=40)
+    check_int("n_low", n_low, lo=1, hi=8)
+    check_int("n_cone", n_cone, lo=1, hi=16)
     P = m.parameter
     cal = CALIBRATED
     p = {}

@@ -17,6 +17,7 @@ import casadi as ca
 import numpy as np
 import scipy.linalg as sla
 
+from loomfmu.checks import check_int, check_number
 from loomfmu.declare import Model
 from loomfmu.models.spindle import (RPM, declare_dynamics, declare_rotor, node_labels,
                                     spindle_system)
@@ -65,12 +66,18 @@ def mode_labels(model: Model, sp, n_modes: int, basis_rpm: float) -> list[str]:
     return labels
 
 
+#: the most planar modes per plane: assumption, the default mesh has about 30
+#: planar degrees of freedom per plane, and modes past the 8th lie far above
+#: any spindle speed (see the states' frequencies)
+MAX_MODES = 12
+
+
 def build(*, n_modes: int = 4, basis_rpm: float = 16000.0, beam: str = "euler",
           n_turns: int = 4, damper: str = "corrected", n_low: int = 2,
           n_cone: int = 4) -> Model:
     """The modal spindle; n_modes planar modes (>= 1) kept in each plane."""
-    if not (isinstance(n_modes, int) and n_modes >= 1):
-        raise ValueError(f"n_modes = {n_modes!r}; allowed: integer >= 1")
+    check_int("n_modes", n_modes, lo=1, hi=MAX_MODES)
+    check_number("basis_rpm", basis_rpm, lo=0.0, hi=40000.0)
     m = Model("spindle_modal", description="D1201 ring-spinning spindle reduced to "
               f"{n_modes} planar modes per plane (Ritz projection of the FE rotor of "
               "seed 003); the modes' frequencies in the states' descriptions are undamped, "
