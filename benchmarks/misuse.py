@@ -3,6 +3,9 @@ the FMUs, and write docs/reliability.json.
 
     .venv/bin/python benchmarks/misuse.py                 # every model
     .venv/bin/python benchmarks/misuse.py backrest drive  # some
+    .venv/bin/python benchmarks/misuse.py --baseline d695db7 backrest drive
+                                      # the same cases against the facade and
+                                      # serializer before this work (printed)
 
 For each model the FMU is built, its sources (``sources/`` of the .fmu) are
 compiled together with the driver ``tests/c/misuse.c`` into one program with
@@ -81,10 +84,16 @@ def _compile(cmd: list[str]) -> None:
                            f"{proc.stdout}{proc.stderr}")
 
 
-def build_driver(model: Model, out_dir: Path, *, sanitize: bool = True,
-                 jobs: int = 2) -> Driver:
+#: the FMI facade and the state serializer (replaced by --baseline)
+BASELINE_FILES = ("lf_fmi2.c", "lf_state.c", "lf_state.h")
+
+
+def build_driver(model: Model, out_dir: Path, *, sanitize: bool = True, jobs: int = 2,
+                 baseline: str | None = None) -> Driver:
     """Build ``model``'s FMU into ``out_dir`` and compile the misuse driver
-    with the FMU's own sources (sanitizers on unless ``sanitize`` is False)."""
+    with the FMU's own sources (sanitizers on unless ``sanitize`` is False).
+    ``baseline``: a git revision whose BASELINE_FILES replace the FMU's, to
+    count what an earlier runtime did with the same cases."""
     out_dir = Path(out_dir)
     fmu = build_fmu(model, out_dir=out_dir, validate=False).path
     work = out_dir / f"{model.name}_misuse"
@@ -93,6 +102,10 @@ def build_driver(model: Model, out_dir: Path, *, sanitize: bool = True,
         for name in z.namelist():
             if name.startswith("sources/"):
                 z.extract(name, work)
+    for name in BASELINE_FILES if baseline else ():
+        (src / name).write_text(subprocess.run(
+            ["git", "show", f"{baseline}:src/loomfmu/runtime/{name}"], cwd=ROOT,
+            capture_output=True, text=True, check=True).stdout)
     generated = {p.name for p in src.glob("*_casadi.c")}
     extra = SANITIZE if sanitize else ("-O1",)
     include = ["-I", str(src), "-I", str(fmi_headers_dir())]
@@ -169,13 +182,16 @@ def summarize_cases(results: list[CaseResult]) -> dict[str, int]:
     }
 
 
-def measure(name: str, out_dir: Path, n_corrupt: int, seed: int) -> dict:
+def measure(name: str, out_dir: Path, n_corrupt: int, seed: int,
+            baseline: str | None = None) -> dict:
     t0 = time.perf_counter()
-    driver = build_driver(load_model(name), out_dir)
+    driver = build_driver(load_model(name), out_dir, baseline=baseline)
     built = time.perf_counter() - t0
     results = [run_case(driver.binary, c, driver.h) for c in list_cases(driver)]
+    # a baseline has no sealed layout to reseal
+    modes = ("stored",) if baseline else ("stored", "resealed")
     corrupt = {mode: run_corruptions(driver, seed=seed, n=n_corrupt, reseal=mode == "resealed")
-               for mode in ("stored", "resealed")}
+               for mode in modes}
     return {
         "communication_step": driver.h,
         "build_seconds": round(built, 1),
@@ -205,8 +221,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--corruptions", type=int, default=2000,
                    help="random one-byte corruptions per model and mode (default 2000)")
     p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--out", default=str(ROOT / "docs" / "reliability.json"))
+    p.add_argument("--out", default=None,
+                   help="JSON report (default docs/reliability.json; none with --baseline)")
     p.add_argument("--work", default=None, help="build folder (default: a temporary one)")
+    p.add_argument("--baseline", default=None, metavar="REV",
+                   help="count with the FMI facade and state serializer of git revision REV "
+                        "(cases that need the sealed state layout do not apply); "
+                        "results are printed, and written only with --out")
     args = p.parse_args(argv)
     models = args.models or list(MODELS)
     unknown = [m for m in models if m not in MODELS]
@@ -221,7 +242,8 @@ def main(argv: list[str] | None = None) -> int:
         for name in models:
             print(f"{name}: building the sanitizer build and running the cases ...", flush=True)
             try:
-                per_model[name] = measure(name, work, args.corruptions, args.seed)
+                per_model[name] = measure(name, work, args.corruptions, args.seed,
+                                          args.baseline)
             except (RuntimeError, subprocess.SubprocessError) as e:  # build failed
                 print(f"  {name} not measured: {e}", flush=True)
                 failed.append(name)
@@ -236,8 +258,9 @@ def main(argv: list[str] | None = None) -> int:
                       f"accepted-and-changed {k['accepted_changed']}, crashed {k['crashed']}",
                       flush=True)
     report = {
-        "command": "python benchmarks/misuse.py " + " ".join(argv if argv is not None
-                                                             else sys.argv[1:]),
+        "command": " ".join(["python benchmarks/misuse.py",
+                             *(argv if argv is not None else sys.argv[1:])]),
+        "baseline": args.baseline,
         "sanitizers": " ".join(SANITIZE),
         "driver": "tests/c/misuse.c",
         "seed": args.seed,
@@ -245,20 +268,22 @@ def main(argv: list[str] | None = None) -> int:
         "total": {
             "cases": _total(per_model, "cases"),
             "corruptions_stored": _total(per_model, "corruptions", "stored"),
-            "corruptions_resealed": _total(per_model, "corruptions", "resealed"),
+            **({} if args.baseline else
+               {"corruptions_resealed": _total(per_model, "corruptions", "resealed")}),
         },
         "models": per_model,
         "not_measured": failed,
     }
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(report, indent=1) + "\n")
+    out = args.out or (None if args.baseline else str(ROOT / "docs" / "reliability.json"))
     t = report["total"]
-    print(f"total cases: {t['cases']}")
-    print(f"total corruptions as stored: {t['corruptions_stored']}")
-    print(f"total corruptions resealed: {t['corruptions_resealed']}")
-    print(f"written {args.out}")
-    bad = (t["cases"]["crashed"] + t["cases"]["ok_with_wrong_answer"]
-           + t["corruptions_stored"]["crashed"] + t["corruptions_resealed"]["crashed"])
+    for key, block in t.items():
+        print(f"total {key}: {block}")
+    if out:
+        Path(out).parent.mkdir(parents=True, exist_ok=True)
+        Path(out).write_text(json.dumps(report, indent=1) + "\n")
+        print(f"written {out}")
+    bad = sum(block.get("crashed", 0) + block.get("ok_with_wrong_answer", 0)
+              for block in t.values())
     return 1 if bad or failed else 0
 
 

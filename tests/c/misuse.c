@@ -431,28 +431,6 @@ static void far_start(int which) {
 
 /* ---- item 6: single corrupted fields (checksum sealed again) --------------- */
 
-static unsigned long long fnv1a(const unsigned char *p, size_t n) {
-    unsigned long long h = LF_FNV_OFFSET;
-    size_t i;
-    for (i = 0; i < n; i++) {
-        h ^= p[i];
-        h *= LF_FNV_PRIME;
-    }
-    return h;
-}
-
-static void seal(unsigned char *b, size_t n) {
-    unsigned long long h = fnv1a(b, n - sizeof h);
-    memcpy(b + n - sizeof h, &h, sizeof h);
-}
-
-#define VOFF(f) (sizeof(LfStateHeader) + offsetof(LfStateValues, f))
-#define HOFF(f) offsetof(LfStateHeader, f)
-
-static void put_d(unsigned char *b, size_t off, double v) { memcpy(b + off, &v, sizeof v); }
-static void put_i(unsigned char *b, size_t off, int v) { memcpy(b + off, &v, sizeof v); }
-static void put_l(unsigned char *b, size_t off, long v) { memcpy(b + off, &v, sizeof v); }
-
 /* the state at step K0 as bytes; the instance moves on AHEAD steps */
 static unsigned char *state_bytes(fmi2Component c, size_t *n) {
     fmi2FMUstate s = NULL;
@@ -474,6 +452,29 @@ static fmi2Status set_bytes(fmi2Component c, const unsigned char *b, size_t n) {
     fmi2FreeFMUstate(c, &s);
     return st;
 }
+
+#ifdef LF_FNV_OFFSET /* the layout of lf_state.h (absent in runtimes before it) */
+static unsigned long long fnv1a(const unsigned char *p, size_t n) {
+    unsigned long long h = LF_FNV_OFFSET;
+    size_t i;
+    for (i = 0; i < n; i++) {
+        h ^= p[i];
+        h *= LF_FNV_PRIME;
+    }
+    return h;
+}
+
+static void seal(unsigned char *b, size_t n) {
+    unsigned long long h = fnv1a(b, n - sizeof h);
+    memcpy(b + n - sizeof h, &h, sizeof h);
+}
+
+#define VOFF(f) (sizeof(LfStateHeader) + offsetof(LfStateValues, f))
+#define HOFF(f) offsetof(LfStateHeader, f)
+
+static void put_d(unsigned char *b, size_t off, double v) { memcpy(b + off, &v, sizeof v); }
+static void put_i(unsigned char *b, size_t off, int v) { memcpy(b + off, &v, sizeof v); }
+static void put_l(unsigned char *b, size_t off, long v) { memcpy(b + off, &v, sizeof v); }
 
 static void field(int which) {
     fmi2Component c = ready("instance");
@@ -535,6 +536,8 @@ static void field(int which) {
     follow(c, K0 + AHEAD);
 }
 
+#endif
+
 /* ---- random one-byte corruptions, each in a child process ------------------ */
 
 static unsigned long long rng;
@@ -579,7 +582,11 @@ static int corrupt(unsigned long long seed, int trials, int reseal) {
             memcpy(mine, b, n);
             free(b);
             mine[off] ^= flip;
+#ifdef LF_FNV_OFFSET
             if (reseal) seal(mine, n);
+#else
+            if (reseal) exit(R_SILENT + 1);
+#endif
             exit(one_corruption(c, mine, n));
         }
         if (pid < 0 || waitpid(pid, &status, 0) != pid) return 2;
@@ -659,6 +666,7 @@ static const Case cases[] = {
     {"setup_nan_start", bad_setup, 0, 0, 0}, {"setup_inf_start", bad_setup, 1, 0, 0},
     {"setup_stop_before_start", bad_setup, 2, 0, 0}, {"setup_nan_stop", bad_setup, 3, 0, 0},
     {"setup_inf_stop", bad_setup, 4, 0, 0}, {"start_time_1e20", far_start, 0, 0, 0},
+#ifdef LF_FNV_OFFSET
     {"state_solver_ready_0", field, 0, 0, 0}, {"state_solver_ready_7", field, 1, 0, 0},
     {"state_solver_method_99", field, 2, 0, 0}, {"state_solver_id_99", field, 3, 0, 0},
     {"state_breakpoints_100000", field, 4, 0, 0}, {"state_breakpoints_negative", field, 5, 0, 0},
@@ -680,6 +688,7 @@ static const Case cases[] = {
     {"state_history_count_over", field, 50, 0, 2}, {"state_history_count_negative", field, 51, 0, 2},
     {"state_delay_negative", field, 52, 0, 2}, {"state_delay_1e9", field, 53, 0, 2},
     {"state_history_time_nan", field, 54, 0, 2}, {"state_history_out_of_order", field, 55, 0, 2},
+#endif
 };
 
 static int applies(const Case *k) {
