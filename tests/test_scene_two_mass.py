@@ -127,8 +127,7 @@ def test_adaptive_run_is_the_product_of_its_accepted_steps(bench, master):
 
 
 def test_libcosim_runs_the_exported_ssp(bench, tmp_path):
-    pytest.importorskip("libcosimpy", reason="libcosimpy is an optional dependency "
-                        "(pip install libcosimpy)")
+    # libcosimpy is in the test extra: a missing engine fails here, never skips
     from loomfmu.scene.libcosim import run_ssp
     from loomfmu.scene.ssp import export_ssp
     scene, fmus, p = bench
