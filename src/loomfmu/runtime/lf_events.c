@@ -203,18 +203,21 @@ static LfStatus cross_gap(LfInstance *c, int k, double t_left, const double *x_l
  *
  * 1. Each accepted step is scanned on the dense output: the indicators at
  *    its midpoint, and the quadratic through the three samples per
- *    indicator.  Where that quadratic's extremum inside the interval comes
- *    closer to zero than LF_EVENT_VERTEX_MARGIN times the midpoint's
- *    distance from the chord (or two sign changes show), the halves are
- *    scanned again, down to LF_EVENT_SCAN_DEPTH levels.  The earliest
- *    interval with a sign change is where the root is located.
+ *    indicator.  Where that quadratic's extremum, inside the interval or
+ *    within half of it beyond an end, comes closer to zero than
+ *    LF_EVENT_VERTEX_MARGIN times the midpoint's distance from the chord
+ *    (or two sign changes show), the halves are scanned again, down to
+ *    LF_EVENT_SCAN_DEPTH levels.  The earliest interval with a sign
+ *    change is where the root is located.
  * 2. The next step is bounded so that the indicators stay resolved: an
  *    indicator's second difference over the step, |g(a) - 2 g(m) + g(b)|,
  *    which grows as h^2, may be at most LF_EVENT_CURV times its size
  *    max(|g|) (about 6 steps per period of an oscillating indicator).
  *    Where the curvature vanishes (an inflection) but the indicator
  *    changes by more than LF_EVENT_CURV of its size over the step, the
- *    next step is at most LF_EVENT_GROWTH times as long.  Without these
+ *    next step is at most LF_EVENT_GROWTH times as long; where the
+ *    extremum comes near zero just after the step, the next step ends
+ *    before twice its distance.  Without these
  *    bounds a step could alias a whole oscillation, which no sampling
  *    inside it can see.  The bound never shrinks the step below a quarter
  *    of the last one at once. */
