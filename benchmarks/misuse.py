@@ -86,6 +86,8 @@ def _compile(cmd: list[str]) -> None:
 
 #: the FMI facade and the state serializer (replaced by --baseline)
 BASELINE_FILES = ("lf_fmi2.c", "lf_state.c", "lf_state.h")
+#: files split out of lf_fmi2.c since (dropped from a --baseline build)
+SPLIT_FROM_FACADE = ("lf_fmi2_state.c",)
 
 
 def build_driver(model: Model, out_dir: Path, *, sanitize: bool = True, jobs: int = 2,
@@ -102,6 +104,9 @@ def build_driver(model: Model, out_dir: Path, *, sanitize: bool = True, jobs: in
         for name in z.namelist():
             if name.startswith("sources/"):
                 z.extract(name, work)
+    if baseline:  # the earlier facade holds the FMU-state functions itself
+        for name in SPLIT_FROM_FACADE:
+            (src / name).unlink(missing_ok=True)
     for name in BASELINE_FILES if baseline else ():
         (src / name).write_text(subprocess.run(
             ["git", "show", f"{baseline}:src/loomfmu/runtime/{name}"], cwd=ROOT,

@@ -18,28 +18,9 @@
 
 #include "fmi2Functions.h"
 #include "lf_runtime.h"
+#include "lf_fmi2_internal.h"
 #include "lf_state.h"
 
-#define ANY_STATE                                                                    \
-    (LF_ST_INSTANTIATED | LF_ST_INIT | LF_ST_STEP_COMPLETE | LF_ST_STEP_FAILED |     \
-     LF_ST_TERMINATED | LF_ST_ERROR)
-#define RUNNING (LF_ST_STEP_COMPLETE | LF_ST_STEP_FAILED)
-
-/* an FMU state: the bytes of lf_state_write, in the instance's list */
-typedef struct StateBlob {
-    struct StateBlob *next;
-    size_t n;
-    unsigned char data[1];
-} StateBlob;
-
-/* What the facade keeps per instance (the instance's log_env). */
-typedef struct {
-    fmi2CallbackFunctions cb; /* first: the logger bridge reads it as its env */
-    StateBlob *states;        /* FMU states made by this instance, freed with it */
-    int rtol_set;             /* solver_rtol set by the importer (since reset) */
-} Fmi2Env;
-
-#define ENV(inst) ((Fmi2Env *)(inst)->log_env)
 
 /* ---- registry of live instances (lock-free; instances may live in several
  * threads) ------------------------------------------------------------------ */
@@ -77,7 +58,7 @@ static int live_remove(void *c) {
     return 0;
 }
 
-static LfInstance *live(fmi2Component c) {
+LfInstance *lf_fmi2_live(fmi2Component c) {
     int i, top = __atomic_load_n(&live_top, __ATOMIC_SEQ_CST);
     if (!c) return NULL;
     for (i = 0; i < top; i++)
@@ -100,8 +81,8 @@ static void fmi2_log_bridge(void *env, const char *instance, LfStatus status,
     cb->logger(cb->componentEnvironment, instance, (fmi2Status)status, category, buf);
 }
 
-static int allowed(fmi2Component c, const char *fn, int mask) {
-    LfInstance *inst = live(c);
+int lf_fmi2_allowed(fmi2Component c, const char *fn, int mask) {
+    LfInstance *inst = lf_fmi2_live(c);
     if (!inst) return 0; /* NULL, freed or not an instance: nothing to log through */
     if (inst->state & mask) return 1;
     lf_log(inst, LF_ERROR, LF_LOG_ERROR,
@@ -110,12 +91,8 @@ static int allowed(fmi2Component c, const char *fn, int mask) {
     return 0;
 }
 
-#define CHECK(fn, mask)                                                              \
-    do {                                                                             \
-        if (!allowed(c, fn, mask)) return fmi2Error;                                 \
-    } while (0)
 
-static fmi2Status null_arg(LfInstance *c, const char *fn, const char *arg) {
+fmi2Status lf_fmi2_null_arg(LfInstance *c, const char *fn, const char *arg) {
     lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: %s is NULL; nothing done", c->t, fn, arg);
     return fmi2Error;
 }
@@ -142,7 +119,7 @@ fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t n,
         for (k = 0; k < LF_N_LOG; k++) inst->log_on[k] = loggingOn;
         return fmi2OK;
     }
-    if (!categories) return null_arg(inst, "fmi2SetDebugLogging", "categories (with n > 0)");
+    if (!categories) return lf_fmi2_null_arg(inst, "fmi2SetDebugLogging", "categories (with n > 0)");
     if (n > LF_N_LOG * 16) {
         lf_log(inst, LF_ERROR, LF_LOG_ERROR, "fmi2SetDebugLogging: nCategories = %lu, expected "
                "at most %d (the FMU has %d categories)", (unsigned long)n, LF_N_LOG * 16,
@@ -211,7 +188,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
     return c;
 }
 
-static void free_states(LfInstance *inst) {
+void lf_fmi2_free_states(LfInstance *inst) {
     StateBlob *b = ENV(inst)->states;
     while (b) {
         StateBlob *next = b->next;
@@ -224,13 +201,13 @@ static void free_states(LfInstance *inst) {
 /* Frees the instance and every FMU state it made (FMI 2.0, 2.1.5).  A
  * pointer that is not a live instance (NULL, freed already) is ignored. */
 void fmi2FreeInstance(fmi2Component c) {
-    LfInstance *inst = live(c);
+    LfInstance *inst = lf_fmi2_live(c);
     void (*release)(void *);
     Fmi2Env *env;
     if (!inst || !live_remove(inst)) return;
     release = inst->alloc.free;
     env = ENV(inst);
-    free_states(inst);
+    lf_fmi2_free_states(inst);
     lf_free(inst);
     release(env);
 }
@@ -334,7 +311,7 @@ static int check_vrs(LfInstance *c, const char *fn, const fmi2ValueReference vr[
     size_t i;
     if (nvr == 0) return 1;
     if (!vr || !value) {
-        null_arg(c, fn, !vr ? "vr (with nvr > 0)" : "value (with nvr > 0)");
+        lf_fmi2_null_arg(c, fn, !vr ? "vr (with nvr > 0)" : "value (with nvr > 0)");
         return 0;
     }
     if (nvr > NVR_LIMIT(n_vars)) {
@@ -475,130 +452,9 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 /* ---- not provided (declared absent in the model description) ---------- */
 
 static fmi2Status unsupported(fmi2Component c, const char *fn) {
-    if (live(c)) lf_log((LfInstance *)c, LF_ERROR, LF_LOG_ERROR,
+    if (lf_fmi2_live(c)) lf_log((LfInstance *)c, LF_ERROR, LF_LOG_ERROR,
                         "%s is not supported by this FMU (see modelDescription.xml)", fn);
     return fmi2Error;
-}
-
-/* ---- FMU state (lf_state.c): blobs in the instance's list --------------- */
-
-#define STATE_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING | LF_ST_TERMINATED)
-/* FMI 2.0, 2.1.3: after fmi2Error a stored state may be set again */
-#define RESTORE_STATES (STATE_STATES | LF_ST_ERROR)
-
-static StateBlob *blob_alloc(LfInstance *c, size_t n) {
-    StateBlob *b = (StateBlob *)c->alloc.calloc(1, offsetof(StateBlob, data) + n);
-    if (!b) {
-        lf_log(c, LF_ERROR, LF_LOG_ERROR, "FMU state: out of memory (%lu bytes)",
-               (unsigned long)n);
-        return NULL;
-    }
-    b->n = n;
-    b->next = ENV(c)->states;
-    ENV(c)->states = b;
-    return b;
-}
-
-/* Where the instance's list holds `s`, or NULL (logged) if it is not one of
- * its states: never dereferences a pointer it did not make. */
-static StateBlob **find_state(LfInstance *c, const char *fn, fmi2FMUstate s) {
-    StateBlob **p = &ENV(c)->states;
-    while (*p && (void *)*p != s) p = &(*p)->next;
-    if (*p) return p;
-    lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: FMU state %p was not made by this "
-           "instance or was freed; nothing done", c->t, fn, s);
-    return NULL;
-}
-
-static void blob_free(LfInstance *c, StateBlob **at) {
-    StateBlob *b = *at;
-    *at = b->next;
-    c->alloc.free(b);
-}
-
-fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
-    LfInstance *inst = (LfInstance *)c;
-    StateBlob **old = NULL, *b;
-    size_t n;
-    CHECK("fmi2GetFMUstate", STATE_STATES);
-    if (!state) return null_arg(inst, "fmi2GetFMUstate", "FMUstate");
-    if (*state && !(old = find_state(inst, "fmi2GetFMUstate", *state))) return fmi2Error;
-    n = lf_state_size(inst);
-    if (old && (*old)->n == n) {
-        b = *old;
-    } else {
-        if (!(b = blob_alloc(inst, n))) return fmi2Error; /* *state left as it was */
-        if (*state) blob_free(inst, find_state(inst, "fmi2GetFMUstate", *state));
-    }
-    lf_state_write(inst, b->data);
-    *state = b;
-    return fmi2OK;
-}
-
-fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
-    LfInstance *inst = (LfInstance *)c;
-    StateBlob **b;
-    CHECK("fmi2SetFMUstate", RESTORE_STATES);
-    if (!state) return null_arg(inst, "fmi2SetFMUstate", "FMUstate");
-    if (!(b = find_state(inst, "fmi2SetFMUstate", state))) return fmi2Error;
-    return lf_state_read(inst, (*b)->data, (*b)->n) == LF_OK ? fmi2OK : fmi2Error;
-}
-
-fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {
-    LfInstance *inst = (LfInstance *)c;
-    StateBlob **b;
-    CHECK("fmi2FreeFMUstate", RESTORE_STATES);
-    if (!state) return null_arg(inst, "fmi2FreeFMUstate", "FMUstate");
-    if (!*state) return fmi2OK; /* FMI 2.0: a NULL state is ignored */
-    if (!(b = find_state(inst, "fmi2FreeFMUstate", *state))) return fmi2Error;
-    blob_free(inst, b);
-    *state = NULL;
-    return fmi2OK;
-}
-
-fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *n) {
-    LfInstance *inst = (LfInstance *)c;
-    StateBlob **b;
-    CHECK("fmi2SerializedFMUstateSize", RESTORE_STATES);
-    if (!n) return null_arg(inst, "fmi2SerializedFMUstateSize", "size");
-    if (!(b = find_state(inst, "fmi2SerializedFMUstateSize", state))) return fmi2Error;
-    *n = (*b)->n;
-    return fmi2OK;
-}
-
-fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte bytes[],
-                                 size_t n) {
-    LfInstance *inst = (LfInstance *)c;
-    StateBlob **b;
-    CHECK("fmi2SerializeFMUstate", RESTORE_STATES);
-    if (!bytes) return null_arg(inst, "fmi2SerializeFMUstate", "serializedState");
-    if (!(b = find_state(inst, "fmi2SerializeFMUstate", state))) return fmi2Error;
-    if (n < (*b)->n) {
-        lf_log(inst, LF_ERROR, LF_LOG_ERROR,
-               "fmi2SerializeFMUstate: expected a buffer of %lu bytes but was %lu",
-               (unsigned long)(*b)->n, (unsigned long)n);
-        return fmi2Error;
-    }
-    memcpy(bytes, (*b)->data, (*b)->n);
-    return fmi2OK;
-}
-
-/* The bytes are copied; they are checked (checksum, this FMU, every field)
- * when the state is set. */
-fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t n,
-                                   fmi2FMUstate *state) {
-    LfInstance *inst = (LfInstance *)c;
-    StateBlob **old = NULL, *b;
-    CHECK("fmi2DeSerializeFMUstate", RESTORE_STATES);
-    if (!bytes) return null_arg(inst, "fmi2DeSerializeFMUstate", "serializedState");
-    if (!state) return null_arg(inst, "fmi2DeSerializeFMUstate", "FMUstate");
-    if (*state && !(old = find_state(inst, "fmi2DeSerializeFMUstate", *state)))
-        return fmi2Error;
-    if (!(b = blob_alloc(inst, n))) return fmi2Error;
-    memcpy(b->data, bytes, n);
-    if (*state) blob_free(inst, find_state(inst, "fmi2DeSerializeFMUstate", *state));
-    *state = b;
-    return fmi2OK;
 }
 
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference u[],
@@ -668,7 +524,7 @@ static fmi2Status status_kind_unknown(fmi2Component c, const char *fn, fmi2Statu
 #define STATUS_CHECK(fn)                                                             \
     do {                                                                             \
         CHECK(fn, RUNNING | LF_ST_TERMINATED);                                       \
-        if (!value) return null_arg((LfInstance *)c, fn, "value");                   \
+        if (!value) return lf_fmi2_null_arg((LfInstance *)c, fn, "value");                   \
     } while (0)
 
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
