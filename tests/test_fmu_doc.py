@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from loomfmu import MODELS, build_fmu, load_model
+from loomfmu.codegen import SETTINGS
 from loomfmu.fmu_doc import DOC_MEMBER, html_for, write_documentation
 from loomfmu.verify import verify
 
@@ -63,6 +64,14 @@ def test_every_fmu_carries_its_documentation(built, name):
     text = " ".join(_visible_text(page).split())
     assert "the importer's tolerance overrides solver_rtol" in text
     assert "fmi2SetupExperiment" in text
+    rtol = next(s for s in SETTINGS if s.name == "solver_rtol")
+    assert f"tolerance outside [{rtol.min:.6g}, {rtol.max:.6g}] is limited" in text
+    assert "_fmt(" not in page
+    settings = md.find("ModelVariables").findall("ScalarVariable")
+    starts = {sv.get("name"): next(iter(sv)).get("start") for sv in settings}
+    for s in SETTINGS:  # every runtime setting with its start in the solver section
+        assert re.search(rf'<td class="name">{s.name}</td><td class="num">'
+                         rf'{float(starts[s.name]):.6g}</td>', page), s.name
     assert "Not verified at build" in text and "loomfmu verify" in text
     assert load_model(name).description in text
     # self-contained: no scripts, no external files
