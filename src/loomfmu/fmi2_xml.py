@@ -23,8 +23,8 @@ from .units import UNITS
 
 
 #: Header values used when the installed package's metadata does not state them
-#: (pyproject.toml has no ``authors`` or ``license`` yet; add them there and
-#: they flow into every model description).
+#: (pyproject.toml's ``authors`` and ``license`` flow into every model
+#: description; these apply only when running from a source tree).
 DEFAULT_AUTHOR = "the loomfmu developers"
 DEFAULT_LICENSE = ("none stated: the loomfmu package declares no license; ask the authors "
                    "before redistributing")
