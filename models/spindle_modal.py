@@ -38,15 +38,26 @@ def planar_modes(model: Model, sp, basis_rpm: float):
 
 def modal_basis(model: Model, sp, n_modes: int, basis_rpm: float) -> np.ndarray:
     """``model``, ``sp``: from spindle_system (free speed symbol).
-    The first n_modes x-plane modes, each placed in x and in y (n x 2 n_modes)."""
+    The first n_modes x-plane modes, each placed in x and in y (n x 2 n_modes).
+
+    Each mode is scaled to 1 at its largest translation, so a modal coordinate
+    eta is that node's displacement in m (mass-normalized modes would give
+    eta in m*kg^0.5, a unit FMI 2.0 cannot state)."""
     w2, V, xi, yi = planar_modes(model, sp, basis_rpm)
     if n_modes > len(xi):
         raise ValueError(f"n_modes = {n_modes!r}; allowed: 1..{len(xi)}")
     B = np.zeros((len(sp.dofs), 2 * n_modes))
     for k in range(n_modes):
-        B[xi, 2 * k] = V[:, k]
-        B[yi, 2 * k + 1] = V[:, k]
+        shape = V[:, k] / V[_largest_translation(sp, xi, V, k), k]
+        B[xi, 2 * k] = shape
+        B[yi, 2 * k + 1] = shape
     return B
+
+
+def _largest_translation(sp, xi, V, k: int) -> int:
+    """Row of V (x-plane DOFs xi) with mode k's largest translation."""
+    trans = [j for j, i in enumerate(xi) if sp.dofs[i].endswith(".x")]
+    return max(trans, key=lambda j: abs(V[j, k]))
 
 
 def mode_labels(model: Model, sp, n_modes: int, basis_rpm: float) -> list[str]:
@@ -54,15 +65,14 @@ def mode_labels(model: Model, sp, n_modes: int, basis_rpm: float) -> list[str]:
     frequency and the node of largest deflection (computed, not typed)."""
     w2, V, xi, _ = planar_modes(model, sp, basis_rpm)
     where = node_labels(model, sp)
-    trans = [j for j, i in enumerate(xi) if sp.dofs[i].endswith(".x")]
     labels = []
     for k in range(n_modes):
         hz = math.sqrt(max(w2[k], 0.0)) / (2 * math.pi)
-        big = max(trans, key=lambda j: abs(V[j, k]))
-        node = sp.dofs[xi[big]].split(".")[0]
+        node = sp.dofs[xi[_largest_translation(sp, xi, V, k)]].split(".")[0]
         for plane in ("x", "y"):
-            labels.append(f"mode {k + 1}, {plane} plane, {hz:.1f} Hz, largest deflection "
-                          f"at the {where[node][1]}")
+            labels.append(f"mode {k + 1}, {plane} plane, {hz:.1f} Hz: the {plane} "
+                          f"displacement of the {where[node][1]}, where the mode's "
+                          "deflection is largest")
     return labels
 
 
