@@ -116,7 +116,7 @@ def test_design_at_the_edge_of_its_range_says_so():
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
     out = tmp_path_factory.mktemp("dist")
-    res = run("build", "backrest_regularized", "--out-dir", out)
+    res = run("build", "heald_frame_rigid", "--out-dir", out)
     return out, res
 
 
@@ -124,37 +124,37 @@ def test_build_verifies_reports_documents_and_shows_progress(built):
     out, res = built
     assert res.returncode == 0, res.stderr
     # plain progress lines in a log: counted, with the stage
-    assert "build [0/1] backrest_regularized: generating C" in res.stderr
-    assert "build [1/1] backrest_regularized: done" in res.stderr
+    assert "build [0/1] heald_frame_rigid: generating C" in res.stderr
+    assert "build [1/1] heald_frame_rigid: done" in res.stderr
     assert "scipy reference" in res.stderr
     report = json.loads((out / "report.json").read_text())
-    rep = report["backrest_regularized"]
+    rep = report["heald_frame_rigid"]
     assert set(rep["solvers"]) == {"dopri5", "rodas4", "rk4"}
     worst = max(e["max_rel_range"] for s in rep["solvers"].values()
                 for e in s["errors"].values())
     assert worst < 1e-3
-    with zipfile.ZipFile(out / "backrest_regularized.fmu") as z:
+    with zipfile.ZipFile(out / "heald_frame_rigid.fmu") as z:
         page = z.read("documentation/index.html").decode()
     assert "rodas4" in page and "reference" in page.lower()
 
 
 def test_simulate_an_fmu_writes_csv_and_plot(built, tmp_path):
     out, _ = built
-    fmu = out / "backrest_regularized.fmu"
+    fmu = out / "heald_frame_rigid.fmu"
     res = run("simulate", fmu, "--stop", "0.2", "--step", "0.01", "--solver", "rodas4",
-              "--set", "warp_pull=0.002", "--output", "phi1_out", "--output", "S1",
+              "--set", "omega=40", "--output", "h", "--output", "T",
               "--csv", tmp_path / "r.csv", "--plot", tmp_path / "r.png")
     assert res.returncode == 0, res.stderr
-    assert "phi1_out" in res.stdout and "rad" in res.stdout
+    assert "h " in res.stdout and " m\n" in res.stdout
     rows = list(csv.reader((tmp_path / "r.csv").open()))
-    assert rows[0] == ["time [s]", "phi1_out [rad]", "S1 [N]"]
+    assert rows[0] == ["time [s]", "h [m]", "T [N]"]
     assert len(rows) == 1 + 21 and float(rows[-1][0]) == pytest.approx(0.2)
     assert (tmp_path / "r.png").read_bytes()[:4] == b"\x89PNG"
 
 
 def test_simulate_reports_a_refusal_with_exit_1(built):
     out, _ = built
-    res = run("simulate", out / "backrest_regularized.fmu", "--stop", "0.1",
+    res = run("simulate", out / "heald_frame_rigid.fmu", "--stop", "0.1",
               "--set", "solver_h_max=-1")
     assert res.returncode in (1, 2), res.stdout
     assert "Traceback" not in res.stderr
@@ -162,11 +162,11 @@ def test_simulate_reports_a_refusal_with_exit_1(built):
 
 def test_verify_an_fmu(built):
     out, _ = built
-    res = run("verify", out / "backrest_regularized.fmu", "--solver", "dopri5")
+    res = run("verify", out / "heald_frame_rigid.fmu", "--solver", "dopri5")
     assert res.returncode == 0, res.stderr
-    assert "backrest_regularized" in res.stdout and "dopri5" in res.stdout
+    assert "heald_frame_rigid" in res.stdout and "dopri5" in res.stdout
     # an impossible bound fails with exit 1, not 2
-    res = run("verify", out / "backrest_regularized.fmu", "--solver", "rk4",
+    res = run("verify", out / "heald_frame_rigid.fmu", "--solver", "rk4",
               "--max-error", "1e-300")
     assert res.returncode == 1 and "FAILED" in res.stderr
 
