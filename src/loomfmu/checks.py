@@ -15,6 +15,7 @@ from __future__ import annotations
 import difflib
 import math
 import numbers
+import re
 from collections.abc import Iterable, Mapping
 
 import numpy as np
@@ -197,3 +198,26 @@ def check_order(lo_name: str, lo: float, hi_name: str, hi: float, *, strict: boo
     if lo > hi or (strict and lo == hi):
         raise ValueError(f"{lo_name} = {lo!r}, {hi_name} = {hi!r}; allowed: "
                          f"{lo_name} {'<' if strict else '<='} {hi_name}")
+
+
+#: characters XML 1.0 cannot hold (control characters other than tab, newline
+#: and carriage return; surrogates; U+FFFE, U+FFFF)
+_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+
+
+def check_text(name: str, value, *, c_string: bool = False) -> str:
+    """``value`` if it is a string that the model description (XML 1.0) can
+    hold; with ``c_string`` (text written into a C string literal) also no
+    control characters at all and no ``??`` (a C trigraph)."""
+    if not isinstance(value, str):
+        raise ValueError(f"{name} = {_short(value)}; allowed: a string")
+    bad = (re.compile(r"[\x00-\x1f\x7f]|\?\?") if c_string else _NOT_XML).search(value)
+    if bad is None and c_string:
+        bad = _NOT_XML.search(value)
+    if bad is not None:
+        allowed = ("printable text on one line, without '??'" if c_string else
+                   "text XML 1.0 can hold: no control characters other than tab, newline "
+                   "and carriage return")
+        raise ValueError(f"{name} = {_short(value)}: {bad.group()!r} at position "
+                         f"{bad.start()}; allowed: {allowed}")
+    return value

@@ -25,11 +25,56 @@ import re
 from dataclasses import dataclass, field
 
 import casadi as ca
+import numpy as np
 
-from .checks import check_choice, check_number, check_optional_number, is_real
+from .checks import check_choice, check_number, check_optional_number, check_text, is_real
 from .units import check_unit
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
+_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+_SCALAR = "a scalar (1x1) CasADi SX expression or a finite number"
+
+
+def reserved_names() -> tuple[str, ...]:
+    """Variable names every FMU already uses: the solver settings (codegen's
+    SETTINGS), the ``solver`` and ``delay_interpolation`` enumerations, and
+    ``time`` (the first column of FMPy's result)."""
+    from .codegen import SETTINGS  # codegen imports this module: import at call time
+    return ("solver", *(s.name for s in SETTINGS), "delay_interpolation", "time")
+
+
+def as_sx(what: str, expr, *, column: bool = False) -> ca.SX:
+    """``expr`` (a CasADi SX expression or a number) as a dense 1x1 SX; with
+    ``column``, an n x 1 column (n >= 1) is allowed too.  Otherwise
+    ValueError naming ``what``: a vector output would overrun the FMU's
+    buffers, an empty one would never be written."""
+    allowed = _SCALAR + (" (or a column of them, n x 1)" if column else "")
+    if expr is None or isinstance(expr, (bool, np.bool_, str, bytes, ca.MX)):
+        raise ValueError(f"{what} = {expr!r:.60}; allowed: {allowed}")
+    try:
+        sx = ca.SX(expr)
+    except Exception:  # noqa: BLE001 (CasADi raises NotImplementedError, TypeError, ...)
+        raise ValueError(f"{what} = {type(expr).__name__} {expr!r:.60}; allowed: {allowed}"
+                         ) from None
+    rows, cols = sx.shape
+    if cols != 1 or rows < 1 or (rows != 1 and not column):
+        raise ValueError(f"{what}: a {rows}x{cols} expression; allowed: {allowed}")
+    sx = ca.densify(sx)
+    for k in range(rows):
+        if sx[k].is_constant() and not math.isfinite(float(sx[k])):
+            raise ValueError(f"{what} = {float(sx[k])!r}; allowed: {allowed}")
+    return sx
+
+
+def as_symbol(what: str, sym, names, kind: str = "state") -> str:
+    """The name of ``sym``, a scalar symbol of a declared ``kind`` (``names``)."""
+    if not isinstance(sym, ca.SX) or sym.shape != (1, 1) or not sym.is_symbolic():
+        raise ValueError(f"{what} = {sym!r:.60}; allowed: a scalar symbol returned by "
+                         "the declaration")
+    if sym.name() not in names:
+        raise ValueError(f"{what}: {sym.name()!r} is not a declared {kind}; allowed: "
+                         f"one of {sorted(names)}"[:300])
+    return sym.name()
 
 #: Variable kinds in the order the value references are laid out
 #: (modes are Integer variables, the others Real).
@@ -145,6 +190,7 @@ class Model:
                                     hi=self.step_size, unit="s")
         check_choice("reference_method", self.reference_method,
                      ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA"))
+        check_text("description", self.description)
         self._by_name: dict[str, Variable] = {}
         self._der: dict[str, ca.SX] = {}
 
@@ -153,10 +199,17 @@ class Model:
         if not isinstance(name, str) or not _NAME.match(name):
             raise ValueError(f"name = {name!r}; allowed: an identifier (dots between parts)")
         if name in self._by_name:
-            raise ValueError(f"variable {name!r} declared twice in model {self.name}")
+            raise ValueError(f"name = {name!r}: variable {name!r} declared twice in model "
+                             f"{self.name}; allowed: a name not yet declared")
+        if name in reserved_names():
+            raise ValueError(f"name = {name!r} is reserved (every FMU has it); reserved: "
+                             f"{', '.join(reserved_names())}")
         check_unit(unit)
         if not description or not isinstance(description, str):
             raise ValueError(f"variable {name!r} needs a description (a non-empty string)")
+        check_text(f"{name}: description", description)
+        if kw.get("source"):
+            kw["source"] = check_text(f"{name}: source", kw["source"])
         lo = check_number(f"{name}: min", kw.get("min", -math.inf)) if kw.get(
             "min", -math.inf) != -math.inf else -math.inf
         hi = check_number(f"{name}: max", kw.get("max", math.inf)) if kw.get(
@@ -175,6 +228,18 @@ class Model:
         self.variables.append(var)
         self._by_name[name] = var
         return sym
+
+    @staticmethod
+    def _new_name(what: str, name, taken) -> str:
+        """``name`` for a new ``what`` (event, delay, ...): a C identifier (it is
+        written into the FMU's C sources and log lines), not in ``taken``."""
+        if not isinstance(name, str) or not _IDENT.match(name):
+            raise ValueError(f"{what} name = {name!r:.60}; allowed: an identifier "
+                             "(letters, digits, _; not starting with a digit)")
+        if name in taken:
+            raise ValueError(f"{what} name = {name!r} declared twice; allowed: a name not "
+                             f"yet used by another {what}")
+        return name
 
     def parameter(self, name, value, *, unit="", description="", source,
                   min=-math.inf, max=math.inf) -> ca.SX:
@@ -207,15 +272,18 @@ class Model:
         the FMU's history is built to hold; a larger tau is rejected at
         initialization.
         """
+        self._new_name("delay", name, {d.name for d in self.delays})
         check_number(f"delay {name!r}: max_delay", max_delay, lo=0.0, lo_open=True, unit="s")
-        tau = ca.SX(tau)
+        check_text(f"delay {name!r}: description", description)
+        expr = as_sx(f"delay {name!r}: expr", expr)
+        tau = as_sx(f"delay {name!r}: tau", tau)
         others = [self.t, self.syms("state"), self.syms("input"), self.syms("mode"),
                   self.syms("algebraic"), *(d.sym for d in self.delays),
                   *(s for s in self._der.values() if isinstance(s, ca.SX))]
         if ca.depends_on(tau, ca.vertcat(*others)):
             raise ValueError(f"delay {name!r}: tau must depend on parameters only")
         sym = ca.SX.sym(f"delay({name})")
-        self.delays.append(Delay(name, sym, ca.SX(expr), tau, float(max_delay), description))
+        self.delays.append(Delay(name, sym, expr, tau, float(max_delay), description))
         return sym
 
     def constraint(self, name: str, expr, message: str) -> None:
@@ -223,7 +291,9 @@ class Model:
         no single parameter range can express (e.g. the slats' mass must not
         exceed the frame's).  The FMU refuses to initialize with fmi2Error and
         a log line; Python raises ValueError (``check_constraints``)."""
-        expr = ca.SX(expr)
+        self._new_name("constraint", name, {c.name for c in self.constraints})
+        expr = as_sx(f"constraint {name!r}: expr", expr)
+        check_text(f"constraint {name!r}: message", message, c_string=True)
         if ca.depends_on(expr, ca.vertcat(self.t, self.syms("state"), self.syms("input"))):
             raise ValueError(f"constraint {name!r} must depend on parameters only")
         self.constraints.append(Constraint(name, expr, message))
@@ -264,9 +334,11 @@ class Model:
     def mode_rule(self, mode: ca.SX, valid, *, events: list[str]) -> None:
         """``valid`` >= 0 where the current value of ``mode`` is consistent;
         ``events``: the event indicators at whose zero this mode is re-chosen."""
-        name = mode.name()
-        if name not in self.mode_values:
-            raise ValueError(f"mode_rule: {name!r} is not a declared mode")
+        name = as_symbol("mode_rule: mode", mode, self.mode_values, "mode")
+        valid = as_sx(f"mode_rule {name!r}: valid", valid)
+        if isinstance(events, (str, bytes)) or not isinstance(events, (list, tuple)):
+            raise ValueError(f"mode_rule {name!r}: events = {events!r:.60}; allowed: a list "
+                             "of declared event names")
         known = {e.name for e in self.events}
         for ev in events:
             if ev not in known:
@@ -275,38 +347,48 @@ class Model:
                 raise ValueError(f"mode_rule: event {ev!r} already re-chooses mode "
                                  f"{self.event_modes[ev]!r}; allowed: one mode per event")
             self.event_modes[ev] = name
-        self.mode_valid[name] = ca.SX(valid)
+        self.mode_valid[name] = valid
 
     def reinit(self, state: ca.SX, expr) -> None:
         """The value of ``state`` right after a mode change (default: unchanged)."""
-        name = state.name()
-        if name not in self._der:
-            raise ValueError(f"reinit: {name!r} is not a declared state")
-        self.reinits[name] = ca.SX(expr)
+        name = as_symbol("reinit: state", state, self._der)
+        self.reinits[name] = as_sx(f"reinit {name!r}: expr", expr)
 
     def output(self, name, expr, *, unit="", description="") -> ca.SX:
-        """Declare an output defined by an expression of the model's variables."""
+        """Declare an output defined by ``expr``, a scalar expression of the
+        model's variables."""
+        expr = as_sx(f"output {name!r}: expr", expr)
         sym = self._add(name, "output", None, unit, description)
         self._by_name[name].expr = expr  # type: ignore[attr-defined]
         return sym
 
     def der(self, x: ca.SX) -> ca.SX:
         """The time derivative of state ``x`` (an unknown of the equations)."""
-        name = x.name()
-        if name not in self._der:
-            raise ValueError(f"der() of {name!r}: it is not a declared state")
-        return self._der[name]
+        return self._der[as_symbol("der: x", x, self._der)]
 
     def eq(self, lhs, rhs=0.0) -> None:
-        """Add the equation ``lhs == rhs``."""
-        self.equations.append(ca.SX(lhs) - ca.SX(rhs))
+        """Add the equation ``lhs == rhs``: scalars, or columns of the same
+        length (one equation per element; a scalar rhs applies to each)."""
+        lhs = as_sx("eq: lhs", lhs, column=True)
+        rhs = as_sx("eq: rhs", rhs, column=True)
+        if rhs.shape[0] not in (1, lhs.shape[0]):
+            raise ValueError(f"eq: lhs has {lhs.shape[0]} rows, rhs {rhs.shape[0]}; allowed: "
+                             "the same number of rows, or a scalar rhs")
+        self.equations.append(lhs - rhs)
 
     def event(self, name, expr, *, description="") -> None:
-        self.events.append(EventIndicator(name, ca.SX(expr), description))
+        """An event indicator: a breakpoint where scalar ``expr`` changes sign."""
+        self._new_name("event", name, {e.name for e in self.events})
+        expr = as_sx(f"event {name!r}: expr", expr)
+        check_text(f"event {name!r}: description", description)
+        self.events.append(EventIndicator(name, expr, description))
 
     def port(self, name, kind, *, description="", **roles: str) -> None:
+        self._new_name("port", name, {p.name for p in self.ports})
+        check_text(f"port {name!r}: kind", kind)
+        check_text(f"port {name!r}: description", description)
         for role, var in roles.items():
-            if var not in self._by_name:
+            if not isinstance(var, str) or var not in self._by_name:
                 raise ValueError(f"port {name!r}: {role}={var!r} is not a declared variable")
         self.ports.append(Port(name, kind, dict(roles), description))
 
@@ -318,6 +400,13 @@ class Model:
         initialization from the parameters actually set, unless the state
         itself was set.
         """
+        states = as_sx("set_starts_from: states", states, column=True)
+        exprs = as_sx("set_starts_from: exprs", exprs, column=True)
+        if exprs.shape != states.shape:
+            raise ValueError(f"set_starts_from: {states.shape[0]} states, {exprs.shape[0]} exprs; "
+                             "allowed: one expression per state")
+        for k in range(states.shape[0]):
+            as_symbol(f"set_starts_from: states[{k}]", states[k], self._der)
         known = [v for v in self.variables if v.kind in ("parameter", "state", "input")]
         f = ca.Function("starts", [ca.vertcat(*[v.sym for v in known])], [exprs])
         values = f(ca.DM([v.start for v in known])).full().ravel()
