@@ -13,6 +13,7 @@ from pathlib import Path
 import fmpy
 from fmpy.validation import validate_fmu
 
+from .checks import check_bool
 from .codegen import generate_sources
 from .declare import Model
 from .fmi2_xml import model_description
@@ -89,14 +90,17 @@ def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 
     documentation page (``documentation/index.html``, not yet verified: see
     :func:`loomfmu.fmu_doc.write_documentation`).
 
+    out_dir: a folder, made if missing (not an existing file).
     fmi_version: only 2 (FMI 2.0 Co-Simulation) is implemented so far.
     validate: run ``fmpy.validate_fmu`` and return its problems in the result.
     """
-    if fmi_version != 2:
+    if not isinstance(model, Model):
+        raise ValueError(f"model = {model!r:.60}; allowed: a loomfmu Model (load_model(name))")
+    if type(fmi_version) is not int or fmi_version != 2:
         raise ValueError(f"fmi_version = {fmi_version!r}; allowed: 2")
+    check_bool("validate", validate)
     t0 = time.perf_counter()
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = _out_dir(out_dir)
     dae = dae_form(model)
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp) / model.name
@@ -116,6 +120,22 @@ def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 
     write_documentation(fmu, model, verification=None)
     problems = list(validate_fmu(str(fmu))) if validate else []
     return BuildResult(model.name, fmu, guid, time.perf_counter() - t0, problems)
+
+
+def _out_dir(out_dir) -> Path:
+    """``out_dir`` as an existing folder (made with its parents if missing)."""
+    if not isinstance(out_dir, (str, os.PathLike)) or not str(out_dir) or "\0" in str(out_dir):
+        raise ValueError(f"out_dir = {out_dir!r:.80}; allowed: the path of a folder")
+    path = Path(out_dir)
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"out_dir = {str(out_dir)!r} is an existing file; allowed: a folder "
+                         "(made if missing)")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise ValueError(f"out_dir = {str(out_dir)!r} cannot be made ({e.strerror}); allowed: "
+                         "a folder that exists or can be made") from None
+    return path
 
 
 def _zip_dir(root: Path, fmu: Path) -> None:

@@ -15,8 +15,8 @@ from pathlib import Path
 import fmpy
 import numpy as np
 
-from .checks import (check_choice, check_mapping, check_name_list, check_number,
-                     check_optional_number)
+from .checks import (check_bool, check_choice, check_int, check_mapping, check_name_list,
+                     check_number, check_optional_number, check_text)
 from .codegen import SOLVERS
 from .declare import Model
 from .reference import MAX_OUTPUTS, RTOL_MIN, Reference, check_model, reference
@@ -65,8 +65,13 @@ def simulate(fmu: Path | str, *, solver: str = "dopri5", rtol: float = 1e-6,
     values = check_mapping("values", values, settable, what="variables with a start value",
                            numbers_only=False)
     for v in variables:
-        if v.name in values and v.type in ("Real", "Integer"):
-            values[v.name] = check_number(f"values[{v.name!r}]", values[v.name])
+        if v.name in values:
+            values[v.name] = _check_value(v, values[v.name])
+    by_name = {v.name: v for v in variables}
+    for arg, value, setting in (("rtol", rtol, "solver_rtol"), ("atol", atol, "solver_atol")):
+        if setting in by_name:  # the FMU's range of the setting
+            check_number(arg, value, lo=_bound(by_name[setting].min, -np.inf),
+                         hi=_bound(by_name[setting].max, np.inf))
     output = check_name_list("output", output, [v.name for v in variables],
                              what="variables of the FMU")
     experiment = model_description.defaultExperiment
@@ -102,6 +107,33 @@ def simulate(fmu: Path | str, *, solver: str = "dopri5", rtol: float = 1e-6,
     wall = time.perf_counter() - wall
     names = [n for n in res.dtype.names if n != "time"]
     return FmuRun(np.asarray(res["time"]), {n: np.asarray(res[n]) for n in names}, wall, log)
+
+
+def _bound(text, default: float) -> float:
+    return default if text is None else float(text)
+
+
+def _check_value(var, value):
+    """``value`` for the FMU variable ``var`` (FMPy's ScalarVariable): a number
+    in its [min, max], an Enumeration's item value, a bool, a string."""
+    key = f"values[{var.name!r}]"
+    if var.type == "Real":
+        return check_number(key, value, lo=_bound(var.min, -np.inf), hi=_bound(var.max, np.inf),
+                            unit=var.unit or "")
+    if var.type == "Enumeration" and var.declaredType is not None:
+        items = {int(i.value): i.name for i in var.declaredType.items}
+        allowed = ", ".join(f"{k} ({n})" for k, n in items.items())
+        if isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)) \
+                and int(value) in items:
+            return int(value)
+        raise ValueError(f"{key} = {value!r:.60}; allowed: {allowed}"
+                         + (" (or the solver argument)" if var.name == "solver" else ""))
+    if var.type in ("Integer", "Enumeration"):
+        return check_int(key, value, lo=None if var.min is None else int(var.min),
+                         hi=None if var.max is None else int(var.max))
+    if var.type == "Boolean":
+        return check_bool(key, value)
+    return check_text(key, value)
 
 
 def compare(run: FmuRun | Reference, ref: Reference,
