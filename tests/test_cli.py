@@ -78,6 +78,14 @@ def test_list_names_every_model_option_and_fidelity_level():
     (["simulate", "backrest", "--step", "inf"], "--step"),
     (["simulate", "backrest", "--solver", "euler"], "--solver"),
     (["verify", "missing.fmu"], "does not exist"),
+    (["verify", "heald_frame"], "loomfmu build heald_frame"),
+    (["simulate", "heald_frame_rigid", "--set", "k_z=abc"], "a number"),
+    (["simulate", "heald_frame_rigid", "--set", "omega=1e9"], "[0, 500] rad/s"),
+    (["simulate", "heald_frame_rigid", "--set", "solver=7"], "dopri5, rodas4, rk4"),
+    (["simulate", "heald_frame_rigid", "--set", "solver=euler"], "dopri5, rodas4, rk4"),
+    (["simulate", "heald_frame_rigid", "--plot", "x.jpg2"], "png"),
+    (["simulate", "heald_frame_rigid", "--stop", "1e6"], "larger --step"),
+    (["simulate", "heald_frame_rigid", "--stopp", "1"], "unrecognized arguments"),
     (["bench", "charts", "--models", "nope"], "allowed"),
     (["bench", "speed", "--repeats", "0"], "--repeats"),
     (["rotor", "nope"], "invalid choice"),
@@ -158,6 +166,21 @@ def test_simulate_reports_a_refusal_with_exit_1(built):
               "--set", "solver_h_max=-1")
     assert res.returncode in (1, 2), res.stdout
     assert "Traceback" not in res.stderr
+
+
+def test_simulate_names_the_solver_that_ran_and_keeps_the_default_step(built, tmp_path):
+    out, _ = built
+    fmu = out / "heald_frame_rigid.fmu"
+    res = run("simulate", fmu, "--set", "solver=3", "--stop", "2", "--output", "h",
+              "--csv", tmp_path / "a.csv")
+    assert res.returncode == 0, res.stderr
+    assert "solver rk4" in res.stdout
+    # the DefaultExperiment's step (1 ms), not one FMPy widens for long runs
+    rows = list(csv.reader((tmp_path / "a.csv").open()))
+    assert len(rows) == 1 + 2001
+    res2 = run("simulate", fmu, "--solver", "rk4", "--stop", "2", "--output", "h",
+               "--csv", tmp_path / "b.csv")
+    assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes(), res2.stderr
 
 
 def test_verify_an_fmu(built):

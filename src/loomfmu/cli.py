@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from pathlib import Path
 
@@ -44,6 +45,7 @@ def _parser() -> argparse.ArgumentParser:
                                     "as self-contained FMI co-simulation FMUs.",
         epilog="Run 'loomfmu COMMAND --help' for a command's options.")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    ap.set_defaults(_subparsers=sub.choices)
 
     p = sub.add_parser("list", help="models, their build options and fidelity levels",
                        description="List every model with its build options and the "
@@ -131,9 +133,14 @@ def main(argv: list[str] | None = None) -> int:
             return importlib.import_module(module).main(argv[1:], prog=prog)
         except ValueError as exc:  # a value the analysis refused: a usage error
             ap.exit(2, f"{prog}: error: {exc}\n")
-    args = ap.parse_args(argv)
+    args, extra = ap.parse_known_args(argv)
+    if extra:  # said by the subcommand's parser, with its usage
+        args._subparsers[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
     try:
         return COMMANDS[args.command](args)
+    except BrokenPipeError:  # output piped into head & co.: stop quietly
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
     except UsageError as exc:
         ap.exit(2, f"loomfmu {args.command}: error: {exc}\n")
     except ValueError as exc:  # a value the library refused: also a usage error

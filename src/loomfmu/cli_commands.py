@@ -181,26 +181,29 @@ def cmd_build(args) -> int:
 
 
 # ---------------------------------------------------------------- simulate
-def _fmu_for(target: str, options: dict, tmp: Path) -> tuple[Path, object]:
-    """An .fmu path as given, or the model built into ``tmp``."""
-    path = Path(target)
+#: most communication points a simulate run records (more: choose --step)
+MAX_POINTS = 1_000_000
+
+
+def _description_of(target: str, options: dict):
+    """The model description of an .fmu file, or of a model generated without
+    compiling (so that names and values are checked before a build)."""
+    import fmpy
     if target.endswith(".fmu"):
-        if not path.is_file():
+        if not Path(target).is_file():
             raise UsageError(f"FMU {target!r} does not exist")
         if options:
             raise UsageError("--option applies to a MODEL, not to a built FMU")
-        return path, None
-    from .builder import build_fmu
+        return fmpy.read_model_description(target), None
+    from .fmi2_xml import model_description
+    from .ode import dae_form
     model = declare(target, options)
-    with Progress(total=1, desc="build") as bar:
-        bar.stage(f"{target}: generating C, compiling")
-        path = build_fmu(model, out_dir=tmp, validate=False).path
-        bar.advance(f"{target}: built")
-    return path, model
-
-
-def _variables(md) -> dict:
-    return {v.name: v for v in md.modelVariables}
+    xml = model_description(model, dae_form(model), "{00000000-0000-0000-0000-000000000000}",
+                            ["model.c"])
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "modelDescription.xml"
+        path.write_text(xml)
+        return fmpy.read_model_description(str(path)), model
 
 
 def _settable(md) -> set[str]:
@@ -215,65 +218,156 @@ def _unit(var) -> str:
     return unit or ""
 
 
+def _bound(var, which: str):
+    value = getattr(var, which, None)
+    if value is None and getattr(var, "declaredType", None) is not None:
+        value = getattr(var.declaredType, which, None)
+    return None if value is None else float(value)
+
+
+def check_start_values(md, start: dict) -> dict:
+    """Each --set NAME=VALUE against the model description: the name is a
+    parameter, input or state; the value a number of the variable's type
+    within its min/max; an Enumeration also takes its item names."""
+    variables = {v.name: v for v in md.modelVariables}
+    settable = _settable(md)
+    out = {}
+    for name, value in start.items():
+        if name not in settable:
+            raise UsageError(f"--set {name}: not a parameter, input or state of "
+                             f"{md.modelName}{_suggest(name, settable)}; see the FMU's "
+                             "documentation/index.html for the list")
+        var = variables[name]
+        if var.type == "Enumeration" and isinstance(value, str):
+            items = [item.name for item in var.declaredType.items]
+            if value not in items:
+                raise UsageError(f"--set {name}={value}: allowed: {', '.join(items)} "
+                                 f"or 1..{len(items)}")
+            value = items.index(value) + 1
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise UsageError(f"--set {name}={value!r}: allowed: a number")
+        if var.type in ("Integer", "Enumeration") and not float(value).is_integer():
+            raise UsageError(f"--set {name}={value!r}: allowed: an integer")
+        lo, hi = _bound(var, "min"), _bound(var, "max")
+        if var.type == "Enumeration" and hi is None:
+            lo, hi = 1.0, float(len(var.declaredType.items))
+        if not math.isfinite(value) or (lo is not None and value < lo) or \
+                (hi is not None and value > hi):
+            span = f"[{lo:g}, {hi:g}]" if lo is not None and hi is not None else \
+                (f">= {lo:g}" if lo is not None else f"<= {hi:g}" if hi is not None
+                 else "a finite number")
+            if var.type == "Enumeration":
+                span = (", ".join(item.name for item in var.declaredType.items)
+                        + f", or {lo:g}..{hi:g}")
+            unit = _unit(var)
+            raise UsageError(f"--set {name}={value!r}: allowed: {span}"
+                             + (f" {unit}" if unit else ""))
+        out[name] = int(value) if var.type in ("Integer", "Enumeration") else float(value)
+    return out
+
+
+def _plot_format_ok(path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig = plt.figure()
+    kinds = fig.canvas.get_supported_filetypes()
+    plt.close(fig)
+    if path.suffix.lstrip(".").lower() not in kinds:
+        raise UsageError(f"--plot {path}: allowed endings: {', '.join(sorted(kinds))}")
+
+
+def _solver_name(md, value) -> str:
+    var = next(v for v in md.modelVariables if v.name == "solver")
+    return [item.name for item in var.declaredType.items][int(value) - 1]
+
+
 def cmd_simulate(args) -> int:
     import fmpy
     options = parse_assignments(args.option, "--option")
-    start = parse_assignments(args.set, "--set")
     check_range("--rtol", args.rtol, 0.0, 1.0)
     for flag, value in (("--stop", args.stop), ("--step", args.step)):
         if value is not None:
             check_range(flag, value, 0.0)
+    if args.plot:
+        _plot_format_ok(args.plot)
+    md, model = _description_of(args.target, options)
+    variables = {v.name: v for v in md.modelVariables}
+    start = check_start_values(md, {"solver": args.solver,
+                                    **parse_assignments(args.set, "--set")})
+    outputs = args.output or [v.name for v in md.modelVariables if v.causality == "output"]
+    for name in outputs:
+        if name not in variables:
+            raise UsageError(f"--output {name}: {md.modelName} has no such variable"
+                             f"{_suggest(name, variables)}")
+    experiment = md.defaultExperiment
+    stop = args.stop if args.stop is not None else float(experiment.stopTime)
+    step = args.step if args.step is not None else float(experiment.stepSize)
+    if stop / step > MAX_POINTS:
+        raise UsageError(f"--stop {stop:g} with --step {step:g} gives {stop / step:.3g} "
+                         f"points; allowed: at most {MAX_POINTS}: choose a larger --step")
+    solver = _solver_name(md, start["solver"])
+    log: list[str] = []
+
+    def logger(component, instance, status, category, message):
+        log.append((status, f"{category.decode()}: {message.decode()}"))
+
     with tempfile.TemporaryDirectory() as tmp:
-        fmu, _ = _fmu_for(args.target, options, Path(tmp))
-        md = fmpy.read_model_description(str(fmu))
-        variables = _variables(md)
-        settable = _settable(md)
-        for name in start:
-            if name not in settable:
-                raise UsageError(f"--set {name}: not a parameter, input or state of "
-                                 f"{md.modelName}{_suggest(name, settable)}; see the "
-                                 f"FMU's documentation/index.html for the list")
-        outputs = args.output or [v.name for v in md.modelVariables
-                                  if v.causality == "output"]
-        for name in outputs:
-            if name not in variables:
-                raise UsageError(f"--output {name}: {md.modelName} has no such variable"
-                                 f"{_suggest(name, variables)}")
-        log: list[str] = []
-
-        def logger(component, instance, status, category, message):
-            log.append(f"[{status}] {category.decode()}: {message.decode()}")
-
-        start = {"solver": args.solver, **start}
-        start["solver"] = ["dopri5", "rodas4", "rk4"].index(start["solver"]) + 1 \
-            if isinstance(start["solver"], str) else start["solver"]
+        if model is None:
+            fmu = Path(args.target)
+        else:
+            from .builder import build_fmu
+            with Progress(total=1, desc="build") as bar:
+                bar.stage(f"{model.name}: generating C, compiling")
+                fmu = build_fmu(model, out_dir=tmp, validate=False).path
+                bar.advance(f"{model.name}: built")
         try:
-            res = fmpy.simulate_fmu(str(fmu), validate=False, stop_time=args.stop,
-                                    output_interval=args.step, relative_tolerance=args.rtol,
+            res = fmpy.simulate_fmu(str(fmu), validate=False, stop_time=stop,
+                                    output_interval=step, relative_tolerance=args.rtol,
                                     start_values=start, output=outputs, logger=logger)
         except Exception as exc:  # FMPy raises on fmi2Error/fmi2Discard
             print(f"loomfmu simulate: the FMU refused: {exc}", file=sys.stderr)
-            for line in log[-10:]:
-                print(f"  {line}", file=sys.stderr)
+            for status, line in _up_to_first_failure(log):
+                print(f"  [{STATUS[status]}] {line}", file=sys.stderr)
             return 1
+    if args.csv:
+        _write_csv(args.csv, res, outputs, variables)
+    if args.plot:
+        _write_plot(args.plot, res, outputs, variables, md.modelName)
     t = res["time"]
-    print(f"{md.modelName}: {len(t)} points, t = {t[0]:g} .. {t[-1]:g} s, "
-          f"solver {args.solver}, rtol {args.rtol:g}")
+    print(f"{md.modelName}: {len(t)} points, t = {t[0]:g} .. {t[-1]:g} s, step {step:g} s, "
+          f"solver {solver}, rtol {args.rtol:g}")
     print(f"{'variable':<16}{'final':>14}{'min':>14}{'max':>14}  unit")
     for name in outputs:
         y = res[name]
         print(f"{name:<16}{y[-1]:>14.6g}{y.min():>14.6g}{y.max():>14.6g}  "
               f"{_unit(variables[name])}")
-    for line in log:
-        if not line.startswith("[0]"):
-            print(f"  log {line}")
+    for status, line in log:
+        if status != 0:
+            print(f"  log [{STATUS[status]}] {line}")
     if args.csv:
-        _write_csv(args.csv, res, outputs, variables)
         print(f"written: {args.csv}")
     if args.plot:
-        _write_plot(args.plot, res, outputs, variables, md.modelName)
-        print(f"written: {args.plot}")
+        shown = min(len(outputs), PLOT_MAX)
+        more = (f" (the first {shown} of {len(outputs)} outputs; choose with --output)"
+                if len(outputs) > shown else "")
+        print(f"written: {args.plot}{more}")
     return 0
+
+
+STATUS = {0: "OK", 1: "Warning", 2: "Discard", 3: "Error", 4: "Fatal", 5: "Pending"}
+PLOT_MAX = 8
+
+
+def _up_to_first_failure(log: list) -> list:
+    """The FMU's log up to its first Discard/Error: what a master calls after
+    that (FMPy steps on) only says the call order was wrong."""
+    out = []
+    for status, line in log:
+        out.append((status, line))
+        if status >= 2:
+            break
+    return out[-10:]
 
 
 def _write_csv(path: Path, res, names: list[str], variables) -> None:
@@ -288,7 +382,7 @@ def _write_plot(path: Path, res, names: list[str], variables, title: str) -> Non
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    shown = names[:8]
+    shown = names[:PLOT_MAX]
     fig, axes = plt.subplots(len(shown), 1, sharex=True, squeeze=False,
                              figsize=(8, 1.6 + 1.5 * len(shown)))
     for ax, name in zip(axes[:, 0], shown):
@@ -297,7 +391,7 @@ def _write_plot(path: Path, res, names: list[str], variables, title: str) -> Non
         ax.set_ylabel(f"{name}\n[{unit}]" if unit else name)
         ax.grid(alpha=0.3)
     axes[-1, 0].set_xlabel("time [s]")
-    more = f" (first 8 of {len(names)})" if len(names) > len(shown) else ""
+    more = f" (first {len(shown)} of {len(names)})" if len(names) > len(shown) else ""
     fig.suptitle(f"{title}{more}")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -312,7 +406,10 @@ def cmd_verify(args) -> int:
     check_range("--rtol", args.rtol, 0.0, 1.0)
     check_range("--max-error", args.max_error, 0.0)
     if not args.fmu.is_file() or not zipfile.is_zipfile(args.fmu):
-        raise UsageError(f"FMU {str(args.fmu)!r} does not exist or is not an FMU (zip)")
+        hint = (f"; {args.fmu} is a model: build it with 'loomfmu build {args.fmu}' and "
+                f"pass dist/{args.fmu}.fmu" if str(args.fmu) in MODELS else "")
+        raise UsageError(f"FMU {str(args.fmu)!r} does not exist or is not an FMU (zip)"
+                         + hint)
     md = fmpy.read_model_description(str(args.fmu))
     name = args.model or md.modelName
     model = declare(name, parse_assignments(args.option, "--option"))

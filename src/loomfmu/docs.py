@@ -61,7 +61,8 @@ def model_markdown(model: Model) -> str:
 
 def main(argv=None, prog: str = "loomfmu docs") -> int:
     ap = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=Path("docs/models"))
+    ap.add_argument("--out", type=Path, default=Path("docs/models"),
+                    help="output folder (default: ./docs/models)")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     for name in sorted(MODELS):

@@ -466,7 +466,9 @@ def report(model, fmt: str = "html") -> str:
 
 
 def main(argv=None, prog: str = "loomfmu inspect") -> int:
-    ap = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog=prog, description="A model's equations as a machine "
+                                 "designer reads them: HTML with MathML, Markdown with "
+                                 "LaTeX, or LaTeX.")
     ap.add_argument("model", metavar="MODEL", choices=sorted(MODELS),
                     help=f"one of {', '.join(sorted(MODELS))}")
     ap.add_argument("--format", choices=FORMATS, default="html",

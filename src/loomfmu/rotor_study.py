@@ -225,7 +225,9 @@ def write_calibration(out: Path = DOCS / "spindle_calibration.md") -> dict:
 
 
 def main(argv=None, prog: str = "loomfmu rotor") -> int:
-    ap = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog=prog, description="Spindle studies (seed 003): "
+                                 "calibration to the seed's natural frequencies, amplitude "
+                                 "against speed, section V's parameter trends, charts.")
     ap.add_argument("command", choices=["calibrate", "trends", "charts", "all"],
                     help="calibrate: fit the supports to the seed's six frequencies -> "
                          "OUT/spindle_calibration.md; trends: parameter studies -> "

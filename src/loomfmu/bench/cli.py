@@ -73,17 +73,21 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
     ap.add_argument("what", choices=["charts", "speed", "friction"])
     ap.add_argument("--model", default="heald_frame", help="speed: the model")
     ap.add_argument("--models", nargs="+", default=list(BENCH),
-                    help=f"charts: scene names (default: all of {list(BENCH)})")
+                    help=f"charts: the models to sweep (default: all of {list(BENCH)})")
     ap.add_argument("--quick", action="store_true", help="charts: coarse sweeps")
     ap.add_argument("--no-failures", action="store_true", help="charts: skip failure studies")
     ap.add_argument("--readme", type=Path, default=None,
                     help="charts: page whose marked bench section to rewrite "
                          "(default: ./docs/speed.md when --out is docs/bench, full runs "
                          "only)")
-    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--repeats", type=int, default=5,
+                    help="speed: timed runs per point, the fastest kept (>= 1; default 5)")
     ap.add_argument("--scales", type=float, nargs="+", default=[1.0, 10.0],
                     help="speed: scene lengths as multiples of the model's default experiment")
-    ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--out", type=Path, default=None,
+                    help="output: charts a folder (default ./docs/bench), speed and "
+                         "friction a JSON file (default ./docs/speed.json, "
+                         "./docs/friction.json)")
     args = ap.parse_args(argv)
     if args.repeats < 1:
         ap.error(f"--repeats {args.repeats}: allowed >= 1")
