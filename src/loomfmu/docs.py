@@ -45,6 +45,12 @@ def model_markdown(model: Model) -> str:
                 "|---|---|---|---|"]
         for v in model.of_kind(kind):
             out.append(f"| `{v.name}` | {_fmt(v.start)} | {v.unit} | {_cell(v.description)} |")
+    if model.mode_values:
+        out += ["", "## Modes (Integer outputs, re-chosen at events in this priority order)",
+                "", "| name | start | values | description |", "|---|---|---|---|"]
+        for v in model.of_kind("mode"):
+            values = ", ".join(str(x) for x in model.mode_values[v.name])
+            out.append(f"| `{v.name}` | {int(v.start)} | {values} | {_cell(v.description)} |")
     if model.ports:
         out += ["", "## Ports", "", "| port | kind | variables | description |",
                 "|---|---|---|---|"]
