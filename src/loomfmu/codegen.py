@@ -144,6 +144,9 @@ def casadi_functions(dae: DaeForm) -> list[ca.Function]:
 
     djac -> (dw/dd or dF/dd, dg/dx, dg/dt): the chain-rule term of the
     Jacobian for zero delays, where d = g(t, x) now (g taken at fixed w).
+
+    Every output is densified, so that the generated C writes all of its
+    entries (structural zeros included: e.g. dg/dt of a delayed input).
     """
     name = dae.model.name
     nw, nx = dae.w.numel(), dae.nx
@@ -169,7 +172,12 @@ def casadi_functions(dae: DaeForm) -> list[ca.Function]:
                   ca.densify(ca.jacobian(dae.g, dae.x)), ca.densify(ca.jacobian(dae.g, dae.t))],
                  ["dW_dd", "dg_dx", "dg_dt"]),
     }
-    return [dae.function(f"{name}_{f}", *outs[f]) for f in FUNCTIONS]
+    # Every output dense: CasADi's generated C writes only an output's
+    # structural nonzeros (a structural zero entry is never written, and the
+    # entries after it land in its place), while the runtime reads every
+    # output as a dense column-major array.
+    return [dae.function(f"{name}_{f}", [ca.densify(e) for e in outs[f][0]], outs[f][1])
+            for f in FUNCTIONS]
 
 
 def _c_double(v: float | None) -> str:

@@ -2,6 +2,7 @@
  * accepted samples (t, g, dg/dt), Hermite-interpolated, and the breakpoints
  * where a jump of the history reaches the equations. */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "lf_internal.h"
@@ -95,8 +96,43 @@ LfStatus lf_delayed_rates(LfInstance *c, double t, const double *x, double *rate
     return delayed(c, t, x, rate);
 }
 
+/* Room for the breakpoints t + tau_k of a jump of the history at t (one per
+ * delay > 0, those already pending not counted).  The breakpoints passed
+ * (<= t) are forgotten first.  If they do not fit, nothing is added and the
+ * call is discarded with the cause: a dropped breakpoint would let a step
+ * run across a jump of a delayed value (silently inaccurate, or a step size
+ * underflow). */
+static LfStatus breakpoints_fit(LfInstance *c, double t) {
+    int i, j = 0, k, need = 0, n_pos = 0, longest = 0;
+    for (i = 0; i < c->n_bp; i++)
+        if (c->bp[i] > t) c->bp[j++] = c->bp[i];
+    c->n_bp = j;
+    for (k = 0; k < LF_ND; k++) {
+        int pending = 0;
+        if (c->tau[k] == 0) continue;
+        n_pos++;
+        if (c->tau[k] > c->tau[longest]) longest = k;
+        for (i = 0; i < c->n_bp && !pending; i++) pending = c->bp[i] == t + c->tau[k];
+        need += !pending;
+    }
+    if (c->n_bp + need <= LF_BP_CAP) return LF_OK;
+    lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
+           "t = %.17g: too many input changes within one delay time: %d jumps of delayed "
+           "values are pending (the most this FMU holds): each input change (or reinit) "
+           "reaches the equations tau later, and within the last tau = %g s (delay %s) "
+           "they came about %g s apart; change the inputs at most every tau / %d = %g s "
+           "(a longer communication step, or set an input only when its value changes); "
+           "step discarded", t, c->n_bp, c->tau[longest], lf_model.delay_names[longest],
+           c->tau[longest] * n_pos / (c->n_bp > 0 ? c->n_bp : 1), LF_MAX_BP / n_pos,
+           c->tau[longest] * n_pos / LF_MAX_BP); /* reached only with delays */
+    return LF_DISCARD;
+}
+
 static void add_breakpoint(LfInstance *c, double t) {
-    if (c->n_bp < LF_MAX_BP) c->bp[c->n_bp++] = t;
+    int i;
+    for (i = 0; i < c->n_bp; i++)
+        if (c->bp[i] == t) return;
+    if (c->n_bp < LF_BP_CAP) c->bp[c->n_bp++] = t; /* room made by breakpoints_fit */
 }
 
 /* The next pending breakpoint after t, or t_end if none comes first (and
@@ -117,11 +153,34 @@ double lf_next_breakpoint(LfInstance *c, double t, double t_end, int *is_bp) {
     return next;
 }
 
+/* The history of delay k cannot take the sample at t: say why, and what to
+ * change for the solver in use (the samples are at least one per step,
+ * more where the Hermite interpolant misses the solver's by more than the
+ * tolerances: hist_refine). */
+static void history_full(LfInstance *c, int k, double t) {
+    const LfSolver *s = &c->solver;
+    char advice[200];
+    if (s->method && !s->method->adaptive)
+        snprintf(advice, sizeof advice, "%s takes fixed steps of solver_h_fixed = %g s: raise "
+                 "it to at least tau / %d = %g s, or loosen solver_rtol / solver_atol, which "
+                 "bound the history's interpolation error", s->method->name, s->opt.h_fixed,
+                 LF_HIST_CAP, c->tau[k] / LF_HIST_CAP);
+    else
+        snprintf(advice, sizeof advice, "loosen solver_rtol / solver_atol");
+    lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
+           "t = %.17g: history of delay %s is full: the equations read back to t - tau = "
+           "%.17g, and the %d samples it holds (the most it can) start at t = %.17g, %g s "
+           "apart on average; the steps are too short for tau = %g s (%s)", t,
+           lf_model.delay_names[k], t - c->tau[k], LF_HIST_CAP, HT(c, k, 0),
+           (t - HT(c, k, 0)) / (LF_HIST_CAP - 1), c->tau[k], advice);
+}
+
 /* Append (t, g, dg/dt) at an accepted point; `jump`: the history is
  * discontinuous here (input change, reinit), so its values reach the
  * equations tau later: a breakpoint. */
 static LfStatus hist_append(LfInstance *c, double t, const double *g, int jump) {
     int k;
+    if (jump && breakpoints_fit(c, t) != LF_OK) return LF_DISCARD;
     for (k = 0; k < LF_ND; k++) {
         /* every later query is at s >= t - tau (stages run at or after the
          * last accepted point t); the sample at or before that is kept for
@@ -133,13 +192,7 @@ static LfStatus hist_append(LfInstance *c, double t, const double *g, int jump) 
             c->hist_count[k]--;
         }
         if (c->hist_count[k] == LF_HIST_CAP) {
-            lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
-                   "t = %.17g: history of delay %s is full: the equations read back to "
-                   "t - tau = %.17g, and the %d samples it holds (the most it can) start at "
-                   "t = %.17g, %g s apart on average; the steps are too short for tau = %g s "
-                   "(loosen solver_rtol / solver_atol)", t, lf_model.delay_names[k],
-                   t - c->tau[k], LF_HIST_CAP, HT(c, k, 0),
-                   (t - HT(c, k, 0)) / (LF_HIST_CAP - 1), c->tau[k]);
+            history_full(c, k, t);
             return LF_DISCARD;
         }
         HT(c, k, c->hist_count[k]) = t;

@@ -14,6 +14,7 @@
  * address to a new instance of this FMU, the call goes to that instance. */
 #include <math.h>
 #include <stddef.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "fmi2Functions.h"
@@ -478,21 +479,30 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
 
 /* ---- co-simulation ------------------------------------------------------ */
 
-/* A step the runtime can integrate: finite time and step, h > 0, and an end
- * that is a later time than the FMU's (t + h == t below the resolution of
- * time at t).  Otherwise refused, with nothing changed. */
+/* A step the runtime can integrate: finite time and step, h > 0, starting at
+ * the FMU's time, and an end that is a later time than the FMU's (t + h == t
+ * below the resolution of time at t).  Otherwise refused, with nothing
+ * changed. */
 static int step_integrable(LfInstance *c, double t, double h) {
     const char *why = NULL;
+    char buf[200];
     if (!isfinite(t)) why = "currentCommunicationPoint is not finite";
     else if (!isfinite(h) || !(h > 0)) why = "communicationStepSize is not finite and > 0";
     else if (!isfinite(t + h)) why = "the end of the step is not finite";
-    else if (!(t + h > c->t))
-        why = "the step does not advance time (below the resolution of time here)";
+    else if (fabs(t - c->t) > 1e-9 * fmax(1.0, fabs(c->t))) { /* as lf_check_step */
+        snprintf(buf, sizeof buf, "expected currentCommunicationPoint = t = %.17g (the end of "
+                 "the last step, or the time of the FMU state set), got %.17g (%s the FMU's "
+                 "time)", c->t, t, t < c->t ? "behind" : "ahead of");
+        why = buf;
+    } else if (!(t + h > c->t)) {
+        snprintf(buf, sizeof buf, "the step does not advance time (below the resolution of "
+                 "time here: %g s)", nextafter(c->t, INFINITY) - c->t);
+        why = buf;
+    }
     if (!why) return 1;
     lf_log(c, LF_ERROR, LF_LOG_ERROR,
            "t = %.17g: fmi2DoStep(currentCommunicationPoint = %.17g, communicationStepSize = "
-           "%g): %s (time resolution at t: %g s); step refused, nothing changed", c->t, t, h,
-           why, nextafter(c->t, INFINITY) - c->t);
+           "%g): %s; step refused, nothing changed", c->t, t, h, why);
     return 0;
 }
 

@@ -17,7 +17,9 @@
 #define RESTORE_STATES (STATE_STATES | LF_ST_ERROR)
 
 static StateBlob *blob_alloc(LfInstance *c, size_t n) {
-    StateBlob *b = (StateBlob *)c->alloc.calloc(1, offsetof(StateBlob, data) + n);
+    StateBlob *b = NULL;
+    if (n <= (size_t)-1 - offsetof(StateBlob, data)) /* else the size wraps */
+        b = (StateBlob *)c->alloc.calloc(1, offsetof(StateBlob, data) + n);
     if (!b) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "FMU state: out of memory (%lu bytes)",
                (unsigned long)n);
@@ -113,8 +115,11 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte b
     return fmi2OK;
 }
 
-/* The bytes are copied; they are checked (checksum, this FMU, every field)
- * when the state is set. */
+/* The bytes are copied; they are checked (checksum, this FMU, every field,
+ * the size against the fields) when the state is set.  A size larger than
+ * any state of this FMU is refused here, before anything is allocated or
+ * read (near SIZE_MAX the blob's size would wrap).  Short ones are copied
+ * (harmless) and refused by fmi2SetFMUstate. */
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t n,
                                    fmi2FMUstate *state) {
     LfInstance *inst = (LfInstance *)c;
@@ -122,6 +127,14 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size
     CHECK("fmi2DeSerializeFMUstate", RESTORE_STATES);
     if (!bytes) return lf_fmi2_null_arg(inst, "fmi2DeSerializeFMUstate", "serializedState");
     if (!state) return lf_fmi2_null_arg(inst, "fmi2DeSerializeFMUstate", "FMUstate");
+    if (n > lf_state_max_size()) {
+        lf_log(inst, LF_ERROR, LF_LOG_ERROR,
+               "t = %.17g: fmi2DeSerializeFMUstate: size = %lu bytes, expected %lu ... %lu "
+               "(the sizes of this FMU's states; fmi2SerializedFMUstateSize gives a state's "
+               "size); nothing done", inst->t, (unsigned long)n,
+               (unsigned long)lf_state_min_size(), (unsigned long)lf_state_max_size());
+        return fmi2Error;
+    }
     if (*state && !(old = find_state(inst, "fmi2DeSerializeFMUstate", *state)))
         return fmi2Error;
     if (!(b = blob_alloc(inst, n))) return fmi2Error;

@@ -10,8 +10,12 @@
 #define LF_DIM(n) ((n) > 0 ? (n) : 1)
 /* samples of history kept per delayed expression */
 #define LF_HIST_CAP 65536
-/* pending discontinuities of delayed values (history jumps + tau) */
-#define LF_MAX_BP 256
+/* pending discontinuities of delayed values (history jumps + tau): an input
+ * changed at every communication point keeps tau / h of them pending; past
+ * the capacity the step is discarded (lf_delay.c), never dropped silently */
+#define LF_MAX_BP 8192
+/* the capacity of this FMU: none without delays */
+#define LF_BP_CAP (LF_ND > 0 ? LF_MAX_BP : 0)
 
 enum { LF_DELAY_HERMITE = 1, LF_DELAY_LINEAR = 2 };
 
@@ -85,7 +89,7 @@ typedef struct {
     long hist_start[LF_DIM(LF_ND)];
     long hist_count[LF_DIM(LF_ND)];
     int delay_interp;
-    double bp[LF_MAX_BP];
+    double bp[LF_DIM(LF_BP_CAP)];
     int n_bp;
     double t_bp_step;   /* end of the step being taken, if a breakpoint; else inf */
 

@@ -4,7 +4,7 @@
  * the values, modes, the last solve of the unknowns, the event indicators'
  * signs, the solver (its struct fields and its whole work buffer, whose
  * layout is fixed by method and size) and the history of delayed values
- * (only the samples in use).  Pointers, the logger and the allocator are not
+ * (only the samples in use) and the pending breakpoints of the delays.  Pointers, the logger and the allocator are not
  * part of the state: a state can be set in another instance of the same FMU
  * (checked by GUID and sizes), also after a round trip through bytes.
  *
@@ -44,13 +44,11 @@ static size_t hist_doubles(const LfInstance *c) {
     return n;
 }
 
-static size_t fixed_bytes(void) {
-    return sizeof(LfStateHeader) + sizeof(LfStateValues) + sizeof(unsigned long long);
-}
+static size_t fixed_bytes(void) { return LF_STATE_FIXED_BYTES; }
 
 size_t lf_state_size(const LfInstance *c) {
     size_t work = c->solver_ready ? c->solver.work_len : 0;
-    return fixed_bytes() + sizeof(double) * (work + hist_doubles(c));
+    return fixed_bytes() + sizeof(double) * (work + hist_doubles(c) + (size_t)c->n_bp);
 }
 
 static double *hist_at(const LfInstance *c, int k, long i) {
@@ -66,7 +64,6 @@ static void write_values(const LfInstance *c, LfStateValues *v) {
     memcpy(v->e_old, c->e_old, sizeof v->e_old);
     memcpy(v->dval, c->dval, sizeof v->dval);
     memcpy(v->tau, c->tau, sizeof v->tau);
-    memcpy(v->bp, c->bp, sizeof v->bp);
     memcpy(v->hist_count, c->hist_count, sizeof v->hist_count);
     memcpy(v->x_set, c->x_set, sizeof v->x_set);
     v->t = c->t;
@@ -130,6 +127,8 @@ void lf_state_write(const LfInstance *c, unsigned char *buf) {
             memcpy(p, hist_at(c, k, i), 3 * sizeof(double));
             p += 3 * sizeof(double);
         }
+    memcpy(p, c->bp, sizeof(double) * (size_t)c->n_bp);
+    p += sizeof(double) * (size_t)c->n_bp;
     sum = fnv1a(buf, (size_t)(p - buf));
     memcpy(p, &sum, sizeof sum);
 }
@@ -164,7 +163,7 @@ static int check_header(LfInstance *c, const unsigned char *buf, size_t n, LfSta
         return 0;
     }
     memcpy(h, buf, sizeof *h);
-    REQUIRE(h->magic == LF_STATE_MAGIC, "format tag", h->magic, "a loomfmu state (LFS2)");
+    REQUIRE(h->magic == LF_STATE_MAGIC, "format tag", h->magic, "a loomfmu state (LFS3)");
     memset(guid, 0, sizeof guid);
     strncpy(guid, lf_model.guid, sizeof guid - 1);
     if (memcmp(guid, h->guid, sizeof guid) != 0) {
@@ -261,9 +260,8 @@ static int check_modes_delays(LfInstance *c, const LfStateValues *v) {
     REQUIRE(all_finite(v->w_cur, LF_DIM(LF_NW)), "unknowns w (Newton start)", NAN, "finite");
     REQUIRE(all_finite(v->e_old, LF_DIM(LF_NE)), "event indicators", NAN, "finite");
     REQUIRE(all_finite(v->dval, LF_DIM(LF_ND)), "delayed values", NAN, "finite");
-    REQUIRE(v->n_bp >= 0 && v->n_bp <= LF_MAX_BP, "number of delay breakpoints", v->n_bp,
-            "0 ... 256");
-    REQUIRE(all_finite(v->bp, (size_t)v->n_bp), "delay breakpoint", NAN, "finite");
+    REQUIRE(v->n_bp >= 0 && v->n_bp <= LF_BP_CAP, "number of delay breakpoints", v->n_bp,
+            "0 ... this FMU's capacity (8192 with delays, 0 without)");
     for (k = 0; k < LF_DIM(LF_ND); k++) {
         double tau_max = k < LF_ND ? lf_model.delay_max[k] : 0.0;
         long cap = k < LF_ND ? LF_HIST_CAP : 0;
@@ -310,7 +308,8 @@ static int check_solver(LfInstance *c, const LfStateHeader *h, const LfStateValu
     return 1;
 }
 
-/* History samples (t, g, dg/dt): finite, times in order. */
+/* History samples (t, g, dg/dt): finite, times in order; then the pending
+ * breakpoints: finite, after the state's time. */
 static int check_history(LfInstance *c, const LfStateValues *v, const double *hist) {
     int k;
     long i;
@@ -321,6 +320,8 @@ static int check_history(LfInstance *c, const LfStateValues *v, const double *hi
                     "not before the previous sample");
         }
     }
+    for (i = 0; i < v->n_bp; i++)
+        REQUIRE(isfinite(hist[i]), "delay breakpoint", hist[i], "finite");
     return 1;
 }
 
@@ -371,7 +372,6 @@ static void apply_values(LfInstance *c, const LfStateValues *v, const double *hi
     memcpy(c->e_old, v->e_old, sizeof v->e_old);
     memcpy(c->dval, v->dval, sizeof v->dval);
     memcpy(c->tau, v->tau, sizeof v->tau);
-    memcpy(c->bp, v->bp, sizeof v->bp);
     memcpy(c->x_set, v->x_set, sizeof v->x_set);
     c->t = v->t;
     c->t_start = v->t_start;
@@ -393,6 +393,7 @@ static void apply_values(LfInstance *c, const LfStateValues *v, const double *hi
         c->hist_count[k] = v->hist_count[k];
         for (i = 0; i < v->hist_count[k]; i++, hist += 3) memcpy(hist_at(c, k, i), hist, 3 * sizeof(double));
     }
+    memcpy(c->bp, hist, sizeof(double) * (size_t)v->n_bp); /* after the history */
 }
 
 LfStatus lf_state_read(LfInstance *c, const unsigned char *buf, size_t n) {
@@ -407,10 +408,11 @@ LfStatus lf_state_read(LfInstance *c, const unsigned char *buf, size_t n) {
     if (!check_times(c, &v) || !check_flags(c, &v) || !check_modes_delays(c, &v))
         return LF_ERROR;
     for (k = 0; k < LF_ND; k++) hist_len += 3 * (size_t)v.hist_count[k];
+    hist_len += (size_t)v.n_bp; /* the breakpoints follow the history */
     need = h.work_len <= n / sizeof(double)
                ? fixed_bytes() + sizeof(double) * ((size_t)h.work_len + hist_len) : 0;
     if (n != need) {
-        refuse(c, "size of the state (bytes)", (double)n, "header + values + work + history");
+        refuse(c, "size of the state (bytes)", (double)n, "header + values + work + history + breakpoints");
         return LF_ERROR;
     }
     /* the doubles are copied out: the bytes need not be aligned */

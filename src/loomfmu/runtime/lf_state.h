@@ -1,7 +1,8 @@
 /* loomfmu shared runtime: the FMU state as a flat byte string (lf_state.c).
  *
  * Layout: LfStateHeader | LfStateValues | solver work (work_len doubles) |
- * history samples (3 doubles each, delay by delay) | checksum.  The checksum
+ * history samples (3 doubles each, delay by delay) | pending delay
+ * breakpoints (n_bp doubles) | checksum.  The checksum
  * is the 64-bit FNV-1a hash of every byte before it (padding included: the
  * writer zeroes the structs first), stored as an unsigned long long in the
  * machine's byte order.  The layout is declared here so that tests can
@@ -12,7 +13,7 @@
 #include <stddef.h>
 #include "lf_runtime.h"
 
-#define LF_STATE_MAGIC 0x4C465332u /* "LFS2" */
+#define LF_STATE_MAGIC 0x4C465333u /* "LFS3" */
 #define LF_STATE_GUID_LEN 64
 #define LF_FNV_OFFSET 0xcbf29ce484222325ULL
 #define LF_FNV_PRIME 0x100000001b3ULL
@@ -34,7 +35,6 @@ typedef struct {
     double e_old[LF_DIM(LF_NE)];
     double dval[LF_DIM(LF_ND)];
     double tau[LF_DIM(LF_ND)];
-    double bp[LF_MAX_BP];
     long hist_count[LF_DIM(LF_ND)];
     int x_set[LF_DIM(LF_NX)];
     double t, t_start, t_stop, rtol_importer, last_successful_time;
@@ -49,6 +49,23 @@ typedef struct {
 
 /* Bytes needed for the instance's current state. */
 size_t lf_state_size(const LfInstance *c);
+/* Fewest and most bytes any state of this FMU can have (the fixed part;
+ * every capacity full and the largest solver workspace): a size outside is
+ * not one of its states.  (Inline: no global symbol to prefix.) */
+#define LF_STATE_FIXED_BYTES \
+    (sizeof(LfStateHeader) + sizeof(LfStateValues) + sizeof(unsigned long long))
+
+static inline size_t lf_state_min_size(void) { return LF_STATE_FIXED_BYTES; }
+
+static inline size_t lf_state_max_size(void) {
+    size_t k, work = 0;
+    for (k = 0; k < lf_n_methods; k++) {
+        size_t w = 2 * (size_t)LF_NX + lf_methods[k]->work_size(LF_NX);
+        if (w > work) work = w;
+    }
+    return LF_STATE_FIXED_BYTES +
+           sizeof(double) * (work + 3 * (size_t)LF_ND * LF_HIST_CAP + (size_t)LF_BP_CAP);
+}
 /* Write the state into buf (lf_state_size bytes), checksum included. */
 void lf_state_write(const LfInstance *c, unsigned char *buf);
 /* Restore buf (n bytes) if it is an intact state of this FMU: checksum,
