@@ -158,6 +158,32 @@ def _model(**kw):
     return Model(kw.pop("name", "m"), **kw)
 
 
+def _declare(fx, fn: str, *args, **kw):
+    """``fn`` of a fresh small model; strings "x" / "2x" / "x,2x" / "x|x" in
+    ``args`` stand for x, 2 x, the column [x; 2 x] and the row [x, x], "empty"
+    for a 0x1 expression, "x+alien" / "x+other x" for x plus a symbol the
+    model did not declare (named "alien" / also named "x")."""
+    import casadi as ca
+    m = fx.small()
+    x = m.var("x").sym
+    subst = {"x": x, "2x": 2 * x, "x,2x": ca.vertcat(x, 2 * x), "x|x": ca.horzcat(x, x),
+             "empty": ca.SX(0, 1), "x+alien": x + ca.SX.sym("alien"),
+             "x+other x": x + ca.SX.sym("x")}
+    args = [subst.get(a, a) if isinstance(a, str) else a for a in args]
+    return getattr(m, fn)(*args, **kw)
+
+
+def _build(fx, model=None, **kw):
+    from loomfmu import build_fmu
+    return build_fmu(fx.model if model is None else model, **{"validate": False, **kw})
+
+
+def _a_file(folder: Path) -> Path:
+    path = folder / "a_file"
+    path.write_text("not a folder")
+    return path
+
+
 def _joint(fx, **kw):
     from loomfmu.friction import coulomb_joint
     m = fx.small()
@@ -270,6 +296,17 @@ def cases() -> list[Case]:
     add("simulate(output='N_rem')", "output", lambda fx: _sim(fx, output="N_rem"))
     add("simulate(output=['h', 'h'])", "output", lambda fx: _sim(fx, output=["h", "h"]))
     add("simulate('nope.fmu')", "fmu", lambda fx: _sim(fx, fmu="nope.fmu"))
+    for v in (7, 0, "rk4", True, 2.0):  # the `solver` enumeration has items 1..3
+        add(f"simulate(values={{'solver': {v!r}}})", "solver",
+            lambda fx, v=v: _sim(fx, values={"solver": v}))
+    add("simulate(values={'k_z': 1e9})  [outside the FMU's max]", "k_z",
+        lambda fx: _sim(fx, values={"k_z": 1e9}))
+    add("simulate(values={'solver_atol': 5.0})", "solver_atol",
+        lambda fx: _sim(fx, values={"solver_atol": 5.0}))
+    add("simulate(atol=5.0)  [outside solver_atol's range]", "atol",
+        lambda fx: _sim(fx, atol=5.0))
+    add("simulate(rtol=1e-20)  [below solver_rtol's min]", "rtol",
+        lambda fx: _sim(fx, rtol=1e-20))
     add("simulate(3)", "fmu", lambda fx: _sim(fx, fmu=3))
 
     def _verify(fx, **kw):
@@ -527,6 +564,54 @@ def cases() -> list[Case]:
         lambda fx: (lambda m: m.delay("d", m.var("x").sym, 1.0, max_delay=NAN,
                                       description="d"))(fx.small()))
     add("m.var('nope')", "nope", lambda fx: fx.small().var("nope"))
+    # non-scalar expressions: a vector output overran the FMU's buffers (SIGSEGV)
+    for expr, text in (("x,2x", "[x; 2x]"), ("x|x", "[x, x]"), ("empty", "SX(0, 1)"),
+                       (NAN, "nan"), (None, "None"), ("fast", "'fast'")):
+        add(f"m.output('y', {text})", "y",
+            lambda fx, e=expr: _declare(fx, "output", "y", e, description="y"))
+    for expr in ("x+alien", "x+other x"):  # free variables of the generated code
+        add(f"m.output('y', {expr})", "y",
+            lambda fx, e=expr: _declare(fx, "output", "y", e, description="y"))
+    add("m.delay('d', [x; 2x], 0.1)", "d",
+        lambda fx: _declare(fx, "delay", "d", "x,2x", 0.1, max_delay=1.0, description="d"))
+    add("m.delay('d', x, tau=[x; 2x])", "tau",
+        lambda fx: _declare(fx, "delay", "d", "x", "x,2x", max_delay=1.0, description="d"))
+    add("m.event('e', [x; 2x])", "e", lambda fx: _declare(fx, "event", "e", "x,2x"))
+    add("m.constraint('c', [x, x], 'm')", "c",
+        lambda fx: _declare(fx, "constraint", "c", "x|x", "m"))
+    add("m.eq([x, x])", "lhs", lambda fx: _declare(fx, "eq", "x|x"))
+    add("m.eq([x; 2x], zeros(3))", "rhs",
+        lambda fx: _declare(fx, "eq", "x,2x", np.zeros(3)))
+    add("m.reinit(2 x, 0)", "state", lambda fx: _declare(fx, "reinit", "2x", 0.0))
+    add("m.der(2 x)", "x", lambda fx: _declare(fx, "der", "2x"))
+    # texts XML or C cannot hold, reserved and duplicate names
+    add("m.state('y', 0, description='a\\x00b')", "description",
+        lambda fx: _declare(fx, "state", "y", 0.0, description="a\x00b"))
+    add("m.parameter('k', 1, source='\\x1b[31m')", "source",
+        lambda fx: _declare(fx, "parameter", "k", 1.0, description="k", source="\x1b[31m"))
+    add("Model('m', description='\\x00')", "description",
+        lambda fx: _model(description="\x00"))
+    add("m.constraint('c', 1, 'two\\nlines')", "message",
+        lambda fx: _declare(fx, "constraint", "c", 1.0, "two\nlines"))
+    for name in ("solver_rtol", "solver", "solver_max_steps", "delay_interpolation", "time"):
+        add(f"m.state({name!r}, 0)  [a name every FMU has]", name,
+            lambda fx, n=name: _declare(fx, "state", n, 0.0, description="d"))
+    add("m.state('x', 0)  [declared twice]", "x",
+        lambda fx: fx.small().state("x", 0.0, description="d"))
+    add("m.event('e', x) twice", "e",
+        lambda fx: (lambda m: [m.event("e", m.var("x").sym) for _ in range(2)])(fx.small()))
+    add("m.event('a b', x)", "name", lambda fx: _declare(fx, "event", "a b", "x"))
+    add("m.port('p', 'shaft', speed=3)", "speed",
+        lambda fx: _declare(fx, "port", "p", "shaft", speed=3))
+    # build_fmu
+    add("build_fmu(out_dir=<an existing file>)", "out_dir",
+        lambda fx: _build(fx, out_dir=_a_file(fx.tmp)))
+    add("build_fmu(out_dir=3)", "out_dir", lambda fx: _build(fx, out_dir=3))
+    add("build_fmu('heald_frame_rigid')", "model", lambda fx: _build(fx, "heald_frame_rigid"))
+    add("build_fmu(validate='yes')", "validate",
+        lambda fx: _build(fx, out_dir=fx.tmp, validate="yes"))
+    add("build_fmu(fmi_version=3)", "fmi_version",
+        lambda fx: _build(fx, out_dir=fx.tmp, fmi_version=3))
 
     def _unit(u):
         from loomfmu.units import check_unit

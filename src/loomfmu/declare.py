@@ -229,6 +229,24 @@ class Model:
         self._by_name[name] = var
         return sym
 
+    def _expr(self, what: str, expr, *, column: bool = False) -> ca.SX:
+        """:func:`as_sx`, and every symbol in it declared in this model (a
+        symbol made elsewhere would be a free variable of the generated code)."""
+        sx = as_sx(what, expr, column=column)
+        known = {v.name: v.sym for v in self.variables}
+        known.update({s.name(): s for s in self._der.values()})
+        known.update({d.sym.name(): d.sym for d in self.delays})
+        known[self.t.name()] = self.t
+        for sym in ca.symvar(sx):
+            mine = known.get(sym.name())
+            if mine is None or not ca.is_equal(sym, mine):
+                which = "not declared" if mine is None else "a symbol of that name made " \
+                    "elsewhere, not the one declared"
+                raise ValueError(f"{what}: symbol {sym.name()!r} is {which} in model "
+                                 f"{self.name}; allowed: expressions of this model's "
+                                 "variables, der(), delays and time")
+        return sx
+
     @staticmethod
     def _new_name(what: str, name, taken) -> str:
         """``name`` for a new ``what`` (event, delay, ...): a C identifier (it is
@@ -275,8 +293,8 @@ class Model:
         self._new_name("delay", name, {d.name for d in self.delays})
         check_number(f"delay {name!r}: max_delay", max_delay, lo=0.0, lo_open=True, unit="s")
         check_text(f"delay {name!r}: description", description)
-        expr = as_sx(f"delay {name!r}: expr", expr)
-        tau = as_sx(f"delay {name!r}: tau", tau)
+        expr = self._expr(f"delay {name!r}: expr", expr)
+        tau = self._expr(f"delay {name!r}: tau", tau)
         others = [self.t, self.syms("state"), self.syms("input"), self.syms("mode"),
                   self.syms("algebraic"), *(d.sym for d in self.delays),
                   *(s for s in self._der.values() if isinstance(s, ca.SX))]
@@ -292,7 +310,7 @@ class Model:
         exceed the frame's).  The FMU refuses to initialize with fmi2Error and
         a log line; Python raises ValueError (``check_constraints``)."""
         self._new_name("constraint", name, {c.name for c in self.constraints})
-        expr = as_sx(f"constraint {name!r}: expr", expr)
+        expr = self._expr(f"constraint {name!r}: expr", expr)
         check_text(f"constraint {name!r}: message", message, c_string=True)
         if ca.depends_on(expr, ca.vertcat(self.t, self.syms("state"), self.syms("input"))):
             raise ValueError(f"constraint {name!r} must depend on parameters only")
@@ -335,7 +353,7 @@ class Model:
         """``valid`` >= 0 where the current value of ``mode`` is consistent;
         ``events``: the event indicators at whose zero this mode is re-chosen."""
         name = as_symbol("mode_rule: mode", mode, self.mode_values, "mode")
-        valid = as_sx(f"mode_rule {name!r}: valid", valid)
+        valid = self._expr(f"mode_rule {name!r}: valid", valid)
         if isinstance(events, (str, bytes)) or not isinstance(events, (list, tuple)):
             raise ValueError(f"mode_rule {name!r}: events = {events!r:.60}; allowed: a list "
                              "of declared event names")
@@ -352,12 +370,12 @@ class Model:
     def reinit(self, state: ca.SX, expr) -> None:
         """The value of ``state`` right after a mode change (default: unchanged)."""
         name = as_symbol("reinit: state", state, self._der)
-        self.reinits[name] = as_sx(f"reinit {name!r}: expr", expr)
+        self.reinits[name] = self._expr(f"reinit {name!r}: expr", expr)
 
     def output(self, name, expr, *, unit="", description="") -> ca.SX:
         """Declare an output defined by ``expr``, a scalar expression of the
         model's variables."""
-        expr = as_sx(f"output {name!r}: expr", expr)
+        expr = self._expr(f"output {name!r}: expr", expr)
         sym = self._add(name, "output", None, unit, description)
         self._by_name[name].expr = expr  # type: ignore[attr-defined]
         return sym
@@ -369,8 +387,8 @@ class Model:
     def eq(self, lhs, rhs=0.0) -> None:
         """Add the equation ``lhs == rhs``: scalars, or columns of the same
         length (one equation per element; a scalar rhs applies to each)."""
-        lhs = as_sx("eq: lhs", lhs, column=True)
-        rhs = as_sx("eq: rhs", rhs, column=True)
+        lhs = self._expr("eq: lhs", lhs, column=True)
+        rhs = self._expr("eq: rhs", rhs, column=True)
         if rhs.shape[0] not in (1, lhs.shape[0]):
             raise ValueError(f"eq: lhs has {lhs.shape[0]} rows, rhs {rhs.shape[0]}; allowed: "
                              "the same number of rows, or a scalar rhs")
@@ -379,7 +397,7 @@ class Model:
     def event(self, name, expr, *, description="") -> None:
         """An event indicator: a breakpoint where scalar ``expr`` changes sign."""
         self._new_name("event", name, {e.name for e in self.events})
-        expr = as_sx(f"event {name!r}: expr", expr)
+        expr = self._expr(f"event {name!r}: expr", expr)
         check_text(f"event {name!r}: description", description)
         self.events.append(EventIndicator(name, expr, description))
 
@@ -401,7 +419,7 @@ class Model:
         itself was set.
         """
         states = as_sx("set_starts_from: states", states, column=True)
-        exprs = as_sx("set_starts_from: exprs", exprs, column=True)
+        exprs = self._expr("set_starts_from: exprs", exprs, column=True)
         if exprs.shape != states.shape:
             raise ValueError(f"set_starts_from: {states.shape[0]} states, {exprs.shape[0]} exprs; "
                              "allowed: one expression per state")
