@@ -64,9 +64,14 @@ def test_the_table_covers_the_issue_examples():
                     "'T_min': 0.9, 'T_max': 0.5", "reference(t_eval=[0.5], t_end=0.01)",
                     "reference(values={'omgea'", "simulate(output=['N_remm'])",
                     "load_model('backrest_regularized', friction='events')",
-                    "harmonics=True", "design_section(10)"):
+                    "harmonics=True", "design_section(10)",
+                    # the adversarial findings on the declaration layer and API
+                    "m.output('y', [x; 2x])", "m.output('y', SX(0, 1))",
+                    "m.delay('d', [x; 2x], 0.1)", "m.output('y', [x, x])",
+                    "description='a\\x00b'", "m.state('solver_rtol', 0)",
+                    "simulate(values={'solver': 7})", "build_fmu(out_dir=<an existing file>)"):
         assert example in labels, example
-    assert len(CASES) >= 154
+    assert len(CASES) >= 340
 
 
 def test_runner_tells_hangs_crashes_and_silence_apart(fx):
