@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import subprocess
 import sys
 import textwrap
@@ -214,6 +215,8 @@ def test_breakpoints_beyond_capacity_discard_with_the_cause(ddein_fmu, slave_fac
     msg = discard_logs(s)
     assert msg and "too many input changes within one delay time" in msg[0], s.log[-2:]
     assert "8192 jumps of delayed values are pending" in msg[0]
+    apart = float(re.search(r"came about (\S+) s apart", msg[0]).group(1))
+    assert apart == pytest.approx(comm, rel=0.01)
     assert msg[0].startswith(f"t = {stopped * comm:.6}")
     assert s.fmu.getRealStatus(2) == pytest.approx(stopped * comm)  # LastSuccessfulTime
     blob = s.fmu.serializeFMUstate(s.fmu.getFMUstate())

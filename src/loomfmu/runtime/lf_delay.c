@@ -104,6 +104,7 @@ LfStatus lf_delayed_rates(LfInstance *c, double t, const double *x, double *rate
  * underflow). */
 static LfStatus breakpoints_fit(LfInstance *c, double t) {
     int i, j = 0, k, need = 0, n_pos = 0, longest = 0;
+    double first = t; /* the earliest pending jump (of the longest delay) */
     for (i = 0; i < c->n_bp; i++)
         if (c->bp[i] > t) c->bp[j++] = c->bp[i];
     c->n_bp = j;
@@ -116,14 +117,15 @@ static LfStatus breakpoints_fit(LfInstance *c, double t) {
         need += !pending;
     }
     if (c->n_bp + need <= LF_BP_CAP) return LF_OK;
+    for (i = 0; i < c->n_bp; i++) first = fmin(first, c->bp[i] - c->tau[longest]);
     lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
            "t = %.17g: too many input changes within one delay time: %d jumps of delayed "
-           "values are pending (the most this FMU holds): each input change (or reinit) "
-           "reaches the equations tau later, and within the last tau = %g s (delay %s) "
-           "they came about %g s apart; change the inputs at most every tau / %d = %g s "
+           "values are pending (the most this FMU holds): each input change (or mode event) "
+           "reaches the equations tau later (tau = %g s, delay %s), and those pending "
+           "came about %g s apart; change the inputs at most every tau / %d = %g s "
            "(a longer communication step, or set an input only when its value changes); "
            "step discarded", t, c->n_bp, c->tau[longest], lf_model.delay_names[longest],
-           c->tau[longest] * n_pos / (c->n_bp > 0 ? c->n_bp : 1), LF_MAX_BP / n_pos,
+           (t - first) * n_pos / (c->n_bp > 0 ? c->n_bp : 1), LF_MAX_BP / n_pos,
            c->tau[longest] * n_pos / LF_MAX_BP); /* reached only with delays */
     return LF_DISCARD;
 }
