@@ -144,6 +144,8 @@ def test_build_verifies_reports_documents_and_shows_progress(built):
     with zipfile.ZipFile(out / "heald_frame_rigid.fmu") as z:
         page = z.read("documentation/index.html").decode()
     assert "rodas4" in page and "reference" in page.lower()
+    # the equations as loomfmu.readable prints them (MathML), not CasADi text
+    assert "<math" in page and "loomfmu inspect heald_frame_rigid" in page
 
 
 def test_simulate_an_fmu_writes_csv_and_plot(built, tmp_path):

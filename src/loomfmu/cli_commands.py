@@ -161,7 +161,9 @@ def cmd_build(args) -> int:
             if not args.no_verify:
                 rep |= {"rtol": args.rtol, **_verify_with_progress(
                     result.path, model, bar, rtol=args.rtol)}
-                write_documentation(result.path, model, verification=rep)
+            bar.stage(f"{name}: documentation (equations in MathML)")
+            write_documentation(result.path, model, verification=rep if not args.no_verify
+                                else None, readable=True)
             reports[name] = rep
             bar.advance(f"{name}: done")
     report_path = out_dir / "report.json"
@@ -421,7 +423,7 @@ def cmd_verify(args) -> int:
         bar.advance(f"{name}: done")
     if args.document:
         from .fmu_doc import write_documentation
-        write_documentation(args.fmu, model, verification=rep)
+        write_documentation(args.fmu, model, verification=rep, readable=True)
         print(f"written: {args.fmu}!documentation/index.html")
     print(summary({name: rep}))
     bad = failures({name: rep}, args.max_error)

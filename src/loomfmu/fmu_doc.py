@@ -81,14 +81,17 @@ footer{margin-top:40px;color:#57606a;font-size:12.5px;border-top:1px solid #d0d7
 
 
 # ------------------------------------------------------------------ the FMU
-def write_documentation(fmu_path, model: Model, *, verification: dict | None = None) -> None:
+def write_documentation(fmu_path, model: Model, *, verification: dict | None = None,
+                        readable: bool = False) -> None:
     """(Re)write ``documentation/index.html`` inside the FMU at ``fmu_path``.
 
     model: the declaration the FMU was built from (its name must match the
     model description's modelName).  verification: the dict returned by
     :func:`loomfmu.verify.verify` (optionally with "rtol", "atol", "ref_rtol",
     "ref_atol"), or None: the page then says the FMU was not verified at
-    build.  Any earlier page is replaced; every other member is kept
+    build.  readable: print the equations with ``loomfmu.readable`` (MathML,
+    shared subexpressions named; seconds of CPU for the spindle) instead of
+    CasADi's text.  Any earlier page is replaced; every other member is kept
     byte-identical.
     """
     fmu_path = Path(fmu_path)
@@ -101,7 +104,8 @@ def write_documentation(fmu_path, model: Model, *, verification: dict | None = N
         xml = z.read("modelDescription.xml").decode("utf-8")
         kept = [(info, z.read(info.filename)) for info in z.infolist()
                 if info.filename != DOC_MEMBER]
-    page = html_for(model, verification, model_description_xml=xml, members=names)
+    page = html_for(model, verification, model_description_xml=xml, members=names,
+                    readable=readable)
     tmp = fmu_path.with_name(fmu_path.name + ".doc.tmp")
     try:
         with zipfile.ZipFile(tmp, "w") as z:
@@ -118,7 +122,7 @@ def write_documentation(fmu_path, model: Model, *, verification: dict | None = N
 
 def html_for(model: Model, verification: dict | None = None, *,
              model_description_xml: str | None = None,
-             members: list[str] | None = None) -> str:
+             members: list[str] | None = None, readable: bool = False) -> str:
     """The documentation page of ``model`` as one self-contained HTML string.
 
     model_description_xml: the FMU's modelDescription.xml (default: generated
@@ -144,7 +148,8 @@ def html_for(model: Model, verification: dict | None = None, *,
         ("experiment", "Default experiment", _experiment(md)),
         ("ports", "Ports", _ports(model)),
         ("variables", "Variables", _variables(model, md)),
-        ("equations", "Equations", _equations(model, csrc)),
+        ("equations", "Equations", _readable_equations(model) if readable
+         else _equations(model, csrc)),
     ]
     nav = "".join(f'<a href="#{a}">{t}</a>' for a, t, _ in sections)
     body = "".join(f'<section id="{a}"><h2>{t}</h2>{s}</section>' for a, t, s in sections)
@@ -387,6 +392,16 @@ def _equations(model: Model, csrc: str) -> str:
             f"<td>{_e(', '.join(e for e, m in model.event_modes.items() if m == n))}</td>"
             "</tr>" for n, vals in model.mode_values.items()]))
     return "".join(out)
+
+
+def _readable_equations(model: Model) -> str:
+    """The derivation part of ``loomfmu inspect``'s report: the equations in
+    MathML, how the runtime solves them, events, delays and constraints."""
+    from .inspect_report import html_fragment
+    return ("<p>Printed from the declaration by <code>loomfmu.readable</code> "
+            "(the printed form evaluates as the generated code, tested); the whole "
+            f"report: <code>loomfmu inspect {_e(model.name)}</code>.</p>"
+            + html_fragment(model))
 
 
 def _is_der(x: ca.SX) -> bool:

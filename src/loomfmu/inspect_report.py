@@ -341,6 +341,43 @@ def render_html(title: str, sections: list[Section]) -> str:
     out = ['<!DOCTYPE html>', '<html lang="en"><head><meta charset="utf-8">',
            f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>",
            f"<h1>{html.escape(title)}</h1>"]
+    return "\n".join(out + _html_blocks(sections) + ["</body></html>"]) + "\n"
+
+
+#: the sections of the report that another page (the FMU's documentation)
+#: takes over; it has its own about and variables sections
+DERIVATION_SECTIONS = ("Equations", "How the runtime solves the model",
+                       "Event indicators and modes", "Delays",
+                       "Constraints on the parameters")
+
+
+def html_fragment(model, *, level: int = 3) -> str:
+    """The equations, how the runtime solves them, events, delays and
+    constraints of ``model`` as an HTML fragment (MathML, its own scoped
+    style, no script) for embedding in another page, headings from <h{level}>."""
+    _, sections = document(model)
+    kept = [Section(s.title, s.blocks, level) for s in sections
+            if s.title in DERIVATION_SECTIONS]
+    return (f'<div class="lf-derivation"><style>{_scoped_css(".lf-derivation")}</style>'
+            + "\n".join(_html_blocks(kept)) + "</div>")
+
+
+def _scoped_css(scope: str) -> str:
+    """_CSS's rules (but the page's body rule) with every selector under ``scope``."""
+    rules = []
+    for rule in _CSS.replace("\n", "").split("}"):
+        if "{" not in rule:
+            continue
+        selectors, body = rule.split("{", 1)
+        if selectors.strip() == "body":
+            continue
+        scoped = ",".join(f"{scope} {sel.strip()}" for sel in selectors.split(","))
+        rules.append(f"{scoped}{{{body}}}")
+    return "".join(rules)
+
+
+def _html_blocks(sections: list[Section]) -> list[str]:
+    out = []
     for b, is_head in _flat(sections):
         if is_head:
             out.append(f"<h{b.level}>{html.escape(b.title)}</h{b.level}>")
@@ -358,7 +395,7 @@ def render_html(title: str, sections: list[Section]) -> str:
                     for e, tag in b.lines]
         elif isinstance(b, Pre):
             out.append(f"<pre>{html.escape(b.text)}</pre>")
-    return "\n".join(out + ["</body></html>"]) + "\n"
+    return out
 
 
 def _md_text(s: str) -> str:
