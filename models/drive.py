@@ -106,5 +106,5 @@ def build(*, cam: str = "compensated", harmonics: int = 96, m: int = 40,
     m_.output("u_delayed", u_delayed, unit="V", description="drive input signal, tau ago")
     m_.output("r", r, unit="m", description="cam radius at the follower")
     m_.output("phi_out", phi, unit="rad", description="cam angle")
-    m_.port("spindles", "shaft", speed="n_out", description="spindle speed to the spindles")
+    m_.port("spindles", "flange", speed="n_out", description="spindle speed to the spindles")
     return m_

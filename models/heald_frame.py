@@ -128,7 +128,7 @@ def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
         apply_values(m, preset_values(preset, m.name))
     # start at the static deflection under the warp load of the bottom dwell
     m.set_starts_from(ca.vertcat(X, Y), ca.vertcat(dx_f * w.f_x, -dy_f * w.f_y))
-    m.port("shaft", "shaft", speed="omega", description="main shaft (speed imposed)")
-    m.port("warp", "warp", elongation="dl", tension="T",
+    m.port("shaft", "flange", speed="omega", description="main shaft (speed imposed)")
+    m.port("warp", "warp", elongation="dl",
            description="warp sheet through the frame's healds")
     return m

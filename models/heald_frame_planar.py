@@ -51,7 +51,7 @@ def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
         from loomfmu.heald.presets import preset_values
         apply_values(m, preset_values(preset, m.name))
     m.set_starts_from(Y, -dy_f * w.f_y)
-    m.port("shaft", "shaft", speed="omega", description="main shaft (speed imposed)")
-    m.port("warp", "warp", elongation="dl", tension="T",
+    m.port("shaft", "flange", speed="omega", description="main shaft (speed imposed)")
+    m.port("warp", "warp", elongation="dl",
            description="warp sheet through the frame's healds")
     return m

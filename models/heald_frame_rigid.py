@@ -32,7 +32,7 @@ def build(*, end_dwell: str = "corrected", preset: str | None = None) -> Model:
     if preset is not None:
         from loomfmu.heald.presets import preset_values
         apply_values(m, preset_values(preset, m.name))
-    m.port("shaft", "shaft", speed="omega", description="main shaft (speed imposed)")
-    m.port("warp", "warp", elongation="dl", tension="T",
+    m.port("shaft", "flange", speed="omega", description="main shaft (speed imposed)")
+    m.port("warp", "warp", elongation="dl",
            description="warp sheet through the frame's healds")
     return m

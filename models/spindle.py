@@ -364,7 +364,7 @@ def declare_dynamics(m: Model, sp: SpindleRotor, Omega, M, C, G, K, basis=None,
         m.eq(m.der(qv[i]), vv[i])
         m.eq(m.der(vv[i]), a[i])
     _outputs(m, sp, q, v)
-    m.port("drive", "shaft", speed="n_rpm", description="spindle speed from the drive "
+    m.port("drive", "flange", speed="n_rpm", description="spindle speed from the drive "
            "(tape on the whorl), rev/min")
 
 

@@ -37,7 +37,7 @@ def test_small_model_resolves_and_matches_exact_solution():
     (lambda m: m.state("s", 0.0), "description"),
     (lambda m: m.der(m.var("k").sym), "not a declared state"),
     (lambda m: m.var("nope"), "no variable"),
-    (lambda m: m.port("p", "shaft", speed="nope"), "not a declared variable"),
+    (lambda m: m.port("p", "flange", speed="nope"), "not a declared variable"),
 ])
 def test_declaration_errors(call, match):
     with pytest.raises(ValueError, match=match):

@@ -36,7 +36,7 @@ def raises(match: str):
 def test_port_kinds_must_match():
     s = loom()
     with raises(r"connection drive.spindles -> back.warp_front: port kinds differ "
-                r"\('shaft' and 'warp'\); allowed: a port of kind 'shaft' of back: none"):
+                r"\('flange' and 'warp'\); allowed: a port of kind 'flange' of back: none"):
         s.connect("drive.spindles", "back.warp_front")
     assert s.connections == []
 

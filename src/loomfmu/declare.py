@@ -143,6 +143,21 @@ class Constraint:
 
 
 @dataclass
+class Quantity:
+    """A named intermediate quantity of the derivation (an energy, a
+    generalized force, a stiffness matrix): kept for the reports and
+    :func:`loomfmu.inspect`, never used by the generated code."""
+
+    name: str
+    expr: ca.SX          # any shape; numbers are constant SX
+    unit: str = ""
+    description: str = ""
+    symbol: str = ""     # LaTeX for the report, e.g. r"T" or r"\delta_{11}"
+    source: str = ""     # seed file and equation, or "derived: how"
+    group: str = ""      # the step of the derivation it belongs to, e.g. "energies"
+
+
+@dataclass
 class EventIndicator:
     """A function whose sign change marks a breakpoint inside a step."""
 
@@ -174,6 +189,8 @@ class Model:
     initials: dict[str, ca.SX] = field(default_factory=dict)
     delays: list[Delay] = field(default_factory=list)
     constraints: list[Constraint] = field(default_factory=list)
+    validity: list[Constraint] = field(default_factory=list)  # must hold while running
+    quantities: list[Quantity] = field(default_factory=list)
     t: ca.SX = field(default_factory=lambda: ca.SX.sym("time"))
 
     def __post_init__(self):
@@ -330,6 +347,46 @@ class Model:
         if bad:
             raise ValueError(f"model {self.name}: " + "; ".join(bad))
 
+    def require(self, name: str, expr, message: str) -> None:
+        """Require ``expr`` >= 0 while the model runs (an expression of the
+        model's variables and time, like an output): a state the model is not
+        valid for, e.g. a warp in compression.  The FMU checks it on every
+        accepted step; where it fails, the step ends with fmi2Discard at the
+        last valid time and a log line naming ``message``, the value and the
+        time."""
+        self._new_name("validity condition", name, {c.name for c in self.validity})
+        expr = self._expr(f"require {name!r}: expr", expr)
+        check_text(f"require {name!r}: message", message, c_string=True)
+        self.validity.append(Constraint(name, expr, message))
+
+    def quantity(self, name: str, expr, *, unit: str = "", description: str,
+                 symbol: str = "", source: str = "", group: str = ""):
+        """Keep the intermediate quantity ``name`` of the derivation (a scalar,
+        vector or matrix expression of this model's variables, or numbers) for
+        the reports; returns ``expr`` unchanged, so a model writes
+        ``T = m.quantity("T", 0.5 * J * w**2, ...)``.  The generated code never
+        uses it: the equations are what runs."""
+        self._new_name("quantity", name, {q.name for q in self.quantities})
+        check_unit(unit)
+        if not description or not isinstance(description, str):
+            raise ValueError(f"quantity {name!r} needs a description (a non-empty string)")
+        for what, text in (("description", description), ("symbol", symbol),
+                           ("source", source), ("group", group)):
+            check_text(f"quantity {name!r}: {what}", text)
+        try:
+            sx = ca.SX(np.asarray(expr, dtype=float)) if isinstance(
+                expr, (list, tuple, np.ndarray)) else ca.SX(expr)
+        except Exception:  # noqa: BLE001 (CasADi raises several types)
+            raise ValueError(f"quantity {name!r}: expr = {type(expr).__name__}; allowed: a "
+                             "CasADi SX/DM expression, a number or a numpy array") from None
+        if sx.numel() == 0:
+            raise ValueError(f"quantity {name!r}: an empty expression; allowed: at least "
+                             "one element")
+        for k in range(sx.numel()):  # each element: this model's symbols, finite
+            self._expr(f"quantity {name!r}[{k}]", sx[k])
+        self.quantities.append(Quantity(name, sx, unit, description, symbol, source, group))
+        return expr
+
     def mode(self, name, start: int, values, *, description="") -> ca.SX:
         """Declare a discrete mode (an Integer output of the FMU).
 
@@ -402,12 +459,41 @@ class Model:
         self.events.append(EventIndicator(name, expr, description))
 
     def port(self, name, kind, *, description="", **roles: str) -> None:
+        """Declare port ``name`` of ``kind`` (a key of loomfmu.ports.PORT_KINDS):
+        ``role=variable`` for some of the kind's roles.  Each variable is an
+        input or an output in a unit of the role's quantity; the roles of the
+        kind's two groups have opposite causality (e.g. a warp port's
+        elongation is an input where its tension is an output)."""
+        from .ports import port_kind
+        from .units import same_quantity
         self._new_name("port", name, {p.name for p in self.ports})
-        check_text(f"port {name!r}: kind", kind)
+        pk = port_kind(kind)
         check_text(f"port {name!r}: description", description)
+        if not roles:
+            raise ValueError(f"port {name!r}: no roles; allowed: some of "
+                             f"{', '.join(pk.roles)}")
+        by_group: dict[int, set[str]] = {}
         for role, var in roles.items():
+            if role not in pk.roles:
+                raise ValueError(f"port {name!r}: role {role!r} is not a role of kind "
+                                 f"{kind!r}; allowed: {', '.join(pk.roles)}")
             if not isinstance(var, str) or var not in self._by_name:
                 raise ValueError(f"port {name!r}: {role}={var!r} is not a declared variable")
+            v = self._by_name[var]
+            if v.kind not in ("input", "output"):
+                raise ValueError(f"port {name!r}: {role}={var!r} is {v.kind} variable; "
+                                 "allowed: an input or an output")
+            if not same_quantity(v.unit, pk.roles[role].unit):
+                raise ValueError(f"port {name!r}: {role}={var!r} has unit {v.unit or '1'!r}; "
+                                 f"allowed: a unit of the quantity of {pk.roles[role].unit!r}")
+            by_group.setdefault(pk.roles[role].group, set()).add(v.kind)
+        if any(len(k) > 1 for k in by_group.values()) or (
+                len(by_group) == 2 and by_group[0] == by_group[1]):
+            raise ValueError(f"port {name!r} of kind {kind!r}: roles "
+                             f"{', '.join(f'{r}={roles[r]}' for r in roles)} do not "
+                             "alternate; allowed: " + " / ".join(
+                                 ", ".join(r for r, x in pk.roles.items() if x.group == g)
+                                 for g in (0, 1)) + " with opposite causality")
         self.ports.append(Port(name, kind, dict(roles), description))
 
     def set_starts_from(self, states: ca.SX, exprs: ca.SX) -> None:

@@ -45,3 +45,14 @@ def check_unit(unit: str) -> None:
                          f"{sorted(UNITS)}")
     if unit and unit not in UNITS:
         raise ValueError(f"unit {unit!r} is not defined; known units: {sorted(UNITS)}")
+
+
+def same_quantity(a: str, b: str) -> bool:
+    """Whether units ``a`` and ``b`` (names in UNITS, "" dimensionless)
+    measure the same quantity (equal base-unit exponents)."""
+    def exps(u):
+        entry = UNITS.get(u, {}) if u else {}
+        return {k: v for k, v in entry.items() if k != "factor" and v}
+    check_unit(a)
+    check_unit(b)
+    return exps(a) == exps(b)
