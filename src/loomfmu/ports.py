@@ -41,11 +41,13 @@ PORT_KINDS: dict[str, PortKind] = {k.name: k for k in (
                                  "(positive when it drives the side that takes the speed)"),
     }, "a rotational flange: speed one way, torque the other"),
     PortKind("warp", {
-        "elongation": Role("m", 0, "elongation of the warp sheet imposed at this end, "
-                                   "measured from the static (at-rest) state; positive "
-                                   "stretches the warp"),
-        "tension": Role("N", 1, "tension of the whole warp sheet at this end (absolute, "
-                                "positive in tension; a warp cannot push)"),
+        "elongation": Role("m", 0, "elongation imposed on the warp ends that pass through "
+                                   "this connection, measured from the static (at-rest) "
+                                   "state; positive stretches them"),
+        "tension": Role("N", 1, "total tension of the warp ends that pass through this "
+                                "connection (all ends at a backrest's single front; one "
+                                "frame's ends at a heald frame); absolute, positive in "
+                                "tension: a warp cannot push"),
     }, "a warp connection: elongation one way, tension the other"),
     PortKind("translational", {
         "position": Role("m", 0, "position of the connection point"),
