@@ -61,13 +61,9 @@ def box_inertia(height, width, wall):
     return (width * height**3 - (width - 2 * wall) * (height - 2 * wall) ** 3) / 12
 
 
-def motion_law(phi, h_m, k_H, end_dwell="corrected"):
-    """Frame displacement H(phi) of the drive locks (seed 000, motion law).
-
-    phi_r = phi mod 2 pi; the sign (-1)^(k_f+1) alternates each revolution
-    (up in odd, down in even revolutions: one frame cycle = two revolutions).
-    Works on CasADi symbols and on floats.
-    """
+def shaft_angle(phi, end_dwell="corrected"):
+    """Revolution count, angle in the revolution phi_r, rising-stroke angle
+    phi_a and the stroke's sign (-1)^(k_f+1) of seed 000's motion law."""
     rev = ca.floor(phi / (2 * math.pi))
     phi_r = phi - 2 * math.pi * rev
     rising = phi_r - 40 * DEG
@@ -77,7 +73,18 @@ def motion_law(phi, h_m, k_H, end_dwell="corrected"):
         phi_a = ca.if_else(phi_r <= 320 * DEG, ca.fmax(rising, 0), 0)
     else:
         raise ValueError(f"end_dwell = {end_dwell!r}; allowed: 'corrected', 'printed'")
-    sign = 1 - 2 * (rev - 2 * ca.floor(rev / 2))
+    return rev, phi_r, phi_a, 1 - 2 * (rev - 2 * ca.floor(rev / 2))
+
+
+def motion_law(phi, h_m, k_H, end_dwell="corrected"):
+    """Frame displacement H(phi) of the drive locks (seed 000, motion law).
+
+    phi_r = phi mod 2 pi; the sign (-1)^(k_f+1) alternates each revolution
+    (up in odd, down in even revolutions: one frame cycle = two revolutions,
+    so a frame in opposition is the same law shifted by one revolution,
+    H(phi + 2 pi) = -H(phi)).  Works on CasADi symbols and on floats.
+    """
+    _, _, phi_a, sign = shaft_angle(phi, end_dwell)
     theta = k_H * phi_a
     return h_m * ((theta - ca.sin(theta)) / math.pi - 1) * sign
 
@@ -97,6 +104,10 @@ class Motion:
     H: ca.SX
     h_dot: ca.SX
     h_ddot: ca.SX
+    k_H: ca.SX = None
+    end_dwell: str = "corrected"
+    H1: ca.SX = None     # dH/dphi
+    H2: ca.SX = None     # d2H/dphi2
 
 
 def declare_motion(m: Model, *, end_dwell: str) -> Motion:
@@ -111,7 +122,8 @@ def declare_motion(m: Model, *, end_dwell: str) -> Motion:
                     "(held constant over a communication step; its derivative is taken "
                     "as zero in the frame acceleration)", min=0.0, max=500.0)
     phi = m.state("phi", 0.0, unit="rad", description="main-shaft angle (0: start of the "
-                  "bottom dwell)")
+                  "bottom dwell; a second frame in opposition, as in a plain weave, starts "
+                  "at 2 pi: one stroke per revolution, H(phi + 2 pi) = -H(phi))")
     m.eq(m.der(phi), omega)
     H = motion_law(phi, h_m, k_H, end_dwell)
     H1 = ca.jacobian(H, phi)
@@ -119,7 +131,13 @@ def declare_motion(m: Model, *, end_dwell: str) -> Motion:
     for deg in BREAKPOINTS_DEG:
         m.event(f"dwell_{int(deg)}deg", ca.sin((phi - deg * DEG) / 2),
                 description=f"main shaft passes {deg:g} deg (dwell boundary)")
-    return Motion(phi, omega, h_m, H, H1 * omega, H2 * omega**2)
+    return Motion(phi, omega, h_m, H, H1 * omega, H2 * omega**2, k_H, end_dwell, H1, H2)
+
+
+#: Values of the build option ``warp_tension``.
+WARP_TENSION = ("geometry", "input")
+#: Start of the tension input: n_n x the mean of seed 000's T_min, T_max per end.
+T_INPUT_START = 1000.0 * (0.3 + 0.8) / 2
 
 
 @dataclass
@@ -128,39 +146,83 @@ class Warp:
     dl: ca.SX
     f_x: ca.SX
     f_y: ca.SX
+    n_n: ca.SX = None
+    s_x: ca.SX = None
+    s_y: ca.SX = None
+    dl_max: ca.SX = None
+    L1: ca.SX = None
+    L2: ca.SX = None
+    mode: str = "geometry"
 
 
-def declare_warp(m: Model, mo: Motion) -> Warp:
-    """Shed and warp parameters (seed 000, fig. 2) and the warp loads."""
+def declare_warp(m: Model, mo: Motion, warp_tension: str = "geometry") -> Warp:
+    """Shed and warp parameters (seed 000, fig. 2) and the warp loads.
+
+    warp_tension: 'geometry' (seed 000: T grows linearly with the shed's
+    elongation from n_n T_min to n_n T_max) or 'input' (T is an input, the
+    total tension of this frame's ends, e.g. from a backrest; it must not be
+    negative: validity condition ``warp_taut``).
+    """
+    check_option("warp_tension", warp_tension, WARP_TENSION)
     P = m.parameter
     l_1 = P("l_1", 0.05, unit="m", description="depth of the front shed", source=SEED0,
             min=0.005, max=1.0)
     k_z = P("k_z", 5.0, description="shed asymmetry l_2/l_1 (1: symmetric shed)",
             source=SEED0, min=0.1, max=50.0)
-    n_n = P("n_n", 1000.0, description="number of warp threads in the frame",
-            source=SEED0 + "; presets: " + SEED2 + " table 2 (threads per frame)",
+    n_n = P("n_n", 1000.0, description="number of warp ends drawn through this frame's "
+            "healds (a plain weave with two frames: half the sheet's ends each)",
+            source=SEED0 + " (n_n = 1000 warp threads; read as the ends through the one "
+            "frame modelled, whose tension T loads it); presets: " + SEED2 + " table 2 "
+            "(threads per frame)",
             min=1.0, max=1e5)
-    T_min = P("T_min", 0.3, unit="N", description="least working tension of one thread",
-              source=SEED0 + " (read as per-thread values: total T = n_n x per-thread); "
-              "presets: 0.3/0.8 of T_max", min=0.0, max=100.0)
-    T_max = P("T_max", 0.8, unit="N", description="greatest working tension of one thread",
-              source=SEED0 + "; presets: " + SEED2 + " table 2 note, F_T by yarn / "
-              "(sin a1 + sin a2) at the open shed", min=0.0, max=100.0)
-    m.constraint("tension_order", T_max - T_min, "the least working tension T_min exceeds "
-                 "the greatest T_max")
     l_2 = k_z * l_1
     dl, s_y, s_x = warp_geometry(mo.H, l_1, l_2)
     dl_max = warp_geometry(mo.h_m, l_1, l_2)[0]
-    T = n_n * (T_min + (T_max - T_min) * dl / dl_max)
-    return Warp(T, dl, T * s_x, T * s_y)
+    if warp_tension == "geometry":
+        T_min = P("T_min", 0.3, unit="N", description="least working tension of one thread",
+                  source=SEED0 + " (read as per-thread values: total T = n_n x per-thread); "
+                  "presets: 0.3/0.8 of T_max", min=0.0, max=100.0)
+        T_max = P("T_max", 0.8, unit="N", description="greatest working tension of one "
+                  "thread", source=SEED0 + "; presets: " + SEED2 + " table 2 note, F_T by "
+                  "yarn / (sin a1 + sin a2) at the open shed", min=0.0, max=100.0)
+        m.constraint("tension_order", T_max - T_min, "the least working tension T_min "
+                     "exceeds the greatest T_max")
+        T = n_n * (T_min + (T_max - T_min) * dl / dl_max)
+    else:
+        T = m.input("T", T_INPUT_START, unit="N", description="total tension of the warp "
+                    "ends through this frame (n_n ends; absolute, positive in tension), "
+                    "e.g. a backrest's front tension; start: n_n x the mean of seed 000's "
+                    "0.3 and 0.8 N per end", max=1e6)
+        m.require("warp_taut", T, "warp in compression: the tension input T is negative; "
+                  "the heald frame model is not valid for a warp that pushes")
+    L1, L2 = ca.sqrt(l_1**2 + mo.H**2), ca.sqrt(l_2**2 + mo.H**2)
+    return Warp(T, dl, T * s_x, T * s_y, n_n, s_x, s_y, dl_max, L1, L2, warp_tension)
 
 
 def declare_warp_outputs(m: Model, w: Warp) -> None:
-    m.output("T", w.T, unit="N", description="total working tension of the warp in the frame")
-    m.output("dl", w.dl, unit="m", description="warp elongation by the shed")
+    if w.mode == "geometry":
+        m.output("T", w.T, unit="N", description="total working tension of the warp ends "
+                 "through the frame")
+    else:
+        m.output("T_end", w.T / w.n_n, unit="N", description="mean tension of one warp "
+                 "end through the frame (T / n_n; seed 000: 0.3 to 0.8 N)")
+    m.output("dl", w.dl, unit="m", description="elongation of each warp end through the "
+             "frame imposed by the shed, measured from the closed shed (frame at the "
+             "middle, h = 0, where the ends run straight over l_1 + l_2: the at-rest state "
+             "of the warp port); positive stretches; zero or more")
     m.output("f_x", w.f_x, unit="N", description="horizontal warp load on the top slat")
     m.output("f_y", w.f_y, unit="N", description="vertical warp load on the top slat "
              "(positive: towards the shed's centre line)")
+
+
+def declare_ports(m: Model, w: Warp) -> None:
+    """The main-shaft flange and the warp connection (tension too in 'input' mode)."""
+    m.port("shaft", "flange", speed="omega", description="main shaft (speed imposed)")
+    roles = {"elongation": "dl"} if w.mode == "geometry" else {"elongation": "dl",
+                                                                "tension": "T"}
+    m.port("warp", "warp", description="the warp ends through the frame's healds: the "
+           "shed's elongation out" + ("" if w.mode == "geometry" else
+                                      ", their total tension in"), **roles)
 
 
 def declare_motion_outputs(m: Model, mo: Motion) -> None:
@@ -273,17 +335,36 @@ def declare_section(m: Model, *, horizontal: bool) -> Section:
                    s_w * s_t**3 / 12, m_l, rho * s_w * s_t * s_L, rho * s_w * s_t, l_n)
 
 
-def vertical(sec: Section):
+@dataclass
+class Bending:
+    """One bending plane: influence coefficients, stiffness, reduced masses."""
+
+    d11: ca.SX
+    d22: ca.SX
+    d_f: ca.SX      # influence of the warp load at the mid-section on y1, y2, y3
+    C: ca.SX        # seed's closed form of delta^-1 (what the equations use)
+    M: ca.SX        # reduced masses (column)
+    m_B: ca.SX = None  # mass of the side stay's cantilever (horizontal only)
+
+    def __iter__(self):  # C, d_f, M = vertical(sec)
+        return iter((self.C, self.d_f, self.M))
+
+    @property
+    def delta(self):
+        return influence(self.d11, self.d22)
+
+
+def vertical(sec: Section) -> Bending:
     """In-plane (vertical) influence, stiffness and reduced masses (seed 000)."""
     l, E, J_x, l_n = sec.l, sec.E, sec.J_x, sec.l_n
     dy11 = l_n**3 / (3 * E * J_x)
     dy22 = (l_n**3 + l**3 / 8) / (6 * E * J_x)
     dy_f = ca.vertcat(dy11 / 2, dy11 / 2 + 5 * l**3 / (384 * E * J_x), dy11 / 2)
     m_y1 = sec.m_l / 4 + sec.m_h + sec.m_l * (l_n / l) * 33 / 140
-    return stiffness(dy11, dy22), dy_f, ca.vertcat(m_y1, sec.m_l / 2, m_y1)
+    return Bending(dy11, dy22, dy_f, stiffness(dy11, dy22), ca.vertcat(m_y1, sec.m_l / 2, m_y1))
 
 
-def horizontal(sec: Section, k_B, h_B=None):
+def horizontal(sec: Section, k_B, h_B=None) -> Bending:
     """Out-of-plane influence, stiffness and reduced masses (seed 000);
     ``h_B``: the side stays' cantilever length (default: the parameter)."""
     h_B = sec.h_B if h_B is None else h_B
@@ -293,7 +374,17 @@ def horizontal(sec: Section, k_B, h_B=None):
     dx_f = ca.vertcat(dx11 / 2, dx11 / 2 + 5 * l**3 / (384 * E * J_y), dx11 / 2)
     m_B = sec.rho_stay * h_B
     M_x = ca.vertcat(sec.m_l / 4 + m_B * k_B, sec.m_l / 2, sec.m_l / 4 + m_B * k_B)
-    return stiffness(dx11, dx22), dx_f, M_x
+    return Bending(dx11, dx22, dx_f, stiffness(dx11, dx22), M_x, m_B)
+
+
+def apply_preset(m: Model, preset: str | None) -> None:
+    """Start values of seed 002's preset ``preset`` for the parameters ``m``
+    has (with the tension as an input, T_min and T_max are not parameters)."""
+    if preset is None:
+        return
+    from loomfmu.heald.presets import preset_values
+    names = {v.name for v in m.of_kind("parameter")}
+    apply_values(m, {k: v for k, v in preset_values(preset, m.name).items() if k in names})
 
 
 def apply_values(m: Model, values: dict[str, float] | None) -> None:

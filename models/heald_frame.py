@@ -50,36 +50,42 @@ import casadi as ca
 
 from loomfmu.declare import Model
 from loomfmu.models.heald_common import (  # noqa: F401  (re-exported for tests)
-    BREAKPOINTS_DEG, DEG, SEED0, apply_values, box_inertia, check_option, declare_hinge_outputs,
-    declare_loads, declare_motion, declare_motion_outputs, declare_section, declare_warp,
-    declare_warp_outputs, horizontal, influence, motion_law, stiffness, vertical)
+    BREAKPOINTS_DEG, DEG, SEED0, WARP_TENSION, apply_preset, apply_values, box_inertia,
+    check_option, declare_hinge_outputs, declare_loads, declare_motion, declare_motion_outputs,
+    declare_ports, declare_section, declare_warp, declare_warp_outputs, horizontal, influence,
+    motion_law, stiffness, vertical)
 
 SEED = SEED0
 
 
 def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
-          h_B_law: str = "constant", preset: str | None = None) -> Model:
+          h_B_law: str = "constant", preset: str | None = None,
+          warp_tension: str = "geometry") -> Model:
     """The spatial heald frame.
 
     end_dwell, inertia: 'corrected' or 'printed' (defects D2, D3).
     h_B_law: 'constant' (the seed) or 'variable' (cantilever length follows the frame).
     preset: a name of :func:`loomfmu.heald.presets.preset_names` (start values).
+    warp_tension: 'geometry' (seed 000: T from the shed's elongation; output T) or
+        'input' (T, the total tension of the frame's ends, is an input: the warp
+        port takes tension in and gives the elongation dl out).
     """
     check_option("end_dwell", end_dwell, ("corrected", "printed"))
     check_option("inertia", inertia, ("corrected", "printed"))
     check_option("h_B_law", h_B_law, ("constant", "variable"))
+    check_option("warp_tension", warp_tension, WARP_TENSION)
     m = Model("heald_frame", description="Spatial vibrations of a loom heald frame "
               "(ATPR-180): 6-DOF slat bending under warp tension, seed 000; hinge load, "
               "seed 002",
               stop_time=4 * math.pi / 60 * 2, step_size=1e-3, h_fixed=2e-5,
               options={"end_dwell": end_dwell, "inertia": inertia, "h_B_law": h_B_law,
-                       "preset": preset})
+                       "preset": preset, "warp_tension": warp_tension})
     sec = declare_section(m, horizontal=True)
     k_B = m.parameter("k_B", 33 / 140, description="reduced-mass factor of the side stay's "
                       "cantilever", source=SEED + ", m_x1: printed 33/280, corrected to "
                       "33/140 (defect D4)", min=0.0, max=1.0)
     mo = declare_motion(m, end_dwell=end_dwell)
-    w = declare_warp(m, mo)
+    w = declare_warp(m, mo, warp_tension)
     ld = declare_loads(m)
     h_B = None
     if h_B_law == "variable":
@@ -89,8 +95,9 @@ def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
                            "position (h_m) makes the variable length the shorter one, which "
                            "the seed's 'increase in stiffness' implies", min=-0.2, max=0.2)
         h_B = ca.fmax(sec.h_B + mo.H - H_hB, 0.2 * sec.h_B)
-    C_x, dx_f, M_x = horizontal(sec, k_B, h_B)
-    C_y, dy_f, M_y = vertical(sec)
+    bx, by = horizontal(sec, k_B, h_B), vertical(sec)
+    C_x, dx_f, M_x = bx
+    C_y, dy_f, M_y = by
 
     X = ca.vertcat(*[m.state(f"x{i}", 0.0, unit="m", nominal=1e-3,
                              description=f"horizontal displacement of top-slat point {i} "
@@ -123,12 +130,10 @@ def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
              "slat's mid-section")
     declare_warp_outputs(m, w)
     declare_hinge_outputs(m, ld, mo, w, elastic=ca.dot(M_y, AY), reduced_mass=ca.sum1(M_y))
-    if preset is not None:
-        from loomfmu.heald.presets import preset_values
-        apply_values(m, preset_values(preset, m.name))
-    # start at the static deflection under the warp load of the bottom dwell
+    apply_preset(m, preset)
+    # start at the static deflection under the warp load at the start angle
     m.set_starts_from(ca.vertcat(X, Y), ca.vertcat(dx_f * w.f_x, -dy_f * w.f_y))
-    m.port("shaft", "flange", speed="omega", description="main shaft (speed imposed)")
-    m.port("warp", "warp", elongation="dl",
-           description="warp sheet through the frame's healds")
+    declare_ports(m, w)
+    from loomfmu.heald.derivation import declare_quantities
+    declare_quantities(m, mo=mo, w=w, sec=sec, bx=bx, by=by, k_B=k_B, inertia=inertia)
     return m

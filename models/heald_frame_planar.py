@@ -15,24 +15,28 @@ import casadi as ca
 
 from loomfmu.declare import Model
 from loomfmu.models.heald_common import (
-    apply_values, check_option, declare_hinge_outputs, declare_loads, declare_motion,
-    declare_motion_outputs, declare_section, declare_warp, declare_warp_outputs, vertical)
+    WARP_TENSION, apply_preset, check_option, declare_hinge_outputs, declare_loads,
+    declare_motion, declare_motion_outputs, declare_ports, declare_section, declare_warp,
+    declare_warp_outputs, vertical)
 
 
 def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
-          preset: str | None = None) -> Model:
+          preset: str | None = None, warp_tension: str = "geometry") -> Model:
     """The planar heald frame; options as for ``heald_frame.build``."""
     check_option("end_dwell", end_dwell, ("corrected", "printed"))
     check_option("inertia", inertia, ("corrected",))  # M_x (printed D3) does not exist here
+    check_option("warp_tension", warp_tension, WARP_TENSION)
     m = Model("heald_frame_planar", description="Heald frame, in-plane slat bending "
               "(3 DOF) under warp tension and frame inertia, seeds 000 and 002",
               stop_time=4 * math.pi / 60 * 2, step_size=1e-3, h_fixed=2e-5,
-              options={"end_dwell": end_dwell, "preset": preset})
+              options={"end_dwell": end_dwell, "preset": preset,
+                       "warp_tension": warp_tension})
     sec = declare_section(m, horizontal=False)
     mo = declare_motion(m, end_dwell=end_dwell)
-    w = declare_warp(m, mo)
+    w = declare_warp(m, mo, warp_tension)
     ld = declare_loads(m)
-    C_y, dy_f, M_y = vertical(sec)
+    by = vertical(sec)
+    C_y, dy_f, M_y = by
     Y = ca.vertcat(*[m.state(f"y{i}", 0.0, unit="m", nominal=1e-4,
                              description=f"vertical displacement of top-slat point {i}, "
                              "relative to the drive locks") for i in (1, 2, 3)])
@@ -47,11 +51,9 @@ def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
              "slat's mid-section")
     declare_warp_outputs(m, w)
     declare_hinge_outputs(m, ld, mo, w, elastic=ca.dot(M_y, AY), reduced_mass=ca.sum1(M_y))
-    if preset is not None:
-        from loomfmu.heald.presets import preset_values
-        apply_values(m, preset_values(preset, m.name))
+    apply_preset(m, preset)
     m.set_starts_from(Y, -dy_f * w.f_y)
-    m.port("shaft", "flange", speed="omega", description="main shaft (speed imposed)")
-    m.port("warp", "warp", elongation="dl",
-           description="warp sheet through the frame's healds")
+    declare_ports(m, w)
+    from loomfmu.heald.derivation import declare_quantities
+    declare_quantities(m, mo=mo, w=w, sec=sec, by=by)
     return m

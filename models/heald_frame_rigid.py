@@ -12,27 +12,28 @@ import math
 
 from loomfmu.declare import Model
 from loomfmu.models.heald_common import (
-    apply_values, check_option, declare_hinge_outputs, declare_loads, declare_motion,
-    declare_motion_outputs, declare_warp, declare_warp_outputs)
+    WARP_TENSION, apply_preset, check_option, declare_hinge_outputs, declare_loads,
+    declare_motion, declare_motion_outputs, declare_ports, declare_warp, declare_warp_outputs)
 
 
-def build(*, end_dwell: str = "corrected", preset: str | None = None) -> Model:
-    """The rigid heald frame; ``end_dwell`` and ``preset`` as for ``heald_frame.build``."""
+def build(*, end_dwell: str = "corrected", preset: str | None = None,
+          warp_tension: str = "geometry") -> Model:
+    """The rigid heald frame; options as for ``heald_frame.build``."""
     check_option("end_dwell", end_dwell, ("corrected", "printed"))
+    check_option("warp_tension", warp_tension, WARP_TENSION)
     m = Model("heald_frame_rigid", description="Heald frame as a rigid body: motion law, "
               "warp forces and the drive-hinge load, seeds 000 and 002",
               stop_time=4 * math.pi / 60 * 2, step_size=1e-3, h_fixed=2e-5,
-              options={"end_dwell": end_dwell, "preset": preset})
+              options={"end_dwell": end_dwell, "preset": preset,
+                       "warp_tension": warp_tension})
     mo = declare_motion(m, end_dwell=end_dwell)
-    w = declare_warp(m, mo)
+    w = declare_warp(m, mo, warp_tension)
     ld = declare_loads(m)
     declare_motion_outputs(m, mo)
     declare_warp_outputs(m, w)
     declare_hinge_outputs(m, ld, mo, w)
-    if preset is not None:
-        from loomfmu.heald.presets import preset_values
-        apply_values(m, preset_values(preset, m.name))
-    m.port("shaft", "flange", speed="omega", description="main shaft (speed imposed)")
-    m.port("warp", "warp", elongation="dl",
-           description="warp sheet through the frame's healds")
+    apply_preset(m, preset)
+    declare_ports(m, w)
+    from loomfmu.heald.derivation import declare_quantities
+    declare_quantities(m, mo=mo, w=w)
     return m
