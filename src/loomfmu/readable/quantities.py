@@ -1,0 +1,211 @@
+"""The derivation's named quantities (``model.quantities``) in SymPy, and
+their symbols printed as the model writes them.
+
+A quantity's ``symbol`` is LaTeX (e.g. ``r"\\delta_{11}"``, ``r"\\mathbf{C}"``);
+:class:`QuantitySymbol` prints it as given in LaTeX and, through the small
+LaTeX subset :func:`symbol_mathml` reads (letters, digits, Greek, ``_``,
+``^``, ``'``, ``\\mathrm``, ``\\mathbf``, ``\\boldsymbol``, ``\\text``, accents),
+as MathML; a symbol outside that subset prints, in MathML, as the quantity's
+name.
+"""
+from __future__ import annotations
+
+import re
+from xml.dom import minidom
+from xml.sax.saxutils import escape
+
+import sympy
+from sympy.printing.pretty.pretty_symbology import greek_unicode
+
+from .convert import symbols, to_sympy_matrix
+from .names import _mathml_name, latex_name
+
+_GREEK_CMDS = {n: greek_unicode[n] for n in greek_unicode
+               if n.isalpha() and n.lower() != "lamda"}
+_GREEK_CMDS |= {"varepsilon": "\u03b5", "epsilon": "\u03f5", "vartheta": "\u03d1",
+                "varphi": "\u03c6", "phi": "\u03d5", "varrho": "\u03f1", "varsigma": "\u03c2"}
+_ACCENT_MARKS = {"dot": "\u02d9", "ddot": "\u00a8", "hat": "^", "bar": "\u00af",
+                 "tilde": "~", "vec": "\u2192", "check": "\u02c7"}
+_FONTS = {"mathrm", "mathbf", "boldsymbol", "text", "mathit", "operatorname"}
+_TOKEN = re.compile(r"\\[A-Za-z]+|\\.|[A-Za-z]|\d+(?:\.\d+)?|\s+|.")
+
+
+class _Unsupported(ValueError):
+    """A symbol outside the LaTeX subset symbol_mathml reads."""
+
+
+def _bold(text: str) -> str:
+    """Text in Unicode's mathematical bold letters (MathML Core has no
+    mathvariant="bold"; browsers show these characters bold)."""
+    out = []
+    for c in text:
+        if "A" <= c <= "Z":
+            out.append(chr(0x1D400 + ord(c) - ord("A")))
+        elif "a" <= c <= "z":
+            out.append(chr(0x1D41A + ord(c) - ord("a")))
+        elif "0" <= c <= "9":
+            out.append(chr(0x1D7CE + ord(c) - ord("0")))
+        elif "\u0391" <= c <= "\u03a9":
+            out.append(chr(0x1D6A8 + ord(c) - 0x391))
+        elif "\u03b1" <= c <= "\u03c9":
+            out.append(chr(0x1D6C2 + ord(c) - 0x3B1))
+        else:
+            out.append(c)
+    return "".join(out)
+
+
+class _Reader:
+    """Recursive descent over the tokens of a LaTeX symbol, writing MathML."""
+
+    def __init__(self, latex: str):
+        self.toks = [t for t in _TOKEN.findall(latex) if not t.isspace()]
+        self.k = 0
+
+    def peek(self):
+        return self.toks[self.k] if self.k < len(self.toks) else None
+
+    def take(self):
+        tok = self.peek()
+        if tok is None:
+            raise _Unsupported("unexpected end")
+        self.k += 1
+        return tok
+
+    def seq(self, closing=None) -> str:
+        parts = []
+        while self.peek() is not None and self.peek() != closing:
+            parts.append(self.atom())
+        if closing is not None:
+            if self.take() != closing:
+                raise _Unsupported("unbalanced braces")
+        return parts[0] if len(parts) == 1 else "<mrow>%s</mrow>" % "".join(parts)
+
+    def raw_group(self) -> str:
+        """The text of a ``{...}`` argument (no nesting beyond plain text)."""
+        if self.take() != "{":
+            raise _Unsupported("a font command needs {...}")
+        text = []
+        while self.peek() != "}":
+            tok = self.take()
+            if tok.startswith("\\"):
+                name = tok[1:]
+                if name not in _GREEK_CMDS:
+                    raise _Unsupported(tok)
+                tok = _GREEK_CMDS[name]
+            text.append(tok)
+        self.take()
+        return "".join(text)
+
+    def group(self) -> str:
+        if self.peek() == "{":
+            self.take()
+            return self.seq("}")
+        return self.base()
+
+    def base(self) -> str:
+        tok = self.take()
+        if tok == "{":
+            return self.seq("}")
+        if tok.startswith("\\") and len(tok) > 1:
+            name = tok[1:]
+            if name in _GREEK_CMDS:
+                return f"<mi>{_GREEK_CMDS[name]}</mi>"
+            if name in _FONTS:
+                text = escape(self.raw_group())
+                if name in ("mathbf", "boldsymbol"):
+                    return f"<mi>{_bold(text)}</mi>"
+                if name == "text":
+                    return f"<mtext>{text}</mtext>"
+                if name == "mathit":
+                    return f"<mi>{text}</mi>"
+                return f'<mi mathvariant="normal">{text}</mi>'
+            if name in _ACCENT_MARKS:
+                return (f'<mover accent="true">{self.group()}'
+                        f"<mo>{_ACCENT_MARKS[name]}</mo></mover>")
+            if name == "prime":
+                return "<mo>\u2032</mo>"
+            raise _Unsupported(tok)
+        if tok.isalpha():
+            return f"<mi>{tok}</mi>"
+        if tok[0].isdigit():
+            return f"<mn>{tok}</mn>"
+        if tok in "_^}":
+            raise _Unsupported(tok)
+        return f"<mo>{escape(tok)}</mo>"
+
+    def atom(self) -> str:
+        base, sub, sup = self.base(), None, None
+        while self.peek() in ("_", "^", "'"):
+            tok = self.take()
+            if tok == "'":
+                sup = (sup or "") + "<mo>\u2032</mo>"
+            elif tok == "_":
+                sub = self.group()
+            else:
+                sup = (sup or "") + self.group()
+        if sub is not None and sup is not None:
+            return f"<msubsup>{base}{sub}<mrow>{sup}</mrow></msubsup>"
+        if sub is not None:
+            return f"<msub>{base}{sub}</msub>"
+        if sup is not None:
+            return f"<msup>{base}<mrow>{sup}</mrow></msup>"
+        return base
+
+
+def symbol_mathml(latex: str) -> str:
+    """Presentation MathML (no ``<math>`` element) of a LaTeX symbol such as
+    ``\\delta_{11}``, ``\\mathbf{K}_e`` or ``\\dot{x}'``.  Raises ValueError for
+    LaTeX outside the subset (see the module's docstring)."""
+    reader = _Reader(latex)
+    try:
+        out = reader.seq()
+    except _Unsupported as exc:
+        raise ValueError(f"symbol = {latex!r}: {exc} is outside the LaTeX subset "
+                         "loomfmu.readable prints as MathML (letters, digits, Greek, _ ^ ', "
+                         "\\mathrm \\mathbf \\boldsymbol \\text \\mathit, accents)") from None
+    return out
+
+
+class QuantitySymbol(sympy.Symbol):
+    """A named quantity's symbol: ``name`` is the quantity's name; it prints
+    as the quantity's LaTeX ``symbol`` (or as a variable name would, when the
+    quantity gives none)."""
+
+    def __new__(cls, name: str, latex: str = ""):
+        obj = sympy.Symbol.__xnew__(cls, name)  # uncached: the symbol text is ours
+        obj._symbol_latex = latex
+        return obj
+
+    def __getnewargs_ex__(self):
+        return (self.name, self._symbol_latex), {}
+
+    def _hashable_content(self):
+        return super()._hashable_content() + (self._symbol_latex,)
+
+    def _latex(self, printer):
+        return self._symbol_latex or latex_name(self.name)
+
+    def _mathml_presentation(self, printer):
+        if self._symbol_latex:
+            try:
+                xml = symbol_mathml(self._symbol_latex)
+            except ValueError:
+                return _mathml_name(self.name, printer.dom)
+            node = minidom.parseString(
+                f'<math xmlns="http://www.w3.org/1998/Math/MathML">{xml}</math>')
+            return printer.dom.importNode(node.documentElement.firstChild, True)
+        return _mathml_name(self.name, printer.dom)
+
+
+def quantity(model, q) -> sympy.Expr | sympy.Matrix:
+    """The SymPy form of quantity ``q`` (a ``declare.Quantity`` of ``model``):
+    a scalar expression for a 1x1 quantity, else a ``sympy.Matrix`` of its
+    shape."""
+    mat = to_sympy_matrix(q.expr, symbols(model))
+    return mat[0, 0] if mat.shape == (1, 1) else mat
+
+
+def quantities(model) -> list[tuple[object, sympy.Expr | sympy.Matrix]]:
+    """Each of the model's named quantities in declaration order, with its
+    SymPy form: [(Quantity, expr or Matrix), ...]."""
+    return [(q, quantity(model, q)) for q in model.quantities]
