@@ -41,7 +41,7 @@ D4 = ("defect D4: printed m_B 33/280; the tip-equivalent mass of a uniform canti
       "33/140 m_B (Rayleigh), the factor the seed itself uses for the lower slat in m_y1")
 
 
-def _bending(m: Model, b: Bending, axis: str, closed_source: str) -> None:
+def _influence(m: Model, b: Bending, axis: str) -> None:
     Q = m.quantity
     sub = f"{axis}"
     Q(f"delta_{sub}11", b.d11, unit="m/N", group=G_DELTA, symbol=rf"\delta_{{{sub}11}}",
@@ -57,6 +57,11 @@ def _bending(m: Model, b: Bending, axis: str, closed_source: str) -> None:
     Q(f"delta_{sub}f", b.d_f, unit="m/N", group=G_DELTA, symbol=rf"\delta_{{{sub}f}}",
       description=f"influence of the warp load at the top slat's mid-section on {axis}1, "
       f"{axis}2, {axis}3", source=SEED0 + ", (3)")
+
+
+def _stiffness(m: Model, b: Bending, axis: str, closed_source: str) -> None:
+    Q = m.quantity
+    sub = f"{axis}"
     Q(f"C_{sub}_inv", ca.inv(b.delta), unit="N/m", group=G_C,
       symbol=rf"C_{{{sub}}} = \delta_{{{sub}}}^{{-1}}",
       description=f"stiffness matrix of the {axis} coordinates as the symbolic inverse of "
@@ -99,10 +104,11 @@ def declare_quantities(m: Model, *, mo: Motion, w: Warp, sec: Section | None = N
         Q("m_h", sec.m_h, unit="kg", group=G_SEC, symbol=r"m_h",
           description="mass of one side stay", source="derived: gamma s_w s_t s_L "
           "(assumed section, see J_z)")
-    if by is not None:
-        _bending(m, by, "y", closed)
-    if bx is not None:
-        _bending(m, bx, "x", closed)
+    planes = [(b, a) for b, a in ((by, "y"), (bx, "x")) if b is not None]
+    for b, axis in planes:
+        _influence(m, b, axis)
+    for b, axis in planes:
+        _stiffness(m, b, axis, closed)
     if bx is not None:
         Q("m_B", bx.m_B, unit="kg", group=G_M, symbol=r"m_B",
           description="mass of the side stay's cantilever part above the drive lock "
