@@ -17,7 +17,6 @@ only: the master drives them through FMI.
 """
 from __future__ import annotations
 
-import importlib
 import math
 import re
 from dataclasses import dataclass, field
@@ -28,33 +27,26 @@ from .interface import Interface, conversion, interface_of_fmu, interface_of_mod
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
-#: models a scene can use that are not (yet) in loomfmu.registry.MODELS:
-#: name -> (module in loomfmu.models, build options)
-SCENE_MODELS: dict[str, tuple[str, dict]] = {
-    "two_mass_force": ("two_mass", {"side": "force"}),
-    "two_mass_displacement": ("two_mass", {"side": "displacement"}),
-}
-
-
 def model_names() -> list[str]:
     from ..registry import MODELS
-    return sorted(set(MODELS) | set(SCENE_MODELS))
+    return sorted(MODELS)
 
 
-def declare_model(name: str, options: dict):
-    """The declaration (loomfmu.declare.Model) of model ``name`` with build options."""
+def declare_model(name, options: dict):
+    """The declaration (loomfmu.declare.Model) of model ``name`` (a name of
+    loomfmu.registry.MODELS) with build options; a Model given itself is
+    returned as is (it takes no options)."""
+    from ..declare import Model
     from ..registry import MODELS, load_model
-    if isinstance(name, str) and name in MODELS:
-        return load_model(name, **options)
-    if not isinstance(name, str) or name not in SCENE_MODELS:
-        raise ValueError(f"model = {name!r:.60}; allowed: one of {', '.join(model_names())}")
-    module, fixed = SCENE_MODELS[name]
-    for key, value in options.items():
-        if key in fixed and value != fixed[key]:
-            raise ValueError(f"{key} = {value!r}: model {name!r} is built with {key} = "
-                             f"{fixed[key]!r}; allowed: {fixed[key]!r}")
-    build = importlib.import_module(f"loomfmu.models.{module}").build
-    return build(**{**fixed, **options})
+    if isinstance(name, Model):
+        if options:
+            raise ValueError(f"options = {options!r:.60}: model {name.name!r} is a "
+                             "declaration; allowed: no options (declare it with them)")
+        return name
+    if not isinstance(name, str) or name not in MODELS:
+        raise ValueError(f"model = {name!r:.60}; allowed: one of {', '.join(model_names())}"
+                         " or a declared loomfmu Model")
+    return load_model(name, **options)
 
 
 @dataclass
@@ -68,9 +60,12 @@ class Component:
     fmu: Path | None = None
     parameters: dict[str, float] = field(default_factory=dict)
     start: dict[str, float] = field(default_factory=dict)
+    declaration: object = None      # a loomfmu Model given to Scene.add(model=...)
 
     @property
     def source(self) -> str:
+        if self.declaration is not None:
+            return f"declared model {self.model!r}"
         return f"model {self.model!r}" if self.model else f"FMU {str(self.fmu)!r}"
 
 
@@ -129,7 +124,8 @@ class Scene:
     def add(self, name: str, *, model: str | None = None, fmu=None, options=None,
             parameters=None, start=None) -> Component:
         """Add component ``name`` (an identifier): ``model`` (a model name, see
-        :func:`model_names`) built with ``options``, or ``fmu`` (a path to an
+        :func:`model_names`, built with ``options``; or a declared
+        loomfmu.declare.Model, built as declared), or ``fmu`` (a path to an
         FMI 2.0 co-simulation FMU); ``parameters`` and ``start``: values by
         variable name (parameters; states and inputs with a settable start)."""
         if not isinstance(name, str) or not _NAME.match(name):
@@ -148,8 +144,12 @@ class Scene:
                 raise ValueError(f"component {name!r}: options apply to model=, not fmu=")
             comp = Component(name, interface_of_fmu(fmu), fmu=Path(fmu))
         else:
-            comp = Component(name, interface_of_model(declare_model(model, options)),
-                             model=model, options=dict(options))
+            from ..declare import Model
+            decl = declare_model(model, options)
+            comp = Component(name, interface_of_model(decl),
+                             model=decl.name if isinstance(model, Model) else model,
+                             options=dict(options),
+                             declaration=model if isinstance(model, Model) else None)
         self.components[name] = comp
         try:
             self.set(name, parameters=parameters or {}, start=start or {})
@@ -211,9 +211,11 @@ class Scene:
 
     # -- connections ---------------------------------------------------------
     def connect(self, a: str, b: str) -> list[Connection]:
-        """Connect ``a`` to ``b``: two ports of one kind ("comp.port"; each role
-        an output on one side and an input on the other, both ways), or output
-        variable ``a`` to input variable ``b`` ("comp.variable")."""
+        """Connect ``a`` to ``b``: two ports of one kind ("comp.port"; the roles
+        the two ports have in common are connected, each an output on one side
+        and an input on the other, both ways), or output variable ``a`` to
+        input variable ``b`` ("comp.variable").  A loop of direct feedthrough
+        is allowed: the masters iterate it at each communication point."""
         ca_, ra = self._split(a, "connect: from")
         cb_, rb = self._split(b, "connect: to")
         label = f"connection {a} -> {b}"
@@ -231,7 +233,6 @@ class Scene:
             new = [self._variable_connection(label, ca_, ra, cb_, rb)]
         for c in new:
             self._check_not_driven(label, c)
-        self._check_no_loop(label, new)
         self.connections.extend(new)
         return new
 
@@ -241,11 +242,13 @@ class Scene:
             raise ValueError(f"{label}: port kinds differ ({pa.kind!r} and {pb.kind!r}); "
                              f"allowed: a port of kind {pa.kind!r} of {cb_.name}: "
                              f"{_names(same)}")
-        if set(pa.roles) != set(pb.roles):
-            raise ValueError(f"{label}: the ports' roles differ ({_names(pa.roles)} and "
-                             f"{_names(pb.roles)}); allowed: ports with the same roles")
+        common = set(pa.roles) & set(pb.roles)
+        if not common:
+            raise ValueError(f"{label}: the ports share no role ({ca_.name}.{pa.name}: "
+                             f"{_names(pa.roles)}; {cb_.name}.{pb.name}: {_names(pb.roles)}); "
+                             f"allowed: ports of kind {pa.kind!r} with a role in common")
         out = []
-        for role in sorted(pa.roles):
+        for role in sorted(common):
             va = ca_.interface.variables[pa.roles[role]]
             vb = cb_.interface.variables[pb.roles[role]]
             pair = {va.causality, vb.causality}
@@ -300,11 +303,11 @@ class Scene:
             raise ValueError(f"{label}: input {c.dst}.{c.dst_var} has a start value set; "
                              "allowed: a connection into an input without a start value")
 
-    def _check_no_loop(self, label: str, new: list[Connection]) -> None:
-        try:
-            feedthrough_order([*self.connections, *new], self.components)
-        except ValueError as exc:
-            raise ValueError(f"{label}: {exc}") from None
+    def loops(self) -> list[list[Connection]]:
+        """The algebraic loops: groups of connections that direct feedthrough
+        closes into a cycle (the masters iterate each at a communication point)."""
+        return [b for b in feedthrough_blocks(self.connections, self.components)
+                if len(b) > 1 or _self_loop(b[0], self.components)]
 
     # -- outputs -------------------------------------------------------------
     def record(self, *refs: str) -> None:
@@ -330,32 +333,58 @@ class Scene:
                 if v.causality == "output" and v.type == "Real"]
 
 
-def feedthrough_order(connections: list[Connection], components: dict[str, Component]
-                      ) -> list[Connection]:
-    """The connections ordered so that an output with direct feedthrough is
-    read only after the inputs it depends on are set (ValueError when direct
-    feedthrough closes a loop: an algebraic loop, not iterated yet)."""
-    drives = {(c.dst, c.dst_var): c for c in connections}
-    order: list[Connection] = []
-    state: dict[Connection, int] = {}
+def _depends(c: Connection, drives: dict, components: dict) -> list[Connection]:
+    """The connections whose input value ``c``'s source output depends on directly."""
+    return [drives[(c.src, inp)] for inp in components[c.src].interface.feedthrough.get(
+        c.src_var, ()) if (c.src, inp) in drives]
 
-    def visit(c: Connection, path: list[Connection]) -> None:
-        if state.get(c) == 2:
-            return
-        if state.get(c) == 1:
-            loop = path[path.index(c):] + [c]
-            raise ValueError("direct feedthrough closes an algebraic loop ("
-                             + "; ".join(map(str, loop)) + "); allowed: connections "
-                             "without a loop of direct feedthrough (loop iteration is not "
-                             "implemented yet)")
-        state[c] = 1
-        for inp in components[c.src].interface.feedthrough.get(c.src_var, ()):
-            up = drives.get((c.src, inp))
-            if up is not None:
-                visit(up, path + [c])
-        state[c] = 2
-        order.append(c)
+
+def _self_loop(c: Connection, components: dict) -> bool:
+    return c.dst == c.src and c.dst_var in components[c.src].interface.feedthrough.get(
+        c.src_var, ())
+
+
+def feedthrough_blocks(connections: list[Connection], components: dict[str, Component]
+                       ) -> list[list[Connection]]:
+    """The connections in blocks, ordered so that an output with direct
+    feedthrough is read only after the inputs it depends on are set: a block
+    is one connection, or an algebraic loop (connections that direct
+    feedthrough closes into a cycle: a strongly connected component, Tarjan)."""
+    drives = {(c.dst, c.dst_var): c for c in connections}
+    index: dict[Connection, int] = {}
+    low: dict[Connection, int] = {}
+    stack: list[Connection] = []
+    on: set[Connection] = set()
+    blocks: list[list[Connection]] = []
+
+    def strong(c: Connection) -> None:
+        index[c] = low[c] = len(index)
+        stack.append(c)
+        on.add(c)
+        for d in _depends(c, drives, components):
+            if d not in index:
+                strong(d)
+                low[c] = min(low[c], low[d])
+            elif d in on:
+                low[c] = min(low[c], index[d])
+        if low[c] == index[c]:
+            block = []
+            while True:
+                d = stack.pop()
+                on.discard(d)
+                block.append(d)
+                if d is c:
+                    break
+            pos = {x: k for k, x in enumerate(connections)}
+            blocks.append(sorted(block, key=pos.__getitem__))
 
     for c in connections:
-        visit(c, [])
-    return order
+        if c not in index:
+            strong(c)
+    return blocks   # Tarjan emits a block after every block it depends on
+
+
+def feedthrough_order(connections: list[Connection], components: dict[str, Component]
+                      ) -> list[Connection]:
+    """The connections of :func:`feedthrough_blocks`, flattened."""
+    return [c for b in feedthrough_blocks(connections, components) for c in b]

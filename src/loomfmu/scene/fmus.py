@@ -12,8 +12,17 @@ from .declare import Component, Scene, declare_model
 
 
 def fmu_file_name(comp: Component) -> str:
-    """``<model>-<hash of the build options>.fmu``: one file per model and options."""
-    key = json.dumps(comp.options, sort_keys=True, default=repr)
+    """``<model>-<hash of the build options>.fmu``: one file per model and
+    options; a declared model's hash is of its equations, outputs, events and
+    variables (what the generated code is made of)."""
+    if comp.declaration is not None:
+        from ..ode import dae_form
+        dae = dae_form(comp.declaration)
+        key = "\n".join(f"{k}={v}" for k, v in sorted(vars(dae).items()) if k != "model")
+        key += "\n" + "\n".join(f"{v.name}:{v.kind}:{v.start}:{v.unit}"
+                                for v in comp.declaration.variables)
+    else:
+        key = json.dumps(comp.options, sort_keys=True, default=repr)
     return f"{comp.model}-{hashlib.sha1(key.encode()).hexdigest()[:8]}.fmu"
 
 
@@ -45,7 +54,9 @@ def build_fmus(scene: Scene, fmu_dir, *, rebuild: bool = False, progress=None
         if rebuild or not path.is_file() or not _matches(path, comp):
             if progress is not None:
                 progress.stage(f"{comp.name}: building {comp.model}")
-            result = build_fmu(declare_model(comp.model, comp.options), out_dir=fmu_dir,
+            result = build_fmu(declare_model(comp.model if comp.declaration is None else comp.declaration,
+                                             comp.options),
+                               out_dir=fmu_dir,
                                validate=False)
             result.path.replace(path)
         paths[comp.name] = path

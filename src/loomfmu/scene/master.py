@@ -6,13 +6,17 @@ offers ``step(t, h) -> StepResult``: advance every FMU from ``t`` to
 ``t + h`` and say whether the step is accepted and how large its error
 estimate is.  A subclass writes only ``_advance(t, h)``: the order of value
 exchanges and ``fmi2DoStep`` calls.  Inputs are held constant over the step
-(extrapolation order 0, zero-order hold).
+(``extrapolation=0``, zero-order hold) or follow the polynomial extrapolated
+from the source's last 2-3 values (order 1, 2: loomfmu.scene.extrapolation),
+for FMUs that declare ``canInterpolateInputs``.  Algebraic loops are
+iterated at each communication point (loomfmu.scene.system).
 
-Error estimate (used by the adaptive run): over the step every input held
-the value its source had at the step's start (or, for Gauss-Seidel, when it
-was set); at the step's end the source has moved on.  The difference between
-the held input and the source's new value is the error of the zero-order
-hold at the step's end, O(h).  Each connection's difference is scaled by
+Error estimate (used by the adaptive run): over the step every input
+followed the value extrapolated from its source's samples up to the step's
+start (or, for Gauss-Seidel, up to when it was set); at the step's end the
+source has moved on.  The difference between the extrapolated input at the
+step's end and the source's actual value there is the error of the
+extrapolation, O(h^(order+1)).  Each connection's difference is scaled by
 ``atol + rtol * s`` with ``s`` the largest magnitude the signal has had so
 far (a signal crossing zero is measured against its amplitude, not against
 its value near zero); the step's error is the largest scaled difference.  A
@@ -25,6 +29,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from .extrapolation import ORDERS, History, shift, value
 from .system import FMUError, System
 
 
@@ -44,28 +49,96 @@ class Master:
     """
 
     name = ""
-    #: order of the input extrapolation (0: zero-order hold)
-    order = 0
 
     def __init__(self, system: System, *, rtol: float = 1e-3, atol: float = 1e-6,
-                 adaptive: bool = False):
+                 adaptive: bool = False, extrapolation: int = 0,
+                 output_derivatives: bool = False):
         if not (isinstance(rtol, (int, float)) and 0 < rtol < 1):
             raise ValueError(f"rtol = {rtol!r}; allowed: a number in (0, 1)")
         if not (isinstance(atol, (int, float)) and atol > 0 and math.isfinite(atol)):
             raise ValueError(f"atol = {atol!r}; allowed: a finite number > 0")
+        if extrapolation not in ORDERS or isinstance(extrapolation, bool):
+            raise ValueError(f"extrapolation = {extrapolation!r:.40}; allowed: one of "
+                             f"{', '.join(map(str, ORDERS))}")
+        if not isinstance(output_derivatives, bool):
+            raise ValueError(f"output_derivatives = {output_derivatives!r:.40}; allowed: "
+                             "True or False")
         self.system, self.rtol, self.atol, self.adaptive = system, rtol, atol, adaptive
+        self.extrapolation, self.output_derivatives = extrapolation, output_derivatives
         if adaptive:
             bad = [n for n, i in system.instances.items()
                    if not i.md.coSimulation.canGetAndSetFMUstate]
             if bad:
                 raise ValueError(f"adaptive = True: components {bad} cannot get and set "
                                  "their state; allowed: adaptive = False")
+        if extrapolation:
+            self._check_interpolation()
         self.n_accepted = self.n_rejected = 0
-        self._size = [abs(system.source_value(i)) for i in range(len(system.connections))]
+        n = len(system.connections)
+        self._size = [abs(system.source_value(i)) for i in range(n)]
+        self.history = History(n)
+        self._coef = [[0.0] * (extrapolation + 1) for _ in range(n)]
+        self._t0 = [0.0] * n         # where each input's polynomial is expanded
 
-    def _advance(self, t: float, h: float) -> list[float]:
-        """Exchange values and step every FMU from t to t + h; return, per
-        connection, the value the input held over the step."""
+    def _check_interpolation(self) -> None:
+        k = self.extrapolation
+        for c in self.system.connections:
+            md = self.system.instances[c.dst].md
+            if not md.coSimulation.canInterpolateInputs:
+                raise ValueError(f"extrapolation = {k}: component {c.dst} cannot interpolate "
+                                 "inputs (its FMU declares canInterpolateInputs = false); "
+                                 "allowed: extrapolation = 0")
+            src = self.system.instances[c.src].md
+            have = int(src.coSimulation.maxOutputDerivativeOrder or 0)
+            if self.output_derivatives and have < k:
+                raise ValueError(f"output_derivatives = True: component {c.src} declares "
+                                 f"maxOutputDerivativeOrder = {have} < extrapolation = {k}; "
+                                 "allowed: output_derivatives = False")
+
+    # -- value exchange with extrapolation ---------------------------------------------
+    def _set(self, indices, t: float, h: float, *, iterate=None) -> None:
+        """Move values along connections ``indices`` at communication point t
+        (loops iterated when ``iterate(block)``), then, with extrapolation,
+        give each input its polynomial over [t, t + h]."""
+        system = self.system
+        indices = list(indices)
+        system.exchange(indices, t, iterate=iterate)
+        k = self.extrapolation
+        for i in indices:
+            y = system.held[i]
+            c = system.connections[i]
+            ts = system.time[c.src]
+            if not k:
+                self._coef[i], self._t0[i] = [y], t
+                continue
+            if self.output_derivatives:
+                self.history.pending[i] = (ts, y)
+                fmu, vr = system.instances[c.src].fmu, system.instances[c.src].vr[c.src_var]
+                d = [y] + [c.gain * system.call(c.src, "fmi2GetRealOutputDerivatives", ts,
+                                                lambda m=m: fmu.getRealOutputDerivatives(
+                                                    [vr], [m])[0]) for m in range(1, k + 1)]
+                coef = shift(d, t - ts)
+            else:
+                coef = self.history.coefficients(i, ts, y, t, k)
+            if coef[0] != y:
+                system.set_inputs([i], [float(coef[0])], t)
+            system.set_input_derivatives(i, [float(x) for x in coef[1:]], t)
+            self._coef[i], self._t0[i] = list(coef), t
+
+    def _end_value(self, i: int, t_end: float) -> float:
+        """Connection ``i``'s input at ``t_end`` (its polynomial)."""
+        return value(self._coef[i], t_end - self._t0[i])
+
+    def _stepped(self, name: str, t_end: float) -> None:
+        """After component ``name`` stepped: its extrapolated inputs take their
+        value at the step's end (so an output with direct feedthrough read
+        now is computed with the input the FMU had there)."""
+        if self.extrapolation:
+            into = self.system.into[name]
+            self.system.set_inputs(into, [self._end_value(i, t_end) for i in into], t_end)
+
+    def _advance(self, t: float, h: float) -> None:
+        """Exchange values and step every FMU from t to t + h."""
         raise NotImplementedError
 
     def step(self, t: float, h: float) -> StepResult:
@@ -73,8 +146,8 @@ class Master:
         saved = system.get_states() if self.adaptive else None
         held_before = list(system.held)
         try:
-            held = self._advance(t, h)
-            error = self._error(held)
+            self._advance(t, h)
+            error = self._error(t + h)
             message = ""
         except FMUError as exc:
             if not self.adaptive:
@@ -83,6 +156,9 @@ class Master:
         accepted = not self.adaptive or error <= 1.0
         if not accepted:
             system.set_states(saved, held_before)
+            self.history.discard()
+        else:
+            self.history.commit()
         if saved is not None:
             system.free_states(saved)
         if accepted:
@@ -92,11 +168,12 @@ class Master:
             self.n_rejected += 1
         return StepResult(accepted, error, message)
 
-    def _error(self, held: list[float]) -> float:
+    def _error(self, t_end: float) -> float:
         err = 0.0
-        for i, u in enumerate(held):
+        for i in range(len(self.system.connections)):
+            u = self._end_value(i, t_end)
             y = self.system.source_value(i)
-            if not math.isfinite(y):
+            if not (math.isfinite(y) and math.isfinite(u)):
                 return math.inf
             size = max(self._size[i], abs(u), abs(y))
             err = max(err, abs(y - u) / (self.atol + self.rtol * size))
@@ -121,6 +198,10 @@ class Jacobi(Master):
         if not isinstance(resolve_feedthrough, bool):
             raise ValueError(f"resolve_feedthrough = {resolve_feedthrough!r}; allowed: "
                              "True or False")
+        if not resolve_feedthrough and kw.get("extrapolation", 0):
+            raise ValueError("resolve_feedthrough = False with extrapolation = "
+                             f"{kw['extrapolation']!r}; allowed: extrapolation = 0 (the "
+                             "libcosim-like exchange holds what it read)")
         super().__init__(system, **kw)
         self.resolve_feedthrough = resolve_feedthrough
 
@@ -128,13 +209,15 @@ class Jacobi(Master):
         system = self.system
         every = range(len(system.connections))
         if self.resolve_feedthrough:
-            system.exchange(every, t)
+            self._set(every, t, h)
         else:
             system.set_inputs(every, [system.source_value(i) for i in every], t)
-        held = list(system.held)
+            for i in every:
+                self._coef[i], self._t0[i] = [system.held[i]], t
         for name in system.instances:
             system.do_step(name, t, h)
-        return held
+        for name in system.instances:
+            self._stepped(name, t + h)
 
 
 class GaussSeidel(Master):
@@ -155,10 +238,17 @@ class GaussSeidel(Master):
 
     def _advance(self, t, h):
         system = self.system
+        stepped: set[str] = set()
+
+        def fresh(block) -> bool:   # a loop is iterated while all its members are at t
+            return not any({system.connections[i].src, system.connections[i].dst} & stepped
+                           for i in block)
+
         for name in self.order_of_components:
-            system.exchange(system.into[name], t)
+            self._set(system.into[name], t, h, iterate=fresh)
             system.do_step(name, t, h)
-        return list(system.held)
+            stepped.add(name)
+            self._stepped(name, t + h)
 
 
 #: master name -> class

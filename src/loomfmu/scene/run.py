@@ -17,8 +17,11 @@ from .fmus import build_fmus
 from .master import make_master
 from .system import System
 
-#: step-size controller of the adaptive run (error ~ h for a zero-order hold)
+#: step-size controller of the adaptive run (error ~ h^(order + 1) for an
+#: extrapolation of that order)
 SAFETY, FAC_MIN, FAC_MAX = 0.9, 0.2, 2.0
+#: options of the algebraic-loop solver (loomfmu.scene.system.System)
+LOOP_OPTIONS = ("loop_method", "loop_rtol", "loop_atol", "loop_max_iter", "relaxation")
 
 
 @dataclass
@@ -33,6 +36,7 @@ class Result:
     rejected: int
     h: np.ndarray = field(default_factory=lambda: np.zeros(0))
     log: dict[str, list[str]] = field(default_factory=dict)   # each FMU's log lines
+    loop_iterations: int = 0     # output reads spent iterating algebraic loops
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.data[name]
@@ -50,7 +54,8 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
         stop: float | None = None, adaptive: bool = False, rtol: float = 1e-3,
         atol: float = 1e-6, h_min: float = 1e-9, h_max: float | None = None,
         fmu_dir=None, fmus: dict | None = None, progress: bool = False,
-        master_options: dict | None = None) -> Result:
+        master_options: dict | None = None, extrapolation: int = 0,
+        loop_options: dict | None = None) -> Result:
     """Run ``scene`` from 0 to ``stop`` (default the scene's stop_time).
 
     master: "jacobi" or "gauss-seidel"; step: the communication step (s;
@@ -58,7 +63,12 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
     the step by the coupling error estimate (rtol, atol; h_min <= h <= h_max,
     default the larger of stop / 10 and step); fmu_dir: folder
     the models are built into (default a temporary folder); fmus: component ->
-    FMU path, to skip the build; progress: show progress on stderr.
+    FMU path, to skip the build; progress: show progress on stderr;
+    extrapolation: order of the input extrapolation (0, 1, 2; above 0 every
+    FMU that receives an input must declare canInterpolateInputs);
+    master_options: more options of the master (e.g. Gauss-Seidel's order);
+    loop_options: options of the algebraic-loop solver (loop_method "newton"
+    or "fixed-point", loop_rtol, loop_atol, loop_max_iter, relaxation).
     """
     stop = check_number("stop", scene.stop_time if stop is None else stop, lo=0.0,
                         lo_open=True, unit="s")
@@ -75,14 +85,19 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
         if missing:
             raise ValueError(f"fmus: no FMU for components {missing}; allowed: a dict "
                              f"with a path for each of {sorted(scene.components)}")
-        system = System(scene, fmus)
+        loop_options = dict(loop_options or {})
+        bad = sorted(set(loop_options) - set(LOOP_OPTIONS))
+        if bad:
+            raise ValueError(f"loop_options: unknown {bad}; allowed: {list(LOOP_OPTIONS)}")
+        system = System(scene, fmus, **loop_options)
         try:
             opts = dict(master_options or {})
-            twice = sorted(set(opts) & {"rtol", "atol", "adaptive"})
+            twice = sorted(set(opts) & {"rtol", "atol", "adaptive", "extrapolation"})
             if twice:
                 raise ValueError(f"master_options: {twice} are arguments of run(); "
                                  "allowed: options of the master itself (e.g. order)")
-            m = make_master(master, system, rtol=rtol, atol=atol, adaptive=adaptive, **opts)
+            m = make_master(master, system, rtol=rtol, atol=atol, adaptive=adaptive,
+                            extrapolation=extrapolation, **opts)
             refs = scene.recorded_variables()
             times, rows, hs = [0.0], [system.get(refs)], []
             t, h, k, shown = 0.0, step, 0, 0
@@ -104,8 +119,8 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
                         bar.advance(text, n=done - shown)
                         shown = done
                 if adaptive:
-                    fac = (SAFETY / max(res.error, 1e-10) if math.isfinite(res.error)
-                           else FAC_MIN)
+                    fac = (SAFETY * max(res.error, 1e-10) ** (-1.0 / (extrapolation + 1))
+                           if math.isfinite(res.error) else FAC_MIN)
                     h = min(h_max, max(h_try * min(FAC_MAX, max(FAC_MIN, fac)), h_min))
                     if not res.accepted and h_try <= h_min:
                         raise RuntimeError(f"scene {scene.name}: step rejected at t = {t:.9g}"
@@ -113,6 +128,7 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
                                            f"{res.error:.3g}) {res.message}")
         finally:
             logs = {n: list(i.log) for n, i in system.instances.items()}
+            loop_iterations = system.loop_iterations
             system.close()
             if bar is not None:
                 bar.close()
@@ -122,4 +138,5 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
     values = np.array(rows, dtype=float)
     for j, n in enumerate(names[1:]):
         data[n] = values[:, j]
-    return Result(data, m.name, m.n_accepted, m.n_rejected, np.array(hs), logs)
+    return Result(data, m.name, m.n_accepted, m.n_rejected, np.array(hs), logs,
+                  loop_iterations)

@@ -1,10 +1,25 @@
 """The running FMUs of a scene, driven through FMI 2.0 by fmpy's FMU2Slave:
 instantiate and initialize with the scene's values, move values along
-connections, step, save and restore their states."""
+connections (iterating the algebraic loops that direct feedthrough closes),
+step, save and restore their states.
+
+An algebraic loop (connections that direct feedthrough closes into a cycle)
+is solved at each communication point, where FMI 2.0 lets a master set
+inputs and read outputs without stepping: with u the loop's input values
+and G(u) the outputs they produce (converted), u = G(u) is solved by Newton's
+method with a finite-difference Jacobian (one extra output read per loop
+variable; the loop's last solution is the first guess), or by relaxed
+fixed-point iteration u <- u + w (G(u) - u).  Converged when every
+|G(u) - u| <= loop_atol + loop_rtol |u|; after loop_max_iter iterations
+FMUError names the loop, the time and the residual.
+"""
 from __future__ import annotations
 
+import math
 import shutil
 from pathlib import Path
+
+import numpy as np
 
 from fmpy import calloc, extract, free, read_model_description
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
@@ -13,7 +28,7 @@ from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
 #: FMU log lines kept per instance (the latest), shown when a call fails
 LOG_LINES = 200
 
-from .declare import Connection, Scene, feedthrough_order
+from .declare import Connection, Scene, _self_loop, feedthrough_blocks
 
 
 class FMUError(RuntimeError):
@@ -65,8 +80,29 @@ class Instance:
 class System:
     """The scene's components as FMU instances, initialized at ``t0``."""
 
+    #: loop solvers
+    LOOP_METHODS = ("newton", "fixed-point")
+
     def __init__(self, scene: Scene, fmus: dict[str, Path], *, t0: float = 0.0,
-                 tolerance: float | None = None):
+                 tolerance: float | None = None, loop_method: str = "newton",
+                 loop_rtol: float = 1e-10, loop_atol: float = 1e-12, loop_max_iter: int = 50,
+                 relaxation: float = 0.5):
+        if loop_method not in self.LOOP_METHODS:
+            raise ValueError(f"loop_method = {loop_method!r:.40}; allowed: "
+                             f"{', '.join(self.LOOP_METHODS)}")
+        for arg, value, lo, hi in (("loop_rtol", loop_rtol, 0.0, 1.0),
+                                   ("loop_atol", loop_atol, 0.0, math.inf),
+                                   ("relaxation", relaxation, 0.0, 1.0)):
+            if not (isinstance(value, (int, float)) and not isinstance(value, bool)
+                    and lo < value <= hi and math.isfinite(value)):
+                raise ValueError(f"{arg} = {value!r:.40}; allowed: a number in ({lo:g}, "
+                                 f"{hi:g}]")
+        if not (isinstance(loop_max_iter, int) and not isinstance(loop_max_iter, bool)
+                and 1 <= loop_max_iter <= 10000):
+            raise ValueError(f"loop_max_iter = {loop_max_iter!r:.40}; allowed: an integer "
+                             "in [1, 10000]")
+        self.loop_method, self.loop_rtol, self.loop_atol = loop_method, loop_rtol, loop_atol
+        self.loop_max_iter, self.relaxation = loop_max_iter, float(relaxation)
         self.scene = scene
         self.instances: dict[str, Instance] = {}
         try:
@@ -75,8 +111,19 @@ class System:
         except Exception:
             self.close()
             raise
-        self.connections: list[Connection] = feedthrough_order(scene.connections,
-                                                               scene.components)
+        blocks = feedthrough_blocks(scene.connections, scene.components)
+        self.connections: list[Connection] = [c for b in blocks for c in b]
+        #: the connections in feedthrough order, in blocks of indices; a block
+        #: of a loop has several connections (or one that loops on itself)
+        self.blocks: list[list[int]] = []
+        k = 0
+        for b in blocks:
+            self.blocks.append(list(range(k, k + len(b))))
+            k += len(b)
+        self.is_loop = [len(b) > 1 or _self_loop(b[0], scene.components) for b in blocks]
+        self.loop_iterations = 0     # loop iterations (output reads) so far
+        #: each component's time (its last communication point)
+        self.time = {name: t0 for name in scene.components}
         self._src = [(self.instances[c.src].fmu, self.instances[c.src].vr[c.src_var])
                      for c in self.connections]
         self._dst = [(self.instances[c.dst].fmu, self.instances[c.dst].vr[c.dst_var])
@@ -102,6 +149,11 @@ class System:
             self._call(name, "fmi2ExitInitializationMode", t0, inst.fmu.exitInitializationMode)
         self.exchange(range(len(self.connections)), t0)
 
+    def call(self, name: str, what: str, t: float, fn):
+        """fn(), an FMI call of component ``name``; FMUError naming it, the call
+        and the time when it fails."""
+        return self._call(name, what, t, fn)
+
     def _call(self, name: str, what: str, t: float, fn):
         try:
             return fn()
@@ -117,11 +169,64 @@ class System:
         c = self.connections[i]
         return c.gain * fmu.getReal([vr])[0] + c.bias
 
-    def exchange(self, indices, t: float) -> None:
-        """Move values along connections ``indices`` (in that order: each
-        source is read after the inputs set before it)."""
-        for i in indices:
-            self.set_inputs([i], [self.source_value(i)], t)
+    def exchange(self, indices, t: float, *, iterate=None) -> None:
+        """Move values along connections ``indices`` in feedthrough order (each
+        source is read after the inputs it depends on are set).  A loop among
+        them is solved (all its connections) when ``iterate(block)`` is true
+        (default: always); otherwise its values are passed on once."""
+        wanted = set(indices)
+        for block, loop in zip(self.blocks, self.is_loop):
+            mine = [i for i in block if i in wanted]
+            if not mine:
+                continue
+            if loop and (iterate is None or iterate(block)):
+                self.solve_loop(block, t)
+            else:
+                for i in mine:
+                    self.set_inputs([i], [self.source_value(i)], t)
+
+    def loop_name(self, block) -> str:
+        return "; ".join(str(self.connections[i]) for i in block)
+
+    def solve_loop(self, block: list[int], t: float) -> None:
+        """Solve the algebraic loop of connections ``block`` at time ``t``
+        (see the module's doc); the inputs end at the solution."""
+        def G(u):
+            self.set_inputs(block, list(u), t)
+            self.loop_iterations += 1
+            return np.array([self.source_value(i) for i in block])
+
+        u = np.array([self.held[i] for i in block], dtype=float)
+        g = G(u)
+        for it in range(self.loop_max_iter + 1):
+            r = g - u
+            if not np.all(np.isfinite(g)):
+                break
+            if np.all(np.abs(r) <= self.loop_atol + self.loop_rtol * np.abs(u)):
+                return      # the inputs hold u (the last G call)
+            if it == self.loop_max_iter:
+                break
+            if self.loop_method == "fixed-point":
+                u = u + self.relaxation * r
+            else:
+                J = np.zeros((len(block), len(block)))
+                for j in range(len(block)):
+                    du = 1e-7 * max(1.0, abs(u[j]))
+                    e = u.copy()
+                    e[j] += du
+                    J[:, j] = (G(e) - g) / du
+                try:
+                    u = u + np.linalg.solve(np.eye(len(block)) - J, r)
+                except np.linalg.LinAlgError:
+                    raise FMUError(f"algebraic loop ({self.loop_name(block)}): singular "
+                                   f"Jacobian I - dG/du at t = {t:.9g} s (the loop "
+                                   "equations have no unique solution)") from None
+            g = G(u)
+        res = float(np.max(np.abs(g - u))) if np.all(np.isfinite(g)) else math.nan
+        raise FMUError(f"algebraic loop ({self.loop_name(block)}) did not converge at t = "
+                       f"{t:.9g} s after {self.loop_max_iter} {self.loop_method} iterations: "
+                       f"largest |G(u) - u| = {res:.3g} (tolerance loop_atol = "
+                       f"{self.loop_atol:g} + loop_rtol = {self.loop_rtol:g} * |u|)")
 
     def set_inputs(self, indices, values, t: float) -> None:
         """Set the inputs of connections ``indices`` to ``values``."""
@@ -131,6 +236,16 @@ class System:
                        lambda: fmu.setReal([vr], [value]))
             self.held[i] = value
 
+    def set_input_derivatives(self, i: int, derivatives: list[float], t: float) -> None:
+        """Set the derivatives (orders 1, 2, ...) of connection ``i``'s input."""
+        if not derivatives:
+            return
+        fmu, vr = self._dst[i]
+        n = len(derivatives)
+        self._call(self.connections[i].dst, "fmi2SetRealInputDerivatives", t,
+                   lambda: fmu.setRealInputDerivatives([vr] * n, list(range(1, n + 1)),
+                                                       derivatives))
+
     def get(self, refs: list[tuple[str, str]]) -> list[float]:
         return [self.instances[c].fmu.getReal([self.instances[c].vr[v]])[0] for c, v in refs]
 
@@ -138,16 +253,20 @@ class System:
     def do_step(self, name: str, t: float, h: float) -> None:
         inst = self.instances[name]
         self._call(name, f"fmi2DoStep (h = {h:.6g} s)", t, lambda: inst.fmu.doStep(t, h))
+        self.time[name] = t + h
 
     def get_states(self) -> dict:
-        return {n: self._call(n, "fmi2GetFMUstate", float("nan"), i.fmu.getFMUState)
-                for n, i in self.instances.items()}
+        states = {n: self._call(n, "fmi2GetFMUstate", float("nan"), i.fmu.getFMUState)
+                  for n, i in self.instances.items()}
+        self._saved_time = dict(self.time)
+        return states
 
     def set_states(self, states: dict, held: list[float]) -> None:
         for n, s in states.items():
             self._call(n, "fmi2SetFMUstate", float("nan"),
                        lambda: self.instances[n].fmu.setFMUState(s))
         self.held = list(held)
+        self.time = dict(self._saved_time)
 
     def free_states(self, states: dict) -> None:
         for n, s in states.items():
