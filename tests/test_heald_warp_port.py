@@ -1,0 +1,219 @@
+"""The heald frame with the warp tension as an input (build option
+warp_tension='input', issue 13): the three levels build with it, the warp
+port connects both ways to a backrest's front, the input-tension FMU fed the
+geometry model's tension reproduces its slat motion, it agrees with scipy at
+communication steps from tiny to large, and a second frame in opposition is
+the same FMU started one revolution later."""
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+import pytest
+from fmpy.validation import validate_fmu
+
+from loomfmu import build_fmu, load_model
+from loomfmu.ports import PORT_KINDS
+from loomfmu.reference import reference
+from loomfmu.registry import build_options
+from loomfmu.units import same_quantity
+from loomfmu.verify import simulate
+
+LEVELS = ["heald_frame", "heald_frame_planar", "heald_frame_rigid"]
+SLATS = ["x2_out", "y2_out", "N_rem"]
+
+
+@pytest.fixture(scope="module")
+def dist_input(tmp_path_factory):
+    return tmp_path_factory.mktemp("dist_warp_input")
+
+
+@pytest.fixture(scope="module")
+def spatial_input_fmu(dist_input):
+    return build_fmu(load_model("heald_frame", warp_tension="input"), out_dir=dist_input)
+
+
+@pytest.fixture(scope="module")
+def rigid_input_fmu(dist_input):
+    return build_fmu(load_model("heald_frame_rigid", warp_tension="input"), out_dir=dist_input)
+
+
+# -- declarations -------------------------------------------------------------------------
+@pytest.mark.parametrize("name", LEVELS)
+def test_levels_build_with_the_tension_as_an_input(name):
+    geo, inp = load_model(name), load_model(name, warp_tension="input")
+    assert geo.var("T").kind == "output" and [p.variables for p in geo.ports
+                                               if p.name == "warp"] == [{"elongation": "dl"}]
+    assert inp.var("T").kind == "input" and inp.var("dl").kind == "output"
+    (port,) = [p for p in inp.ports if p.name == "warp"]
+    assert port.kind == "warp" and port.variables == {"elongation": "dl", "tension": "T"}
+    for role, var in port.variables.items():
+        assert same_quantity(inp.var(var).unit, PORT_KINDS["warp"].roles[role].unit)
+    assert [c.name for c in inp.validity] == ["warp_taut"] and geo.validity == []
+    # T_min/T_max only describe the geometry tension
+    assert {"T_min", "T_max"} <= {v.name for v in geo.of_kind("parameter")}
+    assert not {"T_min", "T_max"} & {v.name for v in inp.of_kind("parameter")}
+    assert inp.options["warp_tension"] == "input"
+    assert "warp_tension" in build_options(name)
+    with pytest.raises(ValueError, match="warp_tension.*geometry.*input"):
+        load_model(name, warp_tension="backrest")
+
+
+def test_presets_apply_with_the_tension_as_an_input():
+    m = load_model("heald_frame", warp_tension="input", preset="STB-180 Elitex")
+    assert m.var("n_n").start == load_model("heald_frame", preset="STB-180 Elitex").var(
+        "n_n").start
+
+
+def _backrest_fronts():
+    """Every warp port of the backrest's builds (one front, and two if the
+    model has that option)."""
+    builds = [load_model("backrest")]
+    if "fronts" in build_options("backrest"):
+        builds.append(load_model("backrest", fronts=2))
+    return [(b, p) for b in builds for p in b.ports
+            if p.kind == "warp" and p.name.startswith("warp_front")]
+
+
+@pytest.mark.parametrize("name", LEVELS)
+def test_warp_port_connects_both_ways_to_a_backrest_front(name):
+    frame = load_model(name, warp_tension="input")
+    (fp,) = [p for p in frame.ports if p.name == "warp"]
+    fronts = _backrest_fronts()
+    assert fronts
+    for back, bp in fronts:
+        assert set(bp.variables) == set(fp.variables), bp
+        for role in fp.variables:
+            a, b = frame.var(fp.variables[role]), back.var(bp.variables[role])
+            assert {a.kind, b.kind} == {"input", "output"}, (bp.name, role)
+            assert same_quantity(a.unit, b.unit)
+    # the geometry-mode frame gives the elongation only: it can drive a front's
+    # elongation but takes no tension back
+    geo = load_model(name)
+    (gp,) = [p for p in geo.ports if p.name == "warp"]
+    assert geo.var(gp.variables["elongation"]).kind == "output" and "tension" not in gp.variables
+
+
+def test_port_refuses_a_tension_output_beside_the_elongation_output():
+    """Model.port's alternation rule applied to the geometry frame: its T is an
+    output like dl, so they cannot form one warp port."""
+    m = load_model("heald_frame_rigid")
+    with pytest.raises(ValueError, match="alternate"):
+        m.port("warp2", "warp", elongation="dl", tension="T")
+
+
+# -- FMUs ---------------------------------------------------------------------------------
+def _lockstep(geo_path, inp_path, slave_factory, dt, t_end, names):
+    """Run the geometry FMU and the input FMU side by side; at each
+    communication point the input FMU's T is set to the geometry FMU's T
+    (held over the step).  Returns the two records of ``names``."""
+    g, i = slave_factory(geo_path, "geometry"), slave_factory(inp_path, "input")
+    g.start()
+    T0 = g.get("T")[0]
+    i.start(T=T0)   # also at the static deflection under this tension
+    rec_g, rec_i = [g.get(*names)], [i.get(*names)]
+    n = int(round(t_end / dt))
+    for k in range(n):
+        i.set(T=g.get("T")[0])
+        g.fmu.doStep(k * dt, dt)   # FMPy raises on a status other than OK
+        i.fmu.doStep(k * dt, dt)
+        rec_g.append(g.get(*names))
+        rec_i.append(i.get(*names))
+    return np.array(rec_g), np.array(rec_i)
+
+
+def test_fed_the_geometry_tension_it_reproduces_the_slat_motion(
+        heald_frame_fmu, spatial_input_fmu, slave_factory):
+    """Over one frame cycle the input FMU, fed the geometry FMU's tension at
+    each communication point, follows its slats; the difference is that of
+    the held input and shrinks about linearly with the communication step."""
+    assert spatial_input_fmu.problems == [] and validate_fmu(str(spatial_input_fmu.path)) == []
+    names = ["h", "dl", "f_y", *SLATS]
+    t_end = 4 * math.pi / 60
+    err = {}
+    for dt in (1e-3, 1e-4):
+        rg, ri = _lockstep(heald_frame_fmu.path, spatial_input_fmu.path, slave_factory, dt,
+                           t_end, names)
+        np.testing.assert_allclose(ri[:, :2], rg[:, :2], rtol=0, atol=1e-12)  # h, dl
+        err[dt] = {n: np.max(np.abs(rg[:, k] - ri[:, k])) / np.ptp(rg[:, k])
+                   for k, n in enumerate(names) if n in SLATS}
+    for n in SLATS:
+        assert err[1e-4][n] < 0.01, err
+        assert err[1e-4][n] < err[1e-3][n] / 5, err
+
+
+def test_staircase_tension_agrees_with_scipy(spatial_input_fmu, slave_factory):
+    """The input FMU under a tension that changes at every communication point
+    (the geometry tension, held) against scipy with the same input steps."""
+    model = load_model("heald_frame", warp_tension="input")
+    geo = load_model("heald_frame")
+    phi = geo.var("phi").sym
+    T_of_phi = ca.Function("T", [phi], [ca.substitute(
+        geo.var("T").expr, ca.vertcat(*[v.sym for v in geo.of_kind("parameter")]),
+        ca.DM([v.start for v in geo.of_kind("parameter")]))])
+    dt, n = 2e-3, 105
+    t = np.arange(n + 1) * dt
+    Tk = [float(T_of_phi(60.0 * tk)) for tk in t]
+    s = slave_factory(spatial_input_fmu.path)
+    s.start(T=Tk[0], solver_rtol=1e-9, solver_atol=1e-13)
+    rec = [s.get(*SLATS)]
+    for k in range(n):
+        s.set(T=Tk[k])
+        s.fmu.doStep(t[k], dt)
+        rec.append(s.get(*SLATS))
+    rec = np.array(rec)
+    ref = reference(model, t_end=t[-1], t_eval=t, rtol=1e-11, atol=1e-13,
+                    values={"T": Tk[0]},
+                    input_steps=[(t[k], {"T": Tk[k]}) for k in range(1, n)])
+    for j, o in enumerate(SLATS):
+        assert np.max(np.abs(rec[:, j] - ref.y[o])) < 1e-5 * np.ptp(ref.y[o]), o
+
+
+@pytest.mark.parametrize("stop, dt", [(2e-3, 1e-6), (0.02, 1e-5), (0.21, 1e-3),
+                                      (0.21, 0.021), (0.21, 0.105), (0.21, 0.21)])
+def test_communication_steps_tiny_to_large(spatial_input_fmu, stop, dt):
+    """A constant tension input: the FMU's outputs at every communication
+    point agree with scipy whatever the step (one step over the whole cycle
+    included)."""
+    model = load_model("heald_frame", warp_tension="input")
+    values = {"T": 700.0}
+    run = simulate(spatial_input_fmu.path, rtol=1e-8, atol=1e-12, stop_time=stop,
+                   output_interval=dt, values=values, output=SLATS)
+    ref = reference(model, t_end=run.t[-1], t_eval=run.t, rtol=1e-11, atol=1e-13,
+                    values=values)
+    assert run.t[-1] == pytest.approx(stop)
+    full = reference(model, t_end=0.21, rtol=1e-10, atol=1e-13, values=values)
+    for o in SLATS:
+        assert np.all(np.isfinite(run.y[o]))
+        assert np.max(np.abs(run.y[o] - ref.y[o])) < 1e-5 * np.ptp(full.y[o]), o
+
+
+def test_second_frame_in_opposition_starts_one_revolution_later(
+        rigid_input_fmu, heald_frame_fmu):
+    """phi settable at the start: phi = 2 pi gives the opposite frame of a
+    plain weave, h(t) = -h_0(t) with the same shed elongation; phi = pi is a
+    frame half-way up, not one in opposition."""
+    out = ["h", "dl", "f_y"]
+    a = simulate(rigid_input_fmu.path, rtol=1e-9, output=out)
+    b = simulate(rigid_input_fmu.path, rtol=1e-9, output=out,
+                 values={"phi": 2 * math.pi})
+    assert np.max(np.abs(a.y["h"] + b.y["h"])) < 1e-12
+    assert np.max(np.abs(a.y["dl"] - b.y["dl"])) < 1e-12 * np.ptp(a.y["dl"])
+    assert np.max(np.abs(a.y["f_y"] + b.y["f_y"])) < 1e-9 * np.ptp(a.y["f_y"])
+    half = simulate(rigid_input_fmu.path, rtol=1e-9, output=["h"], values={"phi": math.pi})
+    assert abs(half.y["h"][0]) < 1e-12 and np.max(np.abs(half.y["h"] + a.y["h"])) > 0.02
+    # the elastic frame started at 2 pi starts at its static deflection at the top
+    sp = simulate(heald_frame_fmu.path, rtol=1e-9, output=["h", "y2_out", "f_y"],
+                  values={"phi": 2 * math.pi})
+    m = load_model("heald_frame")
+    y2_static = _quantity_at(m, "Y_static", {"phi": 2 * math.pi})[1]
+    assert sp.y["h"][0] == pytest.approx(0.029, abs=1e-12)
+    assert sp.y["y2_out"][0] == pytest.approx(y2_static, rel=1e-9)
+
+
+def _quantity_at(model, name, values):
+    known = [v for v in model.variables if v.kind in ("parameter", "state", "input")]
+    (q,) = [q for q in model.quantities if q.name == name]
+    f = ca.Function("q", [ca.vertcat(*[v.sym for v in known])], [q.expr])
+    return np.array(f(ca.DM([values.get(v.name, v.start) for v in known]))).ravel()
