@@ -136,8 +136,9 @@ def declare_motion(m: Model, *, end_dwell: str) -> Motion:
 
 #: Values of the build option ``warp_tension``.
 WARP_TENSION = ("geometry", "input")
-#: Start of the tension input: n_n x the mean of seed 000's T_min, T_max per end.
-T_INPUT_START = 1000.0 * (0.3 + 0.8) / 2
+#: Start of the tension input: what the geometry tension is at the start angle
+#: phi = 0 (bottom dwell, open shed), n_n T_max with seed 000's n_n and T_max.
+T_INPUT_START = 1000.0 * 0.8
 
 
 @dataclass
@@ -191,8 +192,8 @@ def declare_warp(m: Model, mo: Motion, warp_tension: str = "geometry") -> Warp:
     else:
         T = m.input("T", T_INPUT_START, unit="N", description="total tension of the warp "
                     "ends through this frame (n_n ends; absolute, positive in tension), "
-                    "e.g. a backrest's front tension; start: n_n x the mean of seed 000's "
-                    "0.3 and 0.8 N per end", max=1e6)
+                    "e.g. a backrest's front tension; start: the geometry tension at phi = 0 "
+                    "(open shed), n_n T_max = 1000 x 0.8 N (seed 000)", max=1e6)
         m.require("warp_taut", T, "warp in compression: the tension input T is negative; "
                   "the heald frame model is not valid for a warp that pushes")
     L1, L2 = ca.sqrt(l_1**2 + mo.H**2), ca.sqrt(l_2**2 + mo.H**2)

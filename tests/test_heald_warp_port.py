@@ -7,6 +7,7 @@ the same FMU started one revolution later."""
 from __future__ import annotations
 
 import math
+import re
 
 import casadi as ca
 import numpy as np
@@ -217,3 +218,26 @@ def _quantity_at(model, name, values):
     (q,) = [q for q in model.quantities if q.name == name]
     f = ca.Function("q", [ca.vertcat(*[v.sym for v in known])], [q.expr])
     return np.array(f(ca.DM([values.get(v.name, v.start) for v in known]))).ravel()
+
+
+def test_negative_tension_is_refused_with_the_time(rigid_input_fmu, slave_factory):
+    """A warp that pushes is outside the model: the step with a negative
+    tension input ends with fmi2Discard and a log line saying what and when;
+    the FMU's time stays where the tension was last valid."""
+    from fmpy.fmi1 import FMICallException
+    s = slave_factory(rigid_input_fmu.path)
+    s.start()
+    dt = 1e-3
+    for k in range(10):
+        s.fmu.doStep(k * dt, dt)
+    assert s.get("f_y")[0] < 0      # bottom dwell: the warp pulls the frame up
+    s.set(T=-50.0)
+    with pytest.raises(FMICallException) as e:
+        s.fmu.doStep(10 * dt, dt)
+    assert e.value.status == 2      # fmi2Discard
+    lines = [m for status, _, m in s.log if "warp in compression" in m]
+    assert lines, s.log[-3:]
+    assert "value -50 " in lines[0], lines[0]
+    assert float(re.search(r"at t = (\S+) s", lines[0]).group(1)) == pytest.approx(0.01)
+    for name in ("h", "f_y", "N_rem"):
+        assert np.isfinite(s.get(name)[0])
