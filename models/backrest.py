@@ -12,17 +12,20 @@ warp beam at alpha1, the upper branch 2 (S2) forward to the healds at alpha2.
 Derived here, not typed: the kinetic energy T, the potential V (roller
 weight), the generalized forces by virtual work (warp tensions, spring,
 friction torques) and Lagrange's equations; the reaction R2 by Newton's law
-for the roller.  Tests check them against the seed's (7), (10) and (11).
+for the roller.  Each step is kept as a named quantity (``Model.quantity``,
+shown by ``loomfmu inspect backrest``); tests check them against the seed's
+(7), (10) and (11).
 
-Print defects corrected (docs/backrest.md):
-B1  (5), (7): spring arm printed ``r`` (the roller radius); corrected ``r2``,
-    the arm of (8), (9).
-B2  (8): ``m_c g r1 phi_i`` corrected to ``m_c g r1 cos(phi_n)``: setting (7)
-    to zero gives the cosine (and (4) has it).
-B3  text before (8): ``S1 = S2 = 0`` corrected to ``S0`` ((8) contains S0).
-B4  (11): ``phi''``, ``phi'`` corrected to ``phi1''``, ``phi1'`` (O2 moves with phi1 only).
-Friction: the seed's normal pressure N_i is the full reaction |R_i| (its
-conclusion 2) and r_if the friction-circle radius rho_i mu_i / sqrt(1 + mu_i^2).
+Build options: ``friction`` ("events" or "regularized", ``eps``),
+``shedding`` (True: a built-in shedding elongation A_shed at n_loom picks per
+minute; False: the warp is stretched only through the front port's input,
+as in a loom scene) and ``fronts`` (1: one upper branch, port ``warp_front``;
+2: two half-sheets, the ends of heald frames A and B, ports ``warp_front_a``
+and ``warp_front_b``, each with its own elongation input and tension output,
+the roller loaded by their sum).
+
+Print defects corrected (the same text is attached to the quantities they
+affect, so docstring and report have one source):
 """
 from __future__ import annotations
 
@@ -30,7 +33,7 @@ import math
 
 import casadi as ca
 
-from loomfmu.checks import check_choice, check_number
+from loomfmu.checks import check_bool, check_choice, check_number
 from loomfmu.declare import Model
 from loomfmu.friction import coulomb_joint
 from loomfmu.symbolic import generalized_forces, lagrange_equations
@@ -38,8 +41,39 @@ from loomfmu.symbolic import generalized_forces, lagrange_equations
 SEED = "seed 004"
 A = "assumption: the seed gives no numbers; "
 DEG = math.pi / 180
+G = 9.81
 #: allowed regularization speeds (rad/s): the range of the parameter eps
 EPS_RANGE = (1e-9, 10.0)
+#: values of the build option ``fronts``
+FRONTS = (1, 2)
+#: the heald frame's defaults (models/heald_common.py, seed 000) the warp
+#: defaults follow: ends per frame, tension per end at the closed and the
+#: open shed (N), the shed's elongation per end at the open shed (m, from
+#: h_m = 0.029, l_1 = 0.05, k_z = 5)
+HEALD_ENDS, HEALD_T_MIN, HEALD_T_MAX, HEALD_DL_MAX = 1000, 0.3, 0.8, 0.009478
+
+#: print defects of seed 004: (where, printed, corrected, reason)
+DEFECTS = {
+    "B1": ("(5), (7)", "spring moment F r sin(theta)", "F r2 sin(theta)",
+           "r is the roller radius; the spring's arm O1A is r2, as (8) and (9) have it"),
+    "B2": ("(8)", "m_c g r1 phi_i", "m_c g r1 cos(phi_n)",
+           "setting (7) to zero gives the cosine of the weight's arm, as (4) has it"),
+    "B3": ("text before (8)", "S1 = S2 = 0", "S1 = S2 = S0",
+           "(8) itself contains S0: the equilibrium is taken under the static tension"),
+    "B4": ("(11)", "phi'', phi'", "phi1'', phi1'",
+           "O2 moves with the lever only, so only the lever's rate and acceleration enter"),
+}
+
+
+def defect(key: str) -> str:
+    """Print defect ``key`` (B1-B4) as one line: printed, corrected, reason."""
+    where, printed, corrected, reason = DEFECTS[key]
+    return f"print defect {key} in {where}: printed {printed}, corrected {corrected} ({reason})"
+
+
+__doc__ += "".join(f"{defect(k)}\n" for k in DEFECTS) + (
+    "Friction: the seed's normal pressure N_i is the full reaction |R_i| (its\n"
+    "conclusion 2) and r_if the friction-circle radius rho_i mu_i / sqrt(1 + mu_i^2).\n")
 
 
 def friction_radius(rho, mu):
@@ -47,159 +81,359 @@ def friction_radius(rho, mu):
     return rho * mu / ca.sqrt(1 + mu**2)
 
 
-def build(*, friction: str = "events", eps: float = 1e-3) -> Model:
+def build(*, friction: str = "events", eps: float = 1e-3, shedding: bool = True,
+          fronts: int = 1) -> Model:
     """friction: "events" (stick/slip state machine) or "regularized"
-    (torque ~ tanh(speed / eps), eps in rad/s)."""
+    (torque ~ tanh(speed / eps), eps in rad/s).  shedding: True adds the
+    built-in shedding elongation (parameters A_shed, n_loom); False leaves the
+    warp to the front ports' inputs.  fronts: 1 (port warp_front: input
+    warp_pull, output S2) or 2 (ports warp_front_a, warp_front_b: inputs
+    warp_pull_a, warp_pull_b, outputs S2a, S2b, each half of the sheet)."""
     check_choice("friction", friction, ("events", "regularized"))
     eps = check_number("eps", eps, lo=EPS_RANGE[0], hi=EPS_RANGE[1], unit="rad/s")
+    shedding = check_bool("shedding", shedding)
+    fronts = check_choice("fronts", fronts, FRONTS)
     m = Model("backrest" if friction == "events" else "backrest_regularized",
               description="Loom backrest (whip roll): lever and roller with Coulomb "
               "friction in both pivots, stick-slip (seed 004)",
               stop_time=1.0, step_size=1e-3, h_fixed=2e-5,
-              options={"friction": friction, "eps": eps},
+              options={"friction": friction, "eps": eps, "shedding": shedding,
+                       "fronts": fronts},
               reference_method="DOP853" if friction == "events" else "Radau")
+    p = _parameters(m, shedding)
+    x = _states(m, p)
+    warp = _warp(m, p, x, shedding, fronts)
+    spring = _spring(m, p, x)
+    _lagrange(m, p, x, warp, spring)
+    R1, R2, N1, N2 = _reactions(m, p, x, warp, spring)
+    _friction(m, p, x, N1, N2, eps if friction == "regularized" else None)
+    _outputs(m, x, warp, spring, N1, N2, fronts)
+    return m
+
+
+def _parameters(m: Model, shedding: bool) -> dict:
     P = m.parameter
-    r1 = P("r1", 0.15, unit="m", description="lever length O1O2", min=0.02, max=1.0,
-           source=A + "backrest swing levers are 0.1-0.2 m")
-    r = P("r", 0.05, unit="m", description="roller radius (warp mid-line)", min=0.01, max=0.3,
-          source=A + "backrest tube diameter 90-110 mm")
-    m_c = P("m_c", 20.0, unit="kg", description="roller mass", min=0.1, max=500.0,
-            source=A + "steel tube 100 x 4 mm, 1.9 m, with journals")
-    J_c = P("J_c", 0.0426, unit="kg.m2", description="roller moment of inertia about O2",
-            min=1e-5, max=10.0, source=A + "thick tube m (r_o^2 + r_i^2) / 2")
-    J_1 = P("J_1", 0.05, unit="kg.m2", description="lever assembly inertia about O1 "
-            "(centre of mass at O1, as (12) implies)", min=1e-5, max=10.0,
-            source=A + "two side levers and a rocking shaft")
-    r2 = P("r2", 0.08, unit="m", description="spring arm O1A", min=0.01, max=0.5,
-           source=SEED + " (5), (8), (9); value " + A + "short arm of a two-arm lever")
-    theta = P("theta", 80 * DEG, unit="rad", description="angle between spring and arm O1A",
-              min=1 * DEG, max=179 * DEG, source=SEED + " (5); value " + A + "near 90 deg")
-    gamma = P("gamma", 20 * DEG, unit="rad", description="angle between O1A and the "
-              "extension of O2O1 (enters (12) only)", min=-math.pi, max=math.pi,
-              source=SEED + " (12); value " + A + "layout")
-    phi_n = P("phi_n", 10 * DEG, unit="rad", description="initial (equilibrium) lever angle",
-              min=-80 * DEG, max=80 * DEG, source=SEED + " (8), (9); value " + A +
-              "lever slightly above the rear horizontal")
-    alpha1 = P("alpha1", 60 * DEG, unit="rad", description="angle of the lower branch "
-               "(to the warp beam) to the horizontal", min=0.0, max=math.pi / 2,
-               source=SEED + " (3); value " + A + "30-90 deg as the beam empties")
-    alpha2 = P("alpha2", 8 * DEG, unit="rad", description="angle of the upper branch "
-               "(to the healds) to the horizontal", min=-math.pi / 4, max=math.pi / 2,
-               source=SEED + " (3); value " + A + "branch near horizontal")
-    k_s = P("k_s", 5e4, unit="N/m", description="spring stiffness", min=1e2, max=1e7,
-            source=SEED + " (9); value " + A + "two springs of 25 kN/m")
-    S0 = P("S0", 3000.0, unit="N", description="static warp tension (whole sheet)",
-           min=10.0, max=2e4, source=SEED + " (8); value " + A + "4000 ends x 0.75 N")
-    c1 = P("c1", 6e5, unit="N/m", description="stiffness of the lower branch",
-           min=1e3, max=1e8, source=A + "4000 ends x 50 N / 0.35 m")
-    c2 = P("c2", 3e5, unit="N/m", description="stiffness of the upper branch",
-           min=1e3, max=1e8, source=A + "4000 ends x 50 N / 0.7 m")
-    b1 = P("b1", 360.0, unit="N.s/m", description="damping of the lower branch",
-           min=0.0, max=1e6, source=A + "0.03 c1 / omega at 8 Hz")
-    b2 = P("b2", 180.0, unit="N.s/m", description="damping of the upper branch",
-           min=0.0, max=1e6, source=A + "0.03 c2 / omega at 8 Hz")
-    rho1 = P("rho1", 0.020, unit="m", description="pin radius at O1", min=1e-3, max=0.2,
-             source=A + "rocking-shaft bearing")
-    mu1 = P("mu1", 0.12, description="sliding friction coefficient at O1", min=0.0, max=1.0,
-            source=A + "plain steel bearing, poor lubrication")
-    rho2 = P("rho2", 0.015, unit="m", description="pin radius at O2", min=1e-3, max=0.2,
-             source=A + "roller journal")
-    mu2 = P("mu2", 0.10, description="sliding friction coefficient at O2", min=0.0, max=1.0,
-            source=A + "plain roller journal")
-    k_static = P("k_static", 1.3, description="static / kinetic friction ratio",
-                 min=1.0, max=3.0, source=A + "1.2-1.5 for boundary-lubricated steel")
-    A_shed = P("A_shed", 0.002, unit="m", description="built-in shedding elongation of the "
-               "upper branch, (1 - cos) over each pick", min=0.0, max=0.05,
-               source=A + "+-20 % tension swing at c2; set 0 and drive the input instead")
-    n_loom = P("n_loom", 240.0, unit="rpm", description="loom speed for the built-in shedding",
-               min=1.0, max=2000.0, source=A + "200-300 picks/min")
-    g = 9.81
+    p = {}
+    p["r1"] = P("r1", 0.15, unit="m", description="lever length O1O2", min=0.02, max=1.0,
+                source=A + "backrest swing levers are 0.1-0.2 m")
+    p["r"] = P("r", 0.05, unit="m", description="roller radius (warp mid-line)", min=0.01,
+               max=0.3, source=A + "backrest tube diameter 90-110 mm")
+    p["m_c"] = P("m_c", 20.0, unit="kg", description="roller mass", min=0.1, max=500.0,
+                 source=A + "steel tube 100 x 4 mm, 1.9 m, with journals")
+    p["J_c"] = P("J_c", 0.0426, unit="kg.m2", description="roller moment of inertia about "
+                 "O2", min=1e-5, max=10.0, source=A + "thick tube m (r_o^2 + r_i^2) / 2")
+    p["J_1"] = P("J_1", 0.05, unit="kg.m2", description="lever assembly inertia about O1 "
+                 "(centre of mass at O1, as (12) implies)", min=1e-5, max=10.0,
+                 source=A + "two side levers and a rocking shaft")
+    p["r2"] = P("r2", 0.08, unit="m", description="spring arm O1A", min=0.01, max=0.5,
+                source=SEED + " (5), (8), (9); value " + A + "short arm of a two-arm lever")
+    p["theta"] = P("theta", 80 * DEG, unit="rad", description="angle between spring and "
+                   "arm O1A", min=1 * DEG, max=179 * DEG,
+                   source=SEED + " (5); value " + A + "near 90 deg")
+    p["gamma"] = P("gamma", 20 * DEG, unit="rad", description="angle between O1A and the "
+                   "extension of O2O1 (enters (12) only)", min=-math.pi, max=math.pi,
+                   source=SEED + " (12); value " + A + "layout")
+    p["phi_n"] = P("phi_n", 10 * DEG, unit="rad", description="initial (equilibrium) lever "
+                   "angle", min=-80 * DEG, max=80 * DEG, source=SEED + " (8), (9); value "
+                   + A + "lever slightly above the rear horizontal")
+    p["alpha1"] = P("alpha1", 60 * DEG, unit="rad", description="angle of the lower branch "
+                    "(to the warp beam) to the horizontal", min=0.0, max=math.pi / 2,
+                    source=SEED + " (3); value " + A + "30-90 deg as the beam empties")
+    p["alpha2"] = P("alpha2", 8 * DEG, unit="rad", description="angle of the upper branch "
+                    "(to the healds) to the horizontal", min=-math.pi / 4, max=math.pi / 2,
+                    source=SEED + " (3); value " + A + "branch near horizontal")
+    p["k_s"] = P("k_s", 5e4, unit="N/m", description="spring stiffness", min=1e2, max=1e7,
+                 source=SEED + " (9); value " + A + "two springs of 25 kN/m")
+    ends = 2 * HEALD_ENDS
+    c2 = round(ends * (HEALD_T_MAX - HEALD_T_MIN) / HEALD_DL_MAX, -3)
+    c1 = 2 * c2
+    p["S0"] = P("S0", ends * HEALD_T_MIN, unit="N", description="static warp tension "
+                "(whole sheet; closed shed, all elongations zero)", min=10.0, max=2e4,
+                source=SEED + " (8); value " + A + "the heald frame's closed-shed tension: "
+                f"2 frames x n_n = {HEALD_ENDS} ends x T_min = {HEALD_T_MIN} N (seed 000); "
+                "with c2 and A_shed the tension spans 2 n_n x [T_min, T_max] over a pick "
+                "and its mean is 2 n_n x the mean tension per end")
+    p["c1"] = P("c1", c1, unit="N/m", description="stiffness of the lower branch (whole "
+                "sheet)", min=1e3, max=1e8, source=A + "2 c2: the lower branch (0.35 m) is "
+                "half as long as the upper (0.7 m)")
+    p["c2"] = P("c2", c2, unit="N/m", description="stiffness of the upper branch (whole "
+                "sheet; each half-sheet c2/2)", min=1e3, max=1e8,
+                source=A + "the heald frame's tension law (seed 000): 2 n_n (T_max - "
+                f"T_min) / dl_max = 2 x {HEALD_ENDS} x {HEALD_T_MAX - HEALD_T_MIN:g} N / "
+                f"{HEALD_DL_MAX * 1e3:.2f} mm, rounded")
+    p["b1"] = P("b1", float(round(0.03 * c1 / (2 * math.pi * 8))), unit="N.s/m",
+                description="damping of the lower branch (whole sheet)", min=0.0, max=1e6,
+                source=A + "0.03 c1 / omega at 8 Hz")
+    p["b2"] = P("b2", float(round(0.03 * c2 / (2 * math.pi * 8))), unit="N.s/m",
+                description="damping of the upper branch (whole sheet; each half-sheet "
+                "b2/2)", min=0.0, max=1e6, source=A + "0.03 c2 / omega at 8 Hz")
+    p["rho1"] = P("rho1", 0.020, unit="m", description="pin radius at O1", min=1e-3,
+                  max=0.2, source=A + "rocking-shaft bearing")
+    p["mu1"] = P("mu1", 0.12, description="sliding friction coefficient at O1", min=0.0,
+                 max=1.0, source=A + "plain steel bearing, poor lubrication")
+    p["rho2"] = P("rho2", 0.015, unit="m", description="pin radius at O2", min=1e-3,
+                  max=0.2, source=A + "roller journal")
+    p["mu2"] = P("mu2", 0.10, description="sliding friction coefficient at O2", min=0.0,
+                 max=1.0, source=A + "plain roller journal")
+    p["k_static"] = P("k_static", 1.3, description="static / kinetic friction ratio",
+                      min=1.0, max=3.0, source=A + "1.2-1.5 for boundary-lubricated steel")
+    if shedding:
+        p["A_shed"] = P("A_shed", HEALD_DL_MAX, unit="m", description="built-in shedding "
+                        "elongation of the upper branch (every end), (1 - cos)/2 over each "
+                        "pick", min=0.0, max=0.05, source=A + "the heald frame's elongation "
+                        "per end at the open shed (seed 000 geometry at its defaults); a "
+                        "scene builds shedding=False and drives the front ports instead")
+        p["n_loom"] = P("n_loom", 240.0, unit="rpm", description="loom speed for the built-in"
+                        " shedding (picks per minute: one pick per main-shaft revolution)",
+                        min=1.0, max=2000.0, source=A + "200-300 picks/min; 240 rpm = 8 pi "
+                        "rad/s, the loom_shaft model's omega_0")
+    return p
 
-    letoff = m.input("letoff", 0.0, unit="m", description="warp released from the beam "
-                     "into the lower branch (let-off)", min=-0.5, max=0.5)
-    pull = m.input("warp_pull", 0.0, unit="m", description="elongation imposed on the upper "
-                   "branch by the loom (shedding, beat-up, take-up); adds to the built-in "
-                   "shedding", min=-0.5, max=0.5)
 
-    dphi1 = m.state("dphi1", 0.0, unit="rad", description="lever angle from its initial "
-                    "(equilibrium) value phi_n")
-    phi2 = m.state("phi2", 0.0, unit="rad", description="roller angle relative to the lever")
-    w1 = m.state("omega1", 0.0, unit="rad/s", description="lever rate (pivot O1)")
-    w2 = m.state("omega2", 0.0, unit="rad/s", description="roller rate relative to the "
-                 "lever (pivot O2)")
-    M1f = m.algebraic("M1f", unit="N.m", description="friction torque in pivot O1")
-    M2f = m.algebraic("M2f", unit="N.m", description="friction torque in pivot O2")
-    phi1 = phi_n + dphi1
+class _X:
+    """The coordinates, rates and friction unknowns, and the kinematics."""
 
-    q, qd = ca.vertcat(dphi1, phi2), ca.vertcat(w1, w2)
-    qdd = ca.vertcat(m.der(w1), m.der(w2))
-    m.eq(m.der(dphi1), w1)
-    m.eq(m.der(phi2), w2)
+    def __init__(self, m: Model, p: dict):
+        self.dphi1 = m.state("dphi1", 0.0, unit="rad", description="lever angle from its "
+                             "initial (equilibrium) value phi_n")
+        self.phi2 = m.state("phi2", 0.0, unit="rad", description="roller angle relative to "
+                            "the lever")
+        self.w1 = m.state("omega1", 0.0, unit="rad/s", description="lever rate (pivot O1)")
+        self.w2 = m.state("omega2", 0.0, unit="rad/s", description="roller rate relative to "
+                          "the lever (pivot O2)")
+        self.M1f = m.algebraic("M1f", unit="N.m", description="friction torque in pivot O1")
+        self.M2f = m.algebraic("M2f", unit="N.m", description="friction torque in pivot O2")
+        self.phi1 = p["phi_n"] + self.dphi1
+        self.q, self.qd = ca.vertcat(self.dphi1, self.phi2), ca.vertcat(self.w1, self.w2)
+        self.qdd = ca.vertcat(m.der(self.w1), m.der(self.w2))
+        m.eq(m.der(self.dphi1), self.w1)
+        m.eq(m.der(self.phi2), self.w2)
+        K = "coordinates and kinematics"
+        self.O2 = m.quantity("r_O2", p["r1"] * ca.vertcat(-ca.cos(self.phi1),
+                                                           ca.sin(self.phi1)),
+                             unit="m", group=K, symbol=r"\vec r_{O_2}",
+                             description="roller axis O2 (x to the front, y up, from O1); the "
+                             "generalized coordinates are the lever angle phi1 = phi_n + "
+                             "dphi1 and the roller's angle phi2 relative to the lever",
+                             source=SEED + ", fig. 1 (missing; frame reconstructed from the "
+                             "signs of (3)-(13))")
+        self.v_O2 = m.quantity("v_O2", ca.jacobian(self.O2, self.q) @ self.qd, unit="m/s",
+                               group=K, symbol=r"\vec v_{O_2}", description="velocity of "
+                               "O2", source="derived: d r_O2 / dt")
+        self.a_O2 = m.quantity("a_O2", ca.jacobian(self.v_O2, self.q) @ self.qd
+                               + ca.jacobian(self.v_O2, self.qd) @ self.qdd, unit="m/s2",
+                               group=K, symbol=r"\vec a_{O_2}", description="acceleration "
+                               "of O2", source="derived: d v_O2 / dt")
 
-    # -- geometry and energies ------------------------------------------------------
-    O2 = r1 * ca.vertcat(-ca.cos(phi1), ca.sin(phi1))
-    v_O2 = ca.jacobian(O2, q) @ qd
-    T = 0.5 * J_1 * w1**2 + 0.5 * m_c * ca.dot(v_O2, v_O2) + 0.5 * J_c * (w1 + w2) ** 2
-    V = m_c * g * O2[1]
 
-    # -- warp branches (13), completed for branch 2 and the roller's turn -----------
-    shed = A_shed * (1 - ca.cos(2 * math.pi * n_loom / 60 * m.t)) / 2
-    turn = r * (phi1 - phi_n + phi2)
-    D1 = r1 * (ca.cos(alpha1 + phi_n) - ca.cos(alpha1 + phi1)) + turn - letoff
-    D2 = r1 * (ca.cos(alpha2 + phi1) - ca.cos(alpha2 + phi_n)) - turn + pull + shed
-    D = ca.vertcat(D1, D2)
-    D_rate = ca.jacobian(D, q) @ qd + ca.jacobian(D, m.t)
-    S = ca.vertcat(S0 + c1 * D1 + b1 * D_rate[0], S0 + c2 * D2 + b2 * D_rate[1])
+def _states(m: Model, p: dict) -> _X:
+    x = _X(m, p)
+    E = "energies"
+    x.T = m.quantity("T", 0.5 * p["J_1"] * x.w1**2 + 0.5 * p["m_c"] * ca.dot(x.v_O2, x.v_O2)
+                     + 0.5 * p["J_c"] * (x.w1 + x.w2) ** 2, unit="N.m", group=E, symbol="T",
+                     description="kinetic energy: lever about O1, roller's translation with "
+                     "O2, roller's absolute rotation (phi1' + phi2')",
+                     source="derived: seed 004 names Lagrange's equations of the second "
+                     "kind, gives no T")
+    x.V = m.quantity("V", p["m_c"] * G * x.O2[1], unit="N.m", group=E, symbol="V",
+                     description="potential energy of the roller's weight (the lever's "
+                     "centre of mass is at O1; the spring acts as a force, (9))",
+                     source="derived: its moment -dV/dphi1 is the seed's (4)")
+    return x
 
-    # -- spring (8), (9) ------------------------------------------------------------------
-    F0 = (m_c * g * r1 * ca.cos(phi_n)
-          + r1 * S0 * (ca.sin(phi_n + alpha1) - ca.sin(phi_n + alpha2))) / (r2 * ca.sin(theta))
-    F_s = F0 - k_s * (phi1 - phi_n) * r2 * ca.sin(theta)
 
-    # -- generalized forces by virtual work (forces held, displacements virtual) ----
-    S_held, F_held = ca.SX.sym("S_held", 2), ca.SX.sym("F_held")
-    power = (-ca.dot(S_held, ca.jacobian(D, q) @ qd) + F_held * r2 * ca.sin(theta) * w1
-             + M1f * w1 + M2f * w2)
-    Q = ca.substitute(generalized_forces(power, qd), ca.vertcat(S_held, F_held),
-                      ca.vertcat(S, F_s))
-    for residual in ca.vertsplit(lagrange_equations(T, V, q, qd, qdd, Q)):
+def _warp(m: Model, p: dict, x: _X, shedding: bool, fronts: int) -> dict:
+    W = "warp branches"
+    letoff = m.input("letoff", 0.0, unit="m", description="elongation imposed on the lower "
+                     "branch from the warp beam's side (port warp_back), measured from the "
+                     "static state; positive stretches it (a let-off that releases warp into "
+                     "the branch is negative)", min=-0.5, max=0.5)
+    halves = [""] if fronts == 1 else ["_a", "_b"]
+    whose = {"": "the whole sheet", "_a": "the ends of heald frame A (half the sheet)",
+             "_b": "the ends of heald frame B (half the sheet)"}
+    shed_text = "; adds to the built-in shedding" if shedding else ""
+    pulls = [m.input(f"warp_pull{h}", 0.0, unit="m", description=f"elongation imposed on "
+                     f"the upper branch's ends of {whose[h]} by the loom (shedding, beat-up, "
+                     f"take-up; port warp_front{h}), measured from the static state "
+                     f"(closed shed); positive stretches them{shed_text}",
+                     min=-0.5, max=0.5) for h in halves]
+    if shedding:
+        shed = m.quantity("shed", p["A_shed"] * (1 - ca.cos(2 * math.pi * p["n_loom"] / 60
+                                                           * m.t)) / 2,
+                          unit="m", group=W, symbol=r"\Delta_{sh}", description="built-in "
+                          "shedding elongation of every end of the upper branch",
+                          source=A + "one (1 - cos)/2 pulse per pick")
+    else:
+        shed = 0
+    turn = p["r"] * (x.dphi1 + x.phi2)
+    D1 = m.quantity("Delta_1", p["r1"] * (ca.cos(p["alpha1"] + p["phi_n"])
+                                          - ca.cos(p["alpha1"] + x.phi1)) + turn + letoff,
+                    unit="m", group=W, symbol=r"\Delta_1", description="elongation of the "
+                    "lower branch from the static state: the lever's translation of O2 along "
+                    "the branch, the roller's turn r (phi1 - phi_n + phi2) and the input "
+                    "letoff", source=SEED + " (13) integrated (d l_1n = h_1 d phi1, h_1 the "
+                    "arm of S1 moved to O2) and completed with the roller's turn")
+    D2g = p["r1"] * (ca.cos(p["alpha2"] + x.phi1) - ca.cos(p["alpha2"] + p["phi_n"])) - turn
+    share = 1 if fronts == 1 else 0.5
+    tex = {"": "2", "_a": "2a", "_b": "2b"}
+    w = {"D": [D1], "S": [], "names": halves, "pulls": pulls, "letoff": letoff}
+    for h, pull in zip(halves, pulls):
+        w["D"].append(m.quantity(
+            f"Delta_2{h}", D2g + pull + shed, unit="m", group=W, symbol=rf"\Delta_{{{tex[h]}}}",
+            description=f"elongation of the upper branch's ends of {whose[h]} from the static "
+            "state: the lever's translation of O2, minus the roller's turn, plus the input "
+            f"warp_pull{h}" + (" and the built-in shedding" if shedding else ""),
+            source="derived: the seed's (13) for branch 2 (its text says the same holds)"))
+    D = ca.vertcat(*w["D"])
+    D_rate = ca.jacobian(D, x.q) @ x.qd + ca.jacobian(D, m.t)
+    w["dD_dq"] = ca.jacobian(D, x.q)
+    for k, h in enumerate([None] + halves):
+        c, b, S0 = ((p["c1"], p["b1"], p["S0"]) if h is None else
+                    (share * p["c2"], share * p["b2"], share * p["S0"]))
+        name, sym = ("S_1", "S_1") if h is None else (f"S_2{h}", f"S_{{{tex[h]}}}")
+        w["S"].append(m.quantity(
+            name, S0 + c * D[k] + b * D_rate[k], unit="N", group=W, symbol=sym,
+            description=("tension of the lower branch (whole sheet)" if h is None else
+                         f"tension of the upper branch's ends of {whose[h]}") + ": static "
+            "tension plus a linear spring and damper on the elongation (absolute; valid "
+            "while >= 0, see the validity conditions)",
+            source=A + "linear visco-elastic warp; the seed leaves the law open"))
+    return w
+
+
+def _spring(m: Model, p: dict, x: _X) -> dict:
+    SP = "spring"
+    F0 = m.quantity("F_0", (p["m_c"] * G * p["r1"] * ca.cos(p["phi_n"])
+                            + p["r1"] * p["S0"] * (ca.sin(p["phi_n"] + p["alpha1"])
+                                                   - ca.sin(p["phi_n"] + p["alpha2"])))
+                    / (p["r2"] * ca.sin(p["theta"])), unit="N", group=SP, symbol="F_0",
+                    description="spring preload: (7) = 0 at phi1 = phi_n with S1 = S2 = S0 "
+                    "and no friction", source=SEED + " (8); " + defect("B2") + "; "
+                    + defect("B3"))
+    F_s = m.quantity("F_s", F0 - p["k_s"] * x.dphi1 * p["r2"] * ca.sin(p["theta"]), unit="N",
+                     group=SP, symbol="F_{s}", description="spring force",
+                     source=SEED + " (9)")
+    M_s = m.quantity("M_s", F_s * p["r2"] * ca.sin(p["theta"]), unit="N.m", group=SP,
+                     symbol="M_{s}", description="moment of the spring about O1",
+                     source=SEED + " (5); " + defect("B1"))
+    return {"F0": F0, "F_s": F_s, "M_s": M_s}
+
+
+def _lagrange(m: Model, p: dict, x: _X, w: dict, spring: dict) -> None:
+    Q_G = "generalized forces (virtual work)"
+    n = len(w["S"])
+    S_held, M_held = ca.SX.sym("S_held", n), ca.SX.sym("M_held")
+    power = (-ca.dot(S_held, w["dD_dq"] @ x.qd) + M_held * x.w1 + x.M1f * x.w1
+             + x.M2f * x.w2)
+    held = ca.vertcat(S_held, M_held)
+    values = ca.vertcat(*w["S"], spring["M_s"])
+    x.Q = m.quantity("Q", ca.substitute(generalized_forces(power, x.qd), held, values),
+                     unit="N.m", group=Q_G, symbol="Q",
+                     description="generalized forces (Q_1 about O1, Q_2 about O2): the "
+                     "coefficients of phi1', phi2' in the power of the applied forces (warp "
+                     "tensions, spring, friction torques) held at their values; equal to the "
+                     "seed's (7) and (10) (test)",
+                     source=SEED + " (1), (2), (7), (10); " + defect("B1"))
+    L = "Lagrange's equations"
+    m.quantity("M_q", ca.hessian(x.T, x.qd)[0], unit="kg.m2", group=L, symbol="M(q)",
+               description="generalized mass matrix d2T / dq' dq'",
+               source="derived from T")
+    first = len(m.equations)
+    res = lagrange_equations(x.T, x.V, x.q, x.qd, x.qdd, x.Q)
+    for residual in ca.vertsplit(res):
         m.eq(residual)
+    m.quantity("lagrange", res, unit="N.m", group=L, symbol=r"\frac{d}{dt}\frac{\partial "
+               r"L}{\partial \dot q} - \frac{\partial L}{\partial q} - Q",
+               description="Lagrange's equations of the second kind, L = T - V, each = 0: "
+               f"the model's equations {first + 1} and {first + 2} (model.equations"
+               f"[{first}:{first + 2}])", source=SEED + ", Lagrange's equations of the "
+               "second kind [1]; derived by CasADi AD (loomfmu.symbolic)")
 
-    # -- reactions: Newton for the roller (11), lever equilibrium (12) --------------
-    a_O2 = ca.jacobian(v_O2, q) @ qd + ca.jacobian(v_O2, qd) @ qdd
-    e1 = ca.vertcat(-ca.cos(alpha1), -ca.sin(alpha1))
-    e2 = ca.vertcat(ca.cos(alpha2), ca.sin(alpha2))
-    R2 = m_c * a_O2 - (S[0] * e1 + S[1] * e2 + m_c * ca.vertcat(0, -g))
-    psi = phi1 + gamma + theta
-    R1 = R2 + F_s * ca.vertcat(-ca.cos(psi), ca.sin(psi))
-    N1, N2 = ca.norm_2(R1), ca.norm_2(R2)
 
-    # -- Coulomb friction in both pivots -----------------------------------------------
-    r_1f, r_2f = friction_radius(rho1, mu1), friction_radius(rho2, mu2)
+def _reactions(m: Model, p: dict, x: _X, w: dict, spring: dict):
+    R = "reactions"
+    e1 = ca.vertcat(-ca.cos(p["alpha1"]), -ca.sin(p["alpha1"]))
+    e2 = ca.vertcat(ca.cos(p["alpha2"]), ca.sin(p["alpha2"]))
+    S1, S2 = w["S"][0], sum(w["S"][1:])
+    R2 = m.quantity("R_2", p["m_c"] * x.a_O2 - (S1 * e1 + S2 * e2 + p["m_c"]
+                                                 * ca.vertcat(0, -G)),
+                    unit="N", group=R, symbol=r"\vec R_2", description="reaction the roller "
+                    "exerts on its pin O2 (x, y): Newton's law for the roller, m_c a_O2 = "
+                    "warp + weight - R2", source=SEED + " (11); " + defect("B4"))
+    psi = x.phi1 + p["gamma"] + p["theta"]
+    R1 = m.quantity("R_1", R2 + spring["F_s"] * ca.vertcat(-ca.cos(psi), ca.sin(psi)),
+                    unit="N", group=R, symbol=r"\vec R_1", description="reaction in the "
+                    "lever's pin O1 (x, y): the lever loaded by -R2 and the spring",
+                    source=SEED + " (12)")
+    N1 = m.quantity("N_1", ca.norm_2(R1), unit="N", group=R, symbol="N_1",
+                    description="normal force of the friction in O1: the full reaction |R1|",
+                    source=SEED + ", conclusion 2")
+    N2 = m.quantity("N_2", ca.norm_2(R2), unit="N", group=R, symbol="N_2",
+                    description="normal force of the friction in O2: the full reaction |R2|",
+                    source=SEED + ", conclusion 2")
+    return R1, R2, N1, N2
+
+
+def _friction(m: Model, p: dict, x: _X, N1, N2, eps) -> None:
+    F = "friction laws"
+    radii = []
+    for i in (1, 2):
+        radii.append(m.quantity(
+            f"r_{i}f", friction_radius(p[f"rho{i}"], p[f"mu{i}"]), unit="m", group=F,
+            symbol=rf"r_{{{i}f}}", description=f"friction radius of pin O{i}: the friction "
+            "circle's radius rho mu / sqrt(1 + mu^2); kinetic torque limit r_f N, static "
+            "k_static r_f N", source=SEED + f" (6), (10) name r_{i}f; formula: friction "
+            "circle of a pin (assumption: the seed gives none)"))
     eps_arg = None
-    if friction == "regularized":
-        eps_arg = P("eps", eps, unit="rad/s", description="regularization speed: friction "
-                    "torque = -r_f N tanh(speed / eps)", min=EPS_RANGE[0], max=EPS_RANGE[1],
-                    source="assumption: numerical regularization width, not physics")
-    coulomb_joint(m, "O1", speed=w1, torque=M1f, normal=N1, r_kinetic=r_1f,
-                  r_static=k_static * r_1f, regularized_eps=eps_arg)
-    coulomb_joint(m, "O2", speed=w2, torque=M2f, normal=N2, r_kinetic=r_2f,
-                  r_static=k_static * r_2f, regularized_eps=eps_arg)
+    if eps is not None:
+        eps_arg = m.parameter("eps", eps, unit="rad/s", description="regularization speed: "
+                              "friction torque = -r_f N tanh(speed / eps)", min=EPS_RANGE[0],
+                              max=EPS_RANGE[1], source="assumption: numerical regularization "
+                              "width, not physics")
+    for i, (w, M, N, r_f) in enumerate(((x.w1, x.M1f, N1, radii[0]),
+                                        (x.w2, x.M2f, N2, radii[1])), start=1):
+        coulomb_joint(m, f"O{i}", speed=w, torque=M, normal=N, r_kinetic=r_f,
+                      r_static=p["k_static"] * r_f, regularized_eps=eps_arg,
+                      tex=str(i), source=SEED + " (6), (10): M_if = -r_if N_i sign(phi_i')")
 
-    # -- outputs --------------------------------------------------------------------------
-    m.output("phi1_out", phi1, unit="rad", description="lever angle")
-    m.output("phi2_out", phi2, unit="rad", description="roller angle relative to the lever")
-    m.output("omega1_out", w1, unit="rad/s", description="lever rate")
-    m.output("omega2_out", w2, unit="rad/s", description="roller rate relative to the lever")
-    m.output("S1", S[0], unit="N", description="tension of the lower branch")
-    m.output("S2", S[1], unit="N", description="tension of the upper branch")
-    m.output("M1f_out", M1f, unit="N.m", description="friction torque in pivot O1")
-    m.output("M2f_out", M2f, unit="N.m", description="friction torque in pivot O2")
+
+def _outputs(m: Model, x: _X, w: dict, spring: dict, N1, N2, fronts: int) -> None:
+    m.output("phi1_out", x.phi1, unit="rad", description="lever angle")
+    m.output("phi2_out", x.phi2, unit="rad", description="roller angle relative to the lever")
+    m.output("omega1_out", x.w1, unit="rad/s", description="lever rate")
+    m.output("omega2_out", x.w2, unit="rad/s", description="roller rate relative to the "
+             "lever")
+    S1, S2 = w["S"][0], sum(w["S"][1:])
+    m.output("S1", S1, unit="N", description="tension of the lower branch (whole sheet; "
+             "absolute, positive in tension)")
+    m.output("S2", S2, unit="N", description="tension of the upper branch (whole sheet; "
+             "absolute, positive in tension)")
+    if fronts == 2:
+        for h, S in zip(("a", "b"), w["S"][1:]):
+            m.output(f"S2{h}", S, unit="N", description=f"tension of the upper branch's ends"
+                     f" of heald frame {h.upper()} (half the sheet; absolute, positive in "
+                     "tension)")
+    m.output("M1f_out", x.M1f, unit="N.m", description="friction torque in pivot O1")
+    m.output("M2f_out", x.M2f, unit="N.m", description="friction torque in pivot O2")
     m.output("N1", N1, unit="N", description="full reaction in pivot O1")
     m.output("N2", N2, unit="N", description="full reaction in pivot O2")
-    m.output("F_spring", F_s, unit="N", description="spring force")
-    m.port("warp_front", "warp", elongation="warp_pull", tension="S2",
-           description="upper branch towards the healds")
+    m.output("F_spring", spring["F_s"], unit="N", description="spring force")
+    m.require("warp_back_taut", S1, "warp in compression (lower branch): the model is not "
+              "valid for a slack warp")
+    if fronts == 1:
+        m.port("warp_front", "warp", elongation="warp_pull", tension="S2",
+               description="upper branch towards the healds (all ends): elongation in, "
+               "tension out")
+        m.require("warp_front_taut", S2, "warp in compression (upper branch): the model is "
+                  "not valid for a slack warp")
+    else:
+        for h in ("a", "b"):
+            F = h.upper()
+            m.port(f"warp_front_{h}", "warp", elongation=f"warp_pull_{h}", tension=f"S2{h}",
+                   description=f"upper branch, the ends of heald frame {F} (half the "
+                   "sheet): elongation in, tension out")
+            m.require(f"warp_front_{h}_taut", w["S"][1 + "ab".index(h)],
+                      f"warp in compression (upper branch, frame {F}'s ends): the model is "
+                      "not valid for a slack warp")
     m.port("warp_back", "warp", elongation="letoff", tension="S1",
-           description="lower branch from the warp beam")
-    return m
+           description="lower branch from the warp beam: elongation in, tension out")

@@ -167,7 +167,7 @@ def _run(path, solver, comm):
 @pytest.mark.parametrize("solver", [1, 2, 3])
 @pytest.mark.parametrize("comm", [0.1, 0.01])
 def test_fmu_matches_reference_switches_and_trajectories(backrest_fmu, ref, solver, comm):
-    assert len(ref.switches) > 20  # the scene is genuinely stick-slip
+    assert len(ref.switches) > 10  # the scene is genuinely stick-slip
     sw, ys = _run(backrest_fmu.path, solver, comm)
     assert [(n, q) for _, n, q in sw] == [(n, q) for _, n, _, q in ref.switches]
     assert max(abs(a[0] - b[0]) for a, b in zip(sw, ref.switches)) < 1e-6

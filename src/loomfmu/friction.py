@@ -45,7 +45,7 @@ SPEED_TOL = 1e-8
 
 def coulomb_joint(m: Model, name: str, *, speed: ca.SX, torque: ca.SX, normal,
                   r_kinetic, r_static, start: int = STUCK,
-                  regularized_eps=None) -> ca.SX | None:
+                  regularized_eps=None, tex: str = "", source: str = "") -> ca.SX | None:
     """Add the friction law of joint ``name``; return its mode symbol.
 
     speed: the state holding the joint's relative speed; its ``der`` is the
@@ -55,6 +55,12 @@ def coulomb_joint(m: Model, name: str, *, speed: ca.SX, torque: ca.SX, normal,
     regularized_eps: if given, no modes: torque = -r_kinetic normal
     tanh(speed / eps), the smooth variant whose cost and error can be charted
     against the event-driven one; returns None.
+    tex: the joint's LaTeX subscript in the derivation's quantities (default
+    ``name``); source: where the friction law comes from (seed and equation).
+
+    The law, its limits, the modes' equations, event indicator, consistency
+    conditions and priority are kept as the model's quantities (group
+    "stick/slip in joint <name>"), for ``loomfmu inspect``.
     """
     if not isinstance(m, Model):
         raise ValueError(f"m = {m!r:.60}; allowed: a loomfmu Model")
@@ -72,17 +78,67 @@ def coulomb_joint(m: Model, name: str, *, speed: ca.SX, torque: ca.SX, normal,
     if start not in (STUCK, FORWARD, BACKWARD) or isinstance(start, bool):
         raise ValueError(f"start = {start!r}; allowed: STUCK (0), FORWARD (1), BACKWARD (-1)")
     accel = m.der(speed)
+    t_unit, s_unit = m.var(torque.name()).unit, m.var(speed.name()).unit
+    sub = tex or name
+    group = f"stick/slip in joint {name}"
+    law = source or "Coulomb's law"
+    m.quantity(f"{name}_kinetic_limit", r_kinetic * normal, unit=t_unit, group=group,
+               symbol=rf"r_{{{sub}f}} N_{{{sub}}}", description=f"kinetic friction limit "
+               f"of joint {name}: |torque| while slipping (friction radius x normal force)",
+               source=law)
+    m.quantity(f"{name}_static_limit", r_static * normal, unit=t_unit, group=group,
+               symbol=rf"r^{{s}}_{{{sub}f}} N_{{{sub}}}", description=f"static friction limit "
+               f"of joint {name}: the largest |torque| a stuck joint carries",
+               source="derived: static friction radius x normal force")
     if regularized_eps is not None:
-        m.eq(torque, -r_kinetic * normal * ca.tanh(speed / regularized_eps))
+        law_expr = -r_kinetic * normal * ca.tanh(speed / regularized_eps)
+        m.quantity(f"{name}_law", law_expr, unit=t_unit, group=group,
+                   symbol=rf"M_{{{sub}f}}", description=f"friction torque of joint {name}, "
+                   "regularized: -r_f N tanh(speed / eps) (no stick: holds no static "
+                   "friction above kinetic)", source="assumption: smooth sign(), " + law)
+        m.eq(torque, law_expr)
         return None
     q = m.mode(f"mode_{name}", start, (STUCK, FORWARD, BACKWARD),
                description=f"friction mode of joint {name}: 0 stuck, 1 forward, -1 backward")
     stuck = q == STUCK
-    m.eq(ca.if_else(stuck, accel, torque + q * r_kinetic * normal))
-    margin = r_static * normal - ca.fabs(torque)
-    m.event(f"switch_{name}", ca.if_else(stuck, margin, speed),
+    residual = ca.if_else(stuck, accel, torque + q * r_kinetic * normal)
+    m.eq(residual)
+    m.quantity(f"{name}_law", residual, unit="", group=group,
+               symbol=rf"f_{{{sub}}}",
+               description=f"the equation f = 0 of joint {name} in each mode q (the "
+               "model's equation; its unit is the acceleration's when stuck, the torque's when "
+               "slipping): stuck, the relative acceleration is zero and the torque is "
+               "whatever keeps it so; slipping forward (+1) or backward (-1), the torque is "
+               "kinetic friction against the motion", source=law)
+    margin = m.quantity(f"{name}_stick_margin", r_static * normal - ca.fabs(torque),
+                        unit=t_unit, group=group, symbol=rf"r^{{s}}_{{{sub}f}} N_{{{sub}}} - "
+                        rf"|M_{{{sub}f}}|", description=f"joint {name} stuck: how far the "
+                        "torque is from breakaway; the stuck mode is consistent while >= 0",
+                        source="derived: Coulomb's static friction")
+    indicator = m.quantity(f"{name}_event_indicator", ca.if_else(stuck, margin, speed),
+                           unit="", group=group, symbol=rf"z_{{{sub}}}",
+                           description=f"event indicator of joint {name} (event "
+                           f"switch_{name}): the stick margin ({t_unit}) while stuck "
+                           f"(breakaway where it crosses zero), the relative speed ({s_unit}) "
+                           "while slipping (the joint may stick where it crosses zero)",
+                           source="derived: the zero crossings of the mode conditions")
+    m.event(f"switch_{name}", indicator,
             description=f"joint {name}: speed crosses zero (slipping) or breakaway (stuck)")
-    slip_ok = q * ca.if_else(ca.fabs(speed) < SPEED_TOL, accel, speed)
-    m.mode_rule(q, ca.if_else(stuck, margin, slip_ok), events=[f"switch_{name}"])
+    slip_ok = m.quantity(f"{name}_slip_condition",
+                         q * ca.if_else(ca.fabs(speed) < SPEED_TOL, accel, speed), unit="",
+                         group=group, symbol=rf"q_{{{sub}}} \dot\varphi_{{{sub}}}",
+                         description=f"joint {name} slipping in direction q: consistent "
+                         f"while >= 0: q x speed ({s_unit}), or q x acceleration where "
+                         f"|speed| < SPEED_TOL = {SPEED_TOL:g}",
+                         source="derived: kinetic friction opposes the motion")
+    validity = ca.if_else(stuck, margin, slip_ok)
+    m.quantity(f"{name}_mode_priority", ca.DM([STUCK, FORWARD, BACKWARD]), unit="",
+               group=group, symbol=rf"q_{{{sub}}} \in (0, 1, -1)",
+               description=f"the modes of joint {name} in priority order: stuck, forward, "
+               "backward; at each event the runtime takes the first whose condition (stick "
+               "margin or slip condition) is >= 0, so static friction holds where it can, "
+               "and sets a stuck joint's speed to zero", source="derived: MSL PartialFriction's "
+               "rule, written once (loomfmu.friction)")
+    m.mode_rule(q, validity, events=[f"switch_{name}"])
     m.reinit(speed, ca.if_else(stuck, 0, speed))
     return q
