@@ -15,6 +15,7 @@ import pytest
 from fmpy.validation import validate_fmu
 
 from loomfmu import build_fmu, load_model
+from loomfmu.heald.tension_input import lockstep
 from loomfmu.ports import PORT_KINDS
 from loomfmu.reference import reference
 from loomfmu.registry import build_options
@@ -105,25 +106,6 @@ def test_port_refuses_a_tension_output_beside_the_elongation_output():
 
 
 # -- FMUs ---------------------------------------------------------------------------------
-def _lockstep(geo_path, inp_path, slave_factory, dt, t_end, names):
-    """Run the geometry FMU and the input FMU side by side; at each
-    communication point the input FMU's T is set to the geometry FMU's T
-    (held over the step).  Returns the two records of ``names``."""
-    g, i = slave_factory(geo_path, "geometry"), slave_factory(inp_path, "input")
-    g.start()
-    T0 = g.get("T")[0]
-    i.start(T=T0)   # also at the static deflection under this tension
-    rec_g, rec_i = [g.get(*names)], [i.get(*names)]
-    n = int(round(t_end / dt))
-    for k in range(n):
-        i.set(T=g.get("T")[0])
-        g.fmu.doStep(k * dt, dt)   # FMPy raises on a status other than OK
-        i.fmu.doStep(k * dt, dt)
-        rec_g.append(g.get(*names))
-        rec_i.append(i.get(*names))
-    return np.array(rec_g), np.array(rec_i)
-
-
 def test_fed_the_geometry_tension_it_reproduces_the_slat_motion(
         heald_frame_fmu, spatial_input_fmu, slave_factory):
     """Over one frame cycle the input FMU, fed the geometry FMU's tension at
@@ -134,8 +116,8 @@ def test_fed_the_geometry_tension_it_reproduces_the_slat_motion(
     t_end = 4 * math.pi / 60
     err = {}
     for dt in (1e-3, 1e-4):
-        rg, ri = _lockstep(heald_frame_fmu.path, spatial_input_fmu.path, slave_factory, dt,
-                           t_end, names)
+        rg, ri = lockstep(heald_frame_fmu.path, spatial_input_fmu.path, dt, t_end, names,
+                          make=slave_factory)
         np.testing.assert_allclose(ri[:, :2], rg[:, :2], rtol=0, atol=1e-12)  # h, dl
         err[dt] = {n: np.max(np.abs(rg[:, k] - ri[:, k])) / np.ptp(rg[:, k])
                    for k, n in enumerate(names) if n in SLATS}
@@ -241,3 +223,16 @@ def test_negative_tension_is_refused_with_the_time(rigid_input_fmu, slave_factor
     assert float(re.search(r"at t = (\S+) s", lines[0]).group(1)) == pytest.approx(0.01)
     for name in ("h", "f_y", "N_rem"):
         assert np.isfinite(s.get(name)[0])
+
+
+def test_defaults_agree_with_the_backrest():
+    """The backrest's static sheet tension is two frames' ends at the closed
+    shed (dl = 0, T_min per end), and its upper-branch stiffness is the one
+    the heald frame's tension law implies for two frames' ends (rounded)."""
+    from loomfmu.heald.tension_input import defaults
+    d = defaults()
+    back = load_model("backrest")
+    assert back.var("S0").start == pytest.approx(2 * d["n_n"] * d["T_min"])
+    assert back.var("c2").start == pytest.approx(2 * d["k_ends"], rel=0.01)
+    assert d["dl_max"] == pytest.approx(math.hypot(0.05, 0.029) + math.hypot(0.25, 0.029) - 0.3)
+    assert d["T_min"] < (d["T_min"] + d["T_max"]) / 2 < d["T_end_mean"] < d["T_max"]

@@ -1,4 +1,5 @@
-"""loomfmu heald {claims, fidelity, design}: see loomfmu.heald.claims."""
+"""loomfmu heald {claims, fidelity, design, tension-input}: see loomfmu.heald.claims
+and loomfmu.heald.tension_input."""
 from __future__ import annotations
 
 import argparse
@@ -25,6 +26,11 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
     d.add_argument("--d1", type=float, default=None,
                    help="slat wall thickness, m (default: the model's)")
     d.add_argument("--json", action="store_true", help="print the result as JSON")
+    w = sub.add_parser("tension-input", help="the warp tension as an input: lockstep with "
+                       "the geometry tension, shared defaults, the frame in opposition -> "
+                       "docs/heald_tension_input.md")
+    w.add_argument("--out", type=Path, default=Path("docs/heald_tension_input.md"),
+                   help="output file (default: ./docs/heald_tension_input.md)")
     args = ap.parse_args(argv)
     from ..progress import Progress
     if args.cmd == "claims":
@@ -47,6 +53,8 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
             bar.stage("simulating and comparing the three levels")
             text = cl.fidelity_markdown(cl.fidelity(fmus))
             bar.advance("compared")
+    elif args.cmd == "tension-input":
+        text = _tension_input(Progress)
     else:
         try:
             with Progress(total=1, desc="heald design") as bar:
@@ -67,6 +75,31 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
     print(text)
     print(f"written: {args.out}")
     return 0
+
+
+def _tension_input(Progress) -> str:
+    from ..builder import build_fmu
+    from ..registry import load_model
+    from . import tension_input as ti
+    with tempfile.TemporaryDirectory() as tmp, \
+            Progress(total=4, desc="heald tension-input") as bar:
+        bar.stage("building heald_frame (geometry and input tension), heald_frame_rigid (input)")
+        geo = build_fmu(load_model("heald_frame"), out_dir=Path(tmp) / "geometry").path
+        inp = build_fmu(load_model("heald_frame", warp_tension="input"),
+                        out_dir=Path(tmp) / "input").path
+        rigid = build_fmu(load_model("heald_frame_rigid", warp_tension="input"),
+                          out_dir=Path(tmp) / "input").path
+        bar.advance("built")
+        bar.stage("lockstep runs at communication steps 1e-3, 1e-4, 1e-5 s")
+        errors = ti.lockstep_errors(geo, inp)
+        bar.advance("lockstep done")
+        bar.stage("defaults")
+        dflt = ti.defaults()
+        bar.advance("defaults done")
+        bar.stage("frames in opposition")
+        opp = ti.opposition(rigid)
+        bar.advance("done")
+    return ti.markdown(errors, dflt, opp)
 
 
 def _print_design(res: dict) -> None:
