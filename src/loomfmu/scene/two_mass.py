@@ -29,12 +29,14 @@ The co-simulation is stable when the map's spectral radius is below 1.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 
 import numpy as np
 from scipy.optimize import brentq
 
 from .declare import Scene, declare_model
+from .extrapolation import taylor
 
 #: the exact-integration settings of the FMUs in the benchmark
 TIGHT = {"solver_rtol": 1e-12, "solver_atol": 1e-14}
@@ -155,8 +157,134 @@ def cosim_map(p: Params, h: float, algorithm: str) -> np.ndarray:
     return np.block([[P1 + G1 @ G2 @ C1, G1 @ (P2 + G2 @ D1)], [G2 @ C1, P2 + G2 @ D1]])
 
 
-def spectral_radius(p: Params, h: float, algorithm: str) -> float:
-    return float(max(abs(np.linalg.eigvals(cosim_map(p, h, algorithm)))))
+def spectral_radius(p: Params, h: float, algorithm: str, order: int = 0) -> float:
+    """Spectral radius of one step of ``algorithm`` with input extrapolation
+    of ``order`` (0: the zero-order hold's map :func:`cosim_map`)."""
+    M = cosim_map(p, h, algorithm) if order == 0 else extrapolated_map(p, h, algorithm, order)
+    return float(max(abs(np.linalg.eigvals(M))))
+
+
+# -- input extrapolation of order 1, 2 --------------------------------------------
+#: the algorithms the extrapolated map is derived for (libcosim holds its inputs)
+EXTRAPOLATED = ALGORITHMS[:3]
+
+
+def hold_poly(A: np.ndarray, B: np.ndarray, h: float, order: int):
+    """(Phi, [Gam_0, ..., Gam_order]): the exact step of z' = A z + B u over h
+    with u(s) = a_0 + a_1 s + a_2 s^2 / 2 (a_m: the input's m-th derivative at
+    the step's start): z(h) = Phi z(0) + sum_m Gam_m a_m.  One exponential of
+    the chain z' = A z + B u, u' = u_1, u_1' = u_2, u_2' = 0."""
+    n, m = B.shape
+    N = n + m * (order + 1)
+    M = np.zeros((N, N))
+    M[:n, :n], M[:n, n:n + m] = A, B
+    for j in range(order):
+        M[n + j * m:n + (j + 1) * m, n + (j + 1) * m:n + (j + 2) * m] = np.eye(m)
+    E = expm(M * h)
+    return E[:n, :n], [E[:n, n + j * m:n + (j + 1) * m] for j in range(order + 1)]
+
+
+def _coefficients(hist, ts: float, y, t: float, order: int) -> np.ndarray:
+    """The master's rule (loomfmu.scene.extrapolation.History): the polynomial
+    through the last ``order`` samples before ts and the newest (ts, y), as
+    derivatives at t (rows 0..order)."""
+    past = [s for s in hist if s[0] < ts - 1e-12 * max(1.0, abs(ts))][-order:] if order else []
+    pts = [*past, (ts, np.atleast_1d(np.asarray(y, dtype=float)))]
+    return taylor([tj - t for tj, _ in pts], np.array([v for _, v in pts]), order)
+
+
+def _one_step(ops, z1, z2, hist1, hist2, t, h, algorithm, order):
+    """One communication step of ``algorithm`` with extrapolation ``order``
+    exactly as the master does it.  hist1: samples (time, (x2, v2)) of the
+    force side's input, hist2: samples (time, F) of the displacement side's.
+    Returns z1, z2 at t + h and the new samples of the two inputs."""
+    P1, G1, P2, G2, C1, D1 = ops
+    adv1 = lambda a: P1 @ z1 + sum(G @ am for G, am in zip(G1, a))   # noqa: E731
+    adv2 = lambda a: P2 @ z2 + sum(G @ am for G, am in zip(G2, a))   # noqa: E731
+    at_end = lambda a: sum(am * h**m / math.factorial(m) for m, am in enumerate(a))  # noqa
+    if algorithm == "jacobi":
+        a1 = _coefficients(hist1, t, z2, t, order)
+        F = C1 @ z1 + D1 @ a1[0]
+        a2 = _coefficients(hist2, t, F, t, order)
+        return adv1(a1), adv2(a2), (t, z2.copy()), (t, F)
+    if algorithm == "gauss-seidel:force-first":
+        a1 = _coefficients(hist1, t, z2, t, order)
+        z1n = adv1(a1)
+        F = C1 @ z1n + D1 @ at_end(a1)      # the force side's input at t + h
+        a2 = _coefficients(hist2, t + h, F, t, order)
+        return z1n, adv2(a2), (t, z2.copy()), (t + h, F)
+    if algorithm == "gauss-seidel:disp-first":
+        F = C1 @ z1 + D1 @ z2               # the force side holds z2 at t
+        a2 = _coefficients(hist2, t, F, t, order)
+        z2n = adv2(a2)
+        a1 = _coefficients(hist1, t + h, z2n, t, order)
+        return adv1(a1), z2n, (t + h, z2n.copy()), (t, F)
+    raise ValueError(f"algorithm = {algorithm!r}; allowed: {', '.join(EXTRAPOLATED)}")
+
+
+def _ops(p: Params, h: float, order: int):
+    A1, B1, C1, D1, A2, B2 = matrices(p)
+    P1, G1 = hold_poly(A1, B1, h, order)
+    P2, G2 = hold_poly(A2, B2, h, order)
+    return P1, G1, P2, G2, C1, D1
+
+
+def extrapolated_trajectory(p: Params, h: float, n: int, z0, algorithm: str,
+                            order: int) -> np.ndarray:
+    """z at t = 0, h, ..., n h (n + 1 rows) of ``algorithm`` with input
+    extrapolation of ``order``, from its first step (where the history is
+    shorter and the order lower, as in the master)."""
+    ops = _ops(p, h, order)
+    z = np.zeros((n + 1, 4))
+    z[0] = z0
+    z1, z2 = np.array(z0[:2], dtype=float), np.array(z0[2:], dtype=float)
+    hist1: list = []
+    hist2: list = []
+    for k in range(n):
+        z1, z2, s1, s2 = _one_step(ops, z1, z2, hist1, hist2, k * h, h, algorithm, order)
+        for hist, smp in ((hist1, s1), (hist2, s2)):
+            if not hist or smp[0] > hist[-1][0]:
+                hist.append(smp)
+                del hist[:-3]
+        z[k + 1] = np.concatenate([z1, z2])
+    return z
+
+
+def _history_times(algorithm: str, order: int, h: float) -> tuple[list, list]:
+    """The times of the samples the two inputs' histories hold at a step's
+    start t = 0 once the run is past its first ``order`` steps."""
+    back = [-(order - j) * h for j in range(order)]          # -order h ... -h
+    upto = [-(order - 1 - j) * h for j in range(order)]      # -(order-1) h ... 0
+    if algorithm == "jacobi":
+        return back, back
+    if algorithm == "gauss-seidel:force-first":
+        return back, upto
+    return upto, back
+
+
+def extrapolated_map(p: Params, h: float, algorithm: str, order: int) -> np.ndarray:
+    """The matrix of one step of ``algorithm`` with extrapolation ``order``
+    (once the histories are full): a linear map of the stacked vector
+    w = (x1, v1, x2, v2, the force side's last ``order`` input samples
+    (x2, v2), the displacement side's last ``order`` force samples), oldest
+    first; built column by column from :func:`_one_step`."""
+    if algorithm not in EXTRAPOLATED:
+        raise ValueError(f"algorithm = {algorithm!r}; allowed: {', '.join(EXTRAPOLATED)}")
+    ops = _ops(p, h, order)
+    T1, T2 = _history_times(algorithm, order, h)
+    N = 4 + 3 * order
+    M = np.zeros((N, N))
+    for col in range(N):
+        w = np.zeros(N)
+        w[col] = 1.0
+        hist1 = [(T1[j], w[4 + 2 * j:6 + 2 * j]) for j in range(order)]
+        hist2 = [(T2[j], w[4 + 2 * order + j:5 + 2 * order + j]) for j in range(order)]
+        z1n, z2n, s1, s2 = _one_step(ops, w[:2], w[2:4], hist1, hist2, 0.0, h, algorithm,
+                                     order)
+        h1 = [v for _, v in hist1][1:] + [s1[1]] if order else []
+        h2 = [v for _, v in hist2][1:] + [s2[1]] if order else []
+        M[:, col] = np.concatenate([z1n, z2n, *h1, *[np.atleast_1d(v) for v in h2]])
+    return M
 
 
 def exact_radius(p: Params, h: float) -> float:
@@ -194,12 +322,12 @@ def exact_solution(p: Params, t, z0) -> np.ndarray:
 
 
 def stability_limit(p: Params, algorithm: str, *, h_lo: float = 1e-5,
-                    h_hi: float = 1.0, n: int = 120) -> float:
+                    h_hi: float = 1.0, n: int = 120, order: int = 0) -> float:
     """The smallest communication step at which the spectral radius reaches 1
     (scanned on a log grid from h_lo to h_hi, then located by brentq);
     inf when it stays below 1."""
     hs = np.geomspace(h_lo, h_hi, n)
-    rho = np.array([spectral_radius(p, h, algorithm) for h in hs]) - 1.0
+    rho = np.array([spectral_radius(p, h, algorithm, order) for h in hs]) - 1.0
     above = np.nonzero(rho >= 0)[0]
     if above.size == 0:
         return float("inf")
@@ -207,5 +335,6 @@ def stability_limit(p: Params, algorithm: str, *, h_lo: float = 1e-5,
     if k == 0:
         raise ValueError(f"{algorithm}: unstable already at h_lo = {h_lo:g} s; allowed: a "
                          "smaller h_lo")
-    return float(brentq(lambda h: spectral_radius(p, h, algorithm) - 1.0, hs[k - 1], hs[k],
+    return float(brentq(lambda h: spectral_radius(p, h, algorithm, order) - 1.0, hs[k - 1],
+                        hs[k],
                         xtol=1e-14, rtol=1e-12))

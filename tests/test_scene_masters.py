@@ -1,0 +1,253 @@
+"""Scene masters: port connections by role (kind, unit, direction, driven
+twice, no common role), algebraic loops iterated at communication points
+(against their analytic solution), and input extrapolation of order 0-2
+(against the exact co-simulation map of the two-mass benchmark, including
+the first steps, rejected steps and the stability limits)."""
+from __future__ import annotations
+
+import math
+import shutil
+import zipfile
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from loomfmu.declare import Model
+from loomfmu.scene import Scene, run
+from loomfmu.scene import two_mass as tm
+from loomfmu.scene.extrapolation import History, shift, taylor, value
+from loomfmu.scene.fmus import build_fmus
+from loomfmu.scene.system import FMUError
+
+SRC = "assumption: a test model"
+
+
+def raises(match: str):
+    return pytest.raises(ValueError, match=match)
+
+
+# -- small declared models ---------------------------------------------------------
+def shaft(name: str, *, speed: str | None = "out", torque: str | None = "in",
+          speed_unit: str = "rad/s") -> Model:
+    """A flywheel with a flange port: its speed out and the torque in, or the
+    other way round, or one role only."""
+    m = Model(name, description="test flywheel", stop_time=1.0, step_size=1e-2, h_fixed=1e-3)
+    J = m.parameter("J", 1.0, unit="kg.m2", description="inertia", source=SRC)
+    w = m.state("w", 1.0, unit="rad/s", description="speed")
+    roles = {}
+    tq = 0.0
+    if torque == "in":
+        tq = m.input("tq_in", 0.0, unit="N.m", description="torque on the flange")
+        roles["torque"] = "tq_in"
+    if speed == "in":
+        w_in = m.input("w_in", 0.0, unit=speed_unit, description="speed of the far side")
+        roles["speed"] = "w_in"
+        tq_out = 10.0 * (w_in - w)
+    else:
+        tq_out = -w
+    m.eq(J * m.der(w), tq - w)
+    m.output("w_mon", w, unit="rad/s", description="speed (monitor)")
+    if speed == "out":
+        m.output("w_out", w * (30 / math.pi if speed_unit == "rpm" else 1.0), unit=speed_unit,
+                 description="speed")
+        roles["speed"] = "w_out"
+    if torque == "out":
+        m.output("tq_out", tq_out, unit="N.m", description="torque through the flange")
+        roles["torque"] = "tq_out"
+    m.port("flange", "flange", description="the flywheel's flange", **roles)
+    return m
+
+
+def warp_end(name: str) -> Model:
+    m = Model(name, description="test warp end", stop_time=1.0, step_size=1e-2, h_fixed=1e-3)
+    x = m.state("x", 0.0, unit="m", description="elongation")
+    m.eq(m.der(x), -x)
+    m.output("dl", x, unit="m", description="elongation")
+    m.port("warp", "warp", elongation="dl", description="warp ends")
+    return m
+
+
+def scene_of(*models: Model) -> Scene:
+    s = Scene("ports", stop_time=0.1, step=1e-2)
+    for mod in models:
+        s.add(mod.name, model=mod)
+    return s
+
+
+def test_ports_connect_the_roles_they_share():
+    s = scene_of(shaft("a"), shaft("b", speed="in", torque="out"),
+                 shaft("c", speed="out", torque=None))
+    new = s.connect("a.flange", "b.flange")
+    assert sorted(str(c) for c in new) == ["a.w_out -> b.w_in", "b.tq_out -> a.tq_in"]
+    s2 = scene_of(shaft("b", speed="in", torque="out"), shaft("c", speed="out", torque=None))
+    (c,) = s2.connect("c.flange", "b.flange")          # c has no torque: speed only
+    assert str(c) == "c.w_out -> b.w_in" and c.port.endswith("(speed)")
+
+
+def test_port_connection_errors_name_the_connection_and_what_is_allowed():
+    s = scene_of(shaft("a"), shaft("a2"), shaft("b", speed="in", torque="out"),
+                 shaft("s", speed="out", torque=None), shaft("q", speed=None, torque="in"),
+                 warp_end("w"))
+    # kind
+    with raises(r"connection a.flange -> w.warp: port kinds differ \('flange' and 'warp'\); "
+                r"allowed: a port of kind 'flange' of w: none"):
+        s.connect("a.flange", "w.warp")
+    # no common role
+    with raises(r"connection s.flange -> q.flange: the ports share no role \(s.flange: "
+                r"speed; q.flange: torque\); allowed: ports of kind 'flange' with a role in "
+                r"common"):
+        s.connect("s.flange", "q.flange")
+    # direction: speed out on both ends
+    with raises(r"connection a.flange -> s.flange: role 'speed' is a.w_out \(output\) and "
+                r"s.w_out \(output\); allowed: an output on one side and an input on the "
+                r"other"):
+        s.connect("a.flange", "s.flange")
+    # driven twice
+    s.connect("a.flange", "b.flange")
+    with raises(r"connection a2.flange -> b.flange: input b.w_in is already driven by "
+                r"a.w_out -> b.w_in; allowed: one connection into each input"):
+        s.connect("a2.flange", "b.flange")
+    # unit: a speed cannot drive a torque
+    with raises(r"connection a2.w_out -> q.tq_in: unit 'rad/s' of a2.w_out cannot be "
+                r"converted to 'N.m' of q.tq_in; allowed: units of the same quantity"):
+        s.connect("a2.w_out", "q.tq_in")
+    assert len(s.connections) == 2     # nothing refused was added
+
+
+def test_port_roles_in_other_units_are_converted():
+    s = scene_of(shaft("r", speed="out", torque=None, speed_unit="rpm"),
+                 shaft("b", speed="in", torque="out"))
+    (c,) = s.connect("r.flange", "b.flange")
+    assert c.gain == pytest.approx(2 * math.pi / 60, rel=1e-15) and c.bias == 0.0
+
+
+def test_a_declared_model_is_refused_options():
+    with raises(r"options = \{'side': 'force'\}: model 'a' is a declaration; allowed: no "
+                r"options"):
+        Scene("x").add("a", model=shaft("a"), options={"side": "force"})
+
+
+# -- algebraic loops ---------------------------------------------------------------
+G, K, C = 1.5, 2.0, 0.3          # loop gain G K = 3: plain fixed point diverges
+
+
+def loop_a() -> Model:
+    """x' = -x; y = x + G u (direct feedthrough)."""
+    m = Model("loop_a", description="test loop side a", stop_time=1.0, step_size=1e-2,
+              h_fixed=1e-3)
+    g = m.parameter("g", G, description="feedthrough gain", source=SRC)
+    u = m.input("u", 0.0, description="input")
+    x = m.state("x", 1.0, description="state")
+    m.eq(m.der(x), -x)
+    m.output("y", x + g * u, description="output (feedthrough)")
+    return m
+
+
+def loop_b(cubic: bool = False) -> Model:
+    """z' = 0; y = C - K u (or C - K u^3): direct feedthrough, no dynamics."""
+    m = Model("loop_b3" if cubic else "loop_b", description="test loop side b",
+              stop_time=1.0, step_size=1e-2, h_fixed=1e-3)
+    k = m.parameter("k", K, description="feedthrough gain", source=SRC)
+    c = m.parameter("c", C, description="offset", source=SRC)
+    u = m.input("u", 0.0, description="input")
+    z = m.state("z", 0.0, description="a state that does not move")
+    m.eq(m.der(z), 0.0 * z)
+    m.output("y", c - k * (u**3 if cubic else u) + z, description="output (feedthrough)")
+    return m
+
+
+@pytest.fixture(scope="module")
+def loop_fmus(tmp_path_factory):
+    path = tmp_path_factory.mktemp("loop_fmus")
+    s = Scene("loops")
+    s.add("a", model=loop_a())
+    s.add("b", model=loop_b())
+    s.add("b3", model=loop_b(cubic=True))
+    return build_fmus(s, path)
+
+
+def loop_scene(fmus, *, cubic=False) -> tuple[Scene, dict]:
+    """The loop scene and its FMUs by component."""
+    paths = {"a": fmus["a"], "b": fmus["b3" if cubic else "b"]}
+    s = Scene("loop", stop_time=0.5, step=0.05)
+    for name, path in paths.items():
+        s.add(name, fmu=path)
+    s.connect("a.y", "b.u")
+    s.connect("b.y", "a.u")
+    s.record("a.x", "a.u", "b.u", "a.y", "b.y")
+    return s, paths
+
+
+def solution(x: float, cubic: bool) -> tuple[float, float]:
+    """(u_a, u_b) of the loop u_b = x + G u_a, u_a = C - K u_b (or u_b^3)."""
+    f = (lambda ub: ub**3) if cubic else (lambda ub: ub)
+    ub = brentq(lambda ub: ub - x - G * (C - K * f(ub)), -10.0, 10.0, xtol=1e-15)
+    return C - K * f(ub), ub
+
+
+@pytest.mark.parametrize("cubic", [False, True])
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_an_algebraic_loop_is_solved_at_each_communication_point(loop_fmus, master, cubic):
+    s, fmus = loop_scene(loop_fmus, cubic=cubic)
+    assert [str(c) for c in s.loops()[0]] == ["a.y -> b.u", "b.y -> a.u"]
+    res = run(s, master=master, fmus=fmus)
+    t = res["time"]
+    assert np.allclose(res["a.x"], np.exp(-t), rtol=1e-6, atol=0)
+    # the inputs held over step n -> n + 1 (recorded at n + 1) solve the loop at t_n
+    # (Gauss-Seidel: b steps after a and reads a's output at t_n+1: a.y = x + G u_a)
+    for n in range(len(t) - 1):
+        ua, ub = solution(float(np.exp(-t[n])), cubic)
+        assert res["a.u"][n + 1] == pytest.approx(ua, abs=1e-9)
+        if master == "jacobi":
+            assert res["b.u"][n + 1] == pytest.approx(ub, abs=1e-9)
+        else:
+            assert res["b.u"][n + 1] == pytest.approx(float(np.exp(-t[n + 1])) + G * ua,
+                                                      abs=1e-7)
+    assert res.loop_iterations > 0
+
+
+def test_a_loop_that_does_not_converge_is_named(loop_fmus):
+    s, loop_fmus = loop_scene(loop_fmus)
+    # relaxed fixed point u <- u + w (G(u) - u): dG/du = [[0, G], [-K, 0]] has eigenvalues
+    # +-i sqrt(G K), so the iteration contracts by sqrt((1 - w)^2 + 3 w^2): 1 at w = 0.5
+    with pytest.raises(FMUError, match=r"algebraic loop \(a.y -> b.u; b.y -> a.u\) did not "
+                       r"converge at t = 0 s after 30 fixed-point iterations: largest "
+                       r"\|G\(u\) - u\| = .*loop_atol"):
+        run(s, fmus=loop_fmus, loop_options={"loop_method": "fixed-point", "relaxation": 0.5,
+                                             "loop_max_iter": 30})
+    # and sqrt(0.75) at w = 0.25: converges, slowly (Newton: in 2 iterations)
+    res = run(s, fmus=loop_fmus, loop_options={"loop_method": "fixed-point",
+                                               "relaxation": 0.25, "loop_max_iter": 300})
+    ua, _ = solution(1.0, False)
+    assert res["a.u"][1] == pytest.approx(ua, abs=1e-9)
+    with raises(r"loop_options: unknown \['tol'\]"):
+        run(s, fmus=loop_fmus, loop_options={"tol": 1e-3})
+    with raises(r"loop_method = 'secant'; allowed: newton, fixed-point"):
+        run(s, fmus=loop_fmus, loop_options={"loop_method": "secant"})
+    with raises(r"relaxation = 1.5; allowed: a number in \(0, 1\]"):
+        run(s, fmus=loop_fmus, loop_options={"relaxation": 1.5})
+
+
+# -- extrapolation: the polynomial ------------------------------------------------
+def test_taylor_coefficients_of_the_extrapolation():
+    q = lambda t: 2.0 - 3.0 * t + 0.7 * t * t          # noqa: E731
+    taus = [-2e-3, -1e-3, 0.0]
+    c = taylor(taus, [q(x) for x in taus], 2)
+    assert np.allclose(c, [2.0, -3.0, 1.4], rtol=1e-9, atol=1e-9)
+    assert value(c, 5e-3) == pytest.approx(q(5e-3), rel=1e-12)
+    # expanded elsewhere and moved back
+    c1 = taylor([t - 1e-3 for t in taus], [q(x) for x in taus], 2)
+    assert np.allclose(shift(c1, -1e-3), c, rtol=1e-9, atol=1e-9)
+    # fewer samples: lower degree, zero rows
+    assert np.allclose(taylor([0.0], [4.0], 2), [4.0, 0.0, 0.0])
+    with raises(r"taylor: 3 samples for order 1"):
+        taylor(taus, [1, 2, 3], 1)
+    # a rejected step leaves no sample
+    hist = History(1)
+    hist.coefficients(0, 0.0, 1.0, 0.0, 1)
+    hist.commit()
+    hist.coefficients(0, 0.1, 5.0, 0.1, 1)
+    hist.discard()
+    c = hist.coefficients(0, 0.05, 2.0, 0.05, 1)
+    assert np.allclose(c, [2.0, 20.0])
