@@ -21,6 +21,10 @@ MODELS: dict[str, tuple[str, dict]] = {
     "heald_frame_rigid": ("heald_frame_rigid", {}),
     "spindle": ("spindle", {}),
     "spindle_modal": ("spindle_modal", {}),
+    "loom_shaft": ("loom_shaft", {}),
+    # the co-simulation benchmark split into two FMUs (loomfmu.scene.two_mass)
+    "two_mass_force": ("two_mass", {"side": "force"}),
+    "two_mass_displacement": ("two_mass", {"side": "displacement"}),
 }
 
 #: mechanism -> its models, lowest fidelity first (a scene picks one level)
@@ -29,6 +33,7 @@ FIDELITY: dict[str, list[str]] = {
     "backrest": ["backrest_regularized", "backrest"],
     "spindle rotor": ["spindle_modal", "spindle"],
     "spindle drive": ["drive"],
+    "loom main shaft": ["loom_shaft"],
 }
 
 
