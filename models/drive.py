@@ -25,6 +25,8 @@ from loomfmu.checks import check_choice, check_int, check_number
 from loomfmu.declare import Model
 from loomfmu.drive import DriveParams, cam_profile_phi, f_rad as cam_ratio
 from loomfmu.drive.law import MAX_HARMONICS
+from loomfmu.models.drive_derivation import (cam_quantities, drive_quantities,
+                                             history_quantities, law_quantities)
 
 SEED = "seed 001"
 A = "assumption: the seed gives no numbers; "
@@ -92,14 +94,20 @@ def build(*, cam: str = "compensated", harmonics: int = 96, m: int = 40,
     n = m_.state("n", 12000.0, unit="rpm", description="spindle speed")
     phi = m_.state("phi", 0.0, unit="rad", description="cam angle")
 
+    if cam != "none":
+        law_quantities(m_, cam, m)
     r = a0 + sum(a * ca.cos(j * phi) + b * ca.sin(j * phi)
                  for j, (a, b) in enumerate(coeffs, 1))
-    u = n_min / K + cam_on * k_g * (r - r_min) + u_ext
+    cam_quantities(m_, phi, n, r, coeffs, a0, f_rad)
+    U_z, U_p = n_min / K, cam_on * k_g * (r - r_min)
+    u = U_z + U_p + u_ext
     u_delayed = m_.delay("u", u, tau, max_delay=max_delay,
                          description="drive input signal, tau ago")
+    drive_quantities(m_, U_z=U_z, U_p=U_p, u=u, tau=tau, u_delayed=u_delayed, n=n, K=K, T=T)
     m_.eq(T * m_.der(n), K * u_delayed - n)
     m_.eq(m_.der(phi), f_rad * n / 60.0)
     m_.set_starts_from(n, K * u)  # steady state of the initial signal
+    history_quantities(m_, u=u, tau=tau, K=K, max_delay=max_delay)
 
     m_.output("n_out", n, unit="rpm", description="spindle speed")
     m_.output("u", u, unit="V", description="drive input signal")

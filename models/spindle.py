@@ -27,14 +27,17 @@ right-hand side grows as n bw^2 instead of the n^3 of a dense symbolic solve.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import casadi as ca
 
 from loomfmu.checks import check_choice, check_int
 from loomfmu.declare import Model
-from loomfmu.rotor import (Rotor, band_ldl_solve, circle_section, coil_spring_stiffness, film_damping,
-                           film_stiffness, isotropic, spring_radii)
+from loomfmu.models.spindle_derivation import (force_quantities, modal_quantities,
+                                               rotor_quantities, unbalance_quantity)
+from loomfmu.rotor import (Rotor, band_ldl_solve, circle_section, coil_spring_stiffness,
+                           film_eccentricities, film_layer_damping, film_layer_stiffness,
+                           isotropic, series_sum, spring_radii)
 
 SEED = "seed 003"
 RPM = 2 * math.pi / 60
@@ -72,6 +75,7 @@ class SpindleRotor:
     dofs: list[str]
     p: dict              # parameter name -> SX
     unbalance_mass: dict  # "bobbin"/"whorl" -> mass expression (kg)
+    support: dict = field(default_factory=dict)  # the supports' pieces, by symbol
 
     def idx(self, name: str) -> int:
         return self.dofs.index(name)
@@ -85,7 +89,7 @@ class SpindleRotor:
 
 def declare_rotor(m: Model, Omega: ca.SX, *, beam: str = "euler", n_turns: int = 4,
                   damper: str = "corrected", n_low: int = 2, n_cone: int = 4,
-                  bobbin_node: int | None = None) -> SpindleRotor:
+                  bobbin_node: int | None = None, quantities: bool = True) -> SpindleRotor:
     """Declare the spindle's parameters on ``m`` and assemble its matrices.
 
     Omega: spin speed (rad/s), an SX expression (the FMU's input, or a free
@@ -93,7 +97,10 @@ def declare_rotor(m: Model, Omega: ca.SX, *, beam: str = "euler", n_turns: int =
     spring turns (>= 2).  damper: "corrected" or "printed" form of (5).
     n_low, n_cone: elements below the bolster and along the cone (>= 1).
     bobbin_node: node of the bobbin's equivalent disk (default: the cone
-    node nearest 0.5 L_up above the whorl).
+    node nearest 0.5 L_up above the whorl).  quantities: keep the
+    derivation's named quantities on ``m`` (element, supports, assembly;
+    models/spindle_derivation.py); needs Omega to be an expression of m's
+    variables.
     """
     check_choice("beam", beam, ("euler", "timoshenko"))
     check_choice("damper", damper, ("corrected", "printed"))
@@ -219,25 +226,36 @@ def declare_rotor(m: Model, Omega: ca.SX, *, beam: str = "euler", n_turns: int =
         raise ValueError(f"bobbin_node = {bobbin_node!r}; allowed: {whorl + 1}..{top}")
     r.disk(whorl, m_w, Id_w, Ip_w)
     r.disk(bobbin_node, m_b + fill * m_y, Id_b + fill * Id_y, Ip_b + fill * Ip_y)
-    r.spring(bolster, isotropic(k_u, k_u_xy), isotropic(c_u, c_u_xy))
-    radii = spring_radii(r_s1, c_s, n_turns)
-    k_struct = coil_spring_stiffness(E_s, a_s, l_s, radii)
-    k_film = Omega * film_stiffness(eta, x0, 1.0, radii, l_s, c_s, delta0)
-    c_film = film_damping(eta, radii, l_s, c_s, delta0, form=damper)
-    r.housing(0, m_p, isotropic(k_f, k_f_xy), isotropic(c_f, c_f_xy),
-              isotropic(k_struct + k_film), isotropic(c_film))
+    sup = {"K_u": isotropic(k_u, k_u_xy), "C_u": isotropic(c_u, c_u_xy),
+           "K_f": isotropic(k_f, k_f_xy), "C_f": isotropic(c_f, c_f_xy),
+           "radii": spring_radii(r_s1, c_s, n_turns), "damper": damper, "Omega": Omega}
+    r.spring(bolster, sup["K_u"], sup["C_u"])
+    sup["eps"] = film_eccentricities(sup["radii"], c_s, delta0)
+    sup["k_spring"] = coil_spring_stiffness(E_s, a_s, l_s, sup["radii"])
+    # (4) is proportional to the speed: the layers at omega = 1 (N/m per rad/s),
+    # in series, times Omega (so Omega = 0 gives 0, not 1/inf)
+    sup["K_i1"] = film_layer_stiffness(eta, x0, 1.0, sup["radii"], l_s, c_s, delta0)
+    for form in ("corrected", "printed"):
+        sup[f"C_i_{form}"] = film_layer_damping(eta, sup["radii"], l_s, c_s, delta0, form)
+    sup["k_film"] = Omega * series_sum(sup["K_i1"])
+    sup["c_film"] = series_sum(sup[f"C_i_{damper}"])
+    r.housing(0, m_p, sup["K_f"], sup["C_f"], isotropic(sup["k_spring"] + sup["k_film"]),
+              isotropic(sup["c_film"]))
     M, C, G, K = r.assemble()
     nodes = {"footstep": 0, "bolster": bolster, "whorl": whorl, "bobbin": bobbin_node,
              "top": top}
-    return SpindleRotor(r, M, C, G, K, Omega, nodes, r.dof_names(), p,
-                        {"bobbin": m_b + fill * m_y, "whorl": m_w})
+    sp = SpindleRotor(r, M, C, G, K, Omega, nodes, r.dof_names(), p,
+                      {"bobbin": m_b + fill * m_y, "whorl": m_w}, sup)
+    if quantities:
+        rotor_quantities(m, sp)
+    return sp
 
 
 def spindle_system(**options):
     """(Model with the parameters only, SpindleRotor with a free Omega) for the analyses."""
     m = Model("spindle", description="spindle rotor (analysis)")
     Omega = ca.SX.sym("Omega")
-    return m, declare_rotor(m, Omega, **options)
+    return m, declare_rotor(m, Omega, quantities=False, **options)
 
 
 def node_heights(m: Model, sp: SpindleRotor) -> list[float]:
@@ -320,15 +338,17 @@ def unbalance_force(m: Model, sp: SpindleRotor, Omega, phi) -> ca.SX:
         amp = sp.unbalance_mass[role] * e * Omega**2
         F[sp.idx(f"n{node}.x")] += amp * ca.cos(phi + ph)
         F[sp.idx(f"n{node}.y")] += amp * ca.sin(phi + ph)
+    unbalance_quantity(m, F)
     return F
 
 
 def declare_dynamics(m: Model, sp: SpindleRotor, Omega, M, C, G, K, basis=None,
-                     basis_labels: list[str] | None = None) -> None:
+                     basis_labels: list[str] | None = None, basis_omega=None) -> None:
     """States, equations (12) and outputs.  ``basis`` (numeric n x r) makes a
     Ritz reduction q = basis eta (spindle_modal); None keeps every FE DOF.
     basis_labels: what each basis column is (e.g. its mode and frequency),
-    for the states' descriptions."""
+    for the states' descriptions; basis_omega: the natural frequencies
+    (rad/s) of the basis' planar modes, for the derivation's quantities."""
     phi = m.state("phi", 0.0, unit="rad", description="rotation angle of the spindle "
                   "(phase of the unbalance forces)")
     m.eq(m.der(phi), Omega)
@@ -358,6 +378,9 @@ def declare_dynamics(m: Model, sp: SpindleRotor, Omega, M, C, G, K, basis=None,
                                     f"({labels[i].split(', largest')[0]})")
                             for i in range(r)])
         Mr = B.T @ M @ B
+        if basis_omega is not None:
+            modal_quantities(m, basis, ca.DM(basis_omega), Mr, B.T @ C @ B, B.T @ G @ B,
+                             B.T @ K @ B, B.T @ F)
         a = band_ldl_solve(Mr, B.T @ (F - (C + Omega * G) @ (B @ deta) - K @ (B @ eta_)))
         q, v, qv, vv = B @ eta_, B @ deta, eta_, deta
     for i in range(qv.numel()):
@@ -370,9 +393,11 @@ def declare_dynamics(m: Model, sp: SpindleRotor, Omega, M, C, G, K, basis=None,
 
 def _outputs(m: Model, sp: SpindleRotor, q, v) -> None:
     nd = sp.nodes
-    p = sp.p
     X = lambda node, c: q[sp.idx(f"n{node}.{c}")]  # noqa: E731
-    V = lambda node, c: v[sp.idx(f"n{node}.{c}")]  # noqa: E731
+
+    def pair(vec, dof):  # the (x, y) of a node or housing
+        return ca.vertcat(vec[sp.idx(f"{dof}.x")], vec[sp.idx(f"{dof}.y")])
+
     for role, label in (("top", "top of the blade (锭端)"), ("footstep", "bottom of the "
                         "blade (锭底)")):
         x, y = X(nd[role], "x"), X(nd[role], "y")
@@ -381,16 +406,10 @@ def _outputs(m: Model, sp: SpindleRotor, q, v) -> None:
         m.output(f"r_{role}", ca.sqrt(x**2 + y**2 + 1e-30), unit="m",
                  description=f"radial displacement of the {label}")
     b = nd["bolster"]
-    Fu = [-(p["k_u"] * X(b, "x") + p["k_u_xy"] * X(b, "y") + p["c_u"] * V(b, "x")
-            + p["c_u_xy"] * V(b, "y")),
-          -(-p["k_u_xy"] * X(b, "x") + p["k_u"] * X(b, "y") - p["c_u_xy"] * V(b, "x")
-            + p["c_u"] * V(b, "y"))]
-    hx, hy = q[sp.idx("h0.x")], q[sp.idx("h0.y")]
-    vhx, vhy = v[sp.idx("h0.x")], v[sp.idx("h0.y")]
-    dx, dy = X(0, "x") - hx, X(0, "y") - hy
-    dvx, dvy = V(0, "x") - vhx, V(0, "y") - vhy
-    Fl = [-(p["k_f"] * dx + p["k_f_xy"] * dy + p["c_f"] * dvx + p["c_f_xy"] * dvy),
-          -(-p["k_f_xy"] * dx + p["k_f"] * dy - p["c_f_xy"] * dvx + p["c_f"] * dvy)]
+    h = pair(q, "h0")
+    vh = pair(v, "h0")
+    Fu, Fl = force_quantities(m, sp.support, pair(q, f"n{b}"), pair(v, f"n{b}"),
+                              pair(q, "n0") - h, pair(v, "n0") - vh, h, vh)
     for tag, F, label in (("upper", Fu, "bolster bearing (upper support)"),
                           ("lower", Fl, "footstep bearing (lower support)")):
         m.output(f"F_{tag}_x", F[0], unit="N", description=f"x force of the {label} on "

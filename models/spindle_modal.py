@@ -104,7 +104,9 @@ def build(*, n_modes: int = 4, basis_rpm: float = 16000.0, beam: str = "euler",
     am, free = spindle_system(beam=beam, n_turns=n_turns, damper=damper, n_low=n_low,
                               n_cone=n_cone)
     B = modal_basis(am, free, n_modes, basis_rpm)
+    w2 = planar_modes(am, free, basis_rpm)[0][:n_modes]
     declare_dynamics(m, sp, Omega, sp.M, sp.C, sp.G, sp.K, basis=B,
-                     basis_labels=mode_labels(am, free, n_modes, basis_rpm))
+                     basis_labels=mode_labels(am, free, n_modes, basis_rpm),
+                     basis_omega=np.sqrt(np.maximum(w2, 0.0)))
     return m
 

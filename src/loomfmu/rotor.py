@@ -190,6 +190,22 @@ class Rotor:
             z.append(z[-1] + l)
         return z
 
+    def element_section(self, e: int):
+        """(l, A, I, EI) of element ``e``: length, area, second moment of area
+        and bending stiffness E I + EI_extra."""
+        e = check_int("e", e, lo=0, hi=len(self.elements) - 1)
+        l, d_o, d_i, EI_x = self.elements[e]
+        A, I = circle_section(d_o, d_i)
+        return l, A, I, self.E * I + EI_x
+
+    def element_matrices(self, e: int):
+        """Planar (K, M_t, M_r) of element ``e`` (see :func:`beam_planar`), as
+        :meth:`assemble` places them in both bending planes."""
+        l, A, I, EI = self.element_section(e)
+        phi = (12 * EI / (self.kappa * self.G_shear * A * l**2)
+               if self.timoshenko else 0.0)
+        return beam_planar(l, EI, self.rho * A, self.rho * I, phi)
+
     def assemble(self):
         """(M, C, G, K) as SX matrices: M q'' + (C + Omega G) q' + K q = F.
 
@@ -201,12 +217,8 @@ class Rotor:
         idx = {s: i for i, s in enumerate(names)}
         M, C, G, K = (ca.SX.zeros(n, n) for _ in range(4))
         Kb = ca.SX.zeros(n, n)
-        for e, (l, d_o, d_i, EI_x) in enumerate(self.elements):
-            A, I = circle_section(d_o, d_i)
-            EI = self.E * I + EI_x
-            phi = (12 * EI / (self.kappa * self.G_shear * A * l**2)
-                   if self.timoshenko else 0.0)
-            Ke, Mt, Mr = beam_planar(l, EI, self.rho * A, self.rho * I, phi)
+        for e in range(len(self.elements)):
+            Ke, Mt, Mr = self.element_matrices(e)
             for plane, other in (("x", "y"), ("y", "x")):
                 dofs = [idx[f"n{e}.{plane}"], idx[f"n{e}.a{plane}"],
                         idx[f"n{e + 1}.{plane}"], idx[f"n{e + 1}.a{plane}"]]
@@ -353,17 +365,42 @@ def film_integral_C(eps):
                           / _pow(1 - eps * math.cos(t), 1.28), 0.0, math.pi / 2)
 
 
-def film_stiffness(eta, x0, omega, radii, l, c, delta0):
-    """Film stiffness K_xx = K_yy of (2) with the layers' K^(i) of (4)."""
+def film_layer_stiffness(eta, x0, omega, radii, l, c, delta0) -> list:
+    """The layers' film stiffness K^(i) of (4), one per turn of the coil spring:
+    11.9808 eta x0 omega r_i^5 l / (c^4 (sum_{j<n} r_j)^2) int_0^{pi/2} cos^2 t sin t
+    (1 - eps_i0 cos t)^-2.28 dt."""
     eta, x0, l = _num("eta", eta), _num("x0", x0), _num("l", l)
     omega = _num("omega", omega, lo_open=False)
+    radii = _radii(radii)
     s = sum(radii[: len(radii) - 1])
     eps = film_eccentricities(radii, c, delta0)
-    inv = 0
-    for r, e in zip(radii, eps):
-        k_i = 11.9808 * eta * x0 * omega * r**5 * l / (c**4 * s**2) * film_integral_K(e)
-        inv = inv + 1 / k_i
-    return 1 / inv
+    return [11.9808 * eta * x0 * omega * r**5 * l / (c**4 * s**2) * film_integral_K(e)
+            for r, e in zip(radii, eps)]
+
+
+def film_layer_damping(eta, radii, l, c, delta0, form: str = "corrected") -> list:
+    """The layers' film damping C^(i) of (5), one per turn:
+    9.36 eta r_i^p l / (c^3 sum_{j<n} r_j) int_0^{pi/2} sin t cos t
+    (1 - eps_i0 cos t)^-1.28 dt with p = 4 (form="corrected") or p = 3
+    (form="printed", unit Pa s; docs/spindle.md, defect S3)."""
+    if form not in ("corrected", "printed"):
+        raise ValueError(f"form = {form!r}; allowed: 'corrected', 'printed'")
+    eta, l = _num("eta", eta), _num("l", l)
+    radii = _radii(radii)
+    s = sum(radii[: len(radii) - 1])
+    eps = film_eccentricities(radii, c, delta0)
+    return [9.36 * eta * (r**4 if form == "corrected" else r**3) * l / (c**3 * s)
+            * film_integral_C(e) for r, e in zip(radii, eps)]
+
+
+def series_sum(layers) -> object:
+    """1 / sum_i 1/k_i: the layers in series, (2) and (3)."""
+    return 1 / sum(1 / k for k in layers)
+
+
+def film_stiffness(eta, x0, omega, radii, l, c, delta0):
+    """Film stiffness K_xx = K_yy of (2) with the layers' K^(i) of (4)."""
+    return series_sum(film_layer_stiffness(eta, x0, omega, radii, l, c, delta0))
 
 
 def film_damping(eta, radii, l, c, delta0, form: str = "corrected"):
@@ -374,16 +411,7 @@ def film_damping(eta, radii, l, c, delta0, form: str = "corrected"):
     long-damper term eta r^3 l / c^3 times the layer's share r_i / sum r,
     as the share enters (4) (docs/spindle.md, defect S3).
     """
-    if form not in ("corrected", "printed"):
-        raise ValueError(f"form = {form!r}; allowed: 'corrected', 'printed'")
-    eta, l = _num("eta", eta), _num("l", l)
-    s = sum(radii[: len(radii) - 1])
-    eps = film_eccentricities(radii, c, delta0)
-    inv = 0
-    for r, e in zip(radii, eps):
-        rp = r**4 if form == "corrected" else r**3
-        inv = inv + 1 / (9.36 * eta * rp * l / (c**3 * s) * film_integral_C(e))
-    return 1 / inv
+    return series_sum(film_layer_damping(eta, radii, l, c, delta0, form))
 
 
 def equivalent_support(K1, C1, K2, C2, m_p, w):
