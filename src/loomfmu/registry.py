@@ -34,6 +34,9 @@ FIDELITY: dict[str, list[str]] = {
     "spindle rotor": ["spindle_modal", "spindle"],
     "spindle drive": ["drive"],
     "loom main shaft": ["loom_shaft"],
+    # the benchmark's two halves: one level each (a scene picks both)
+    "two-mass benchmark, force side": ["two_mass_force"],
+    "two-mass benchmark, displacement side": ["two_mass_displacement"],
 }
 
 
