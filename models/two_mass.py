@@ -80,7 +80,9 @@ def _displacement_side() -> Model:
            source=A)
     d2 = P("d2", 2.0, unit="N.s/m", description="wall damper of mass 2", min=0.0, max=1e9,
            source=A)
-    F = m.input("F_in", 0.0, unit="N", description="coupling force on mass 2")
+    # start 1 N: run alone (build_fmu.py's verification) mass 2 answers a
+    # constant push; in a scene the connection sets it from the start
+    F = m.input("F_in", 1.0, unit="N", description="coupling force on mass 2")
     x2 = m.state("x2", 0.0, unit="m", description="position of mass 2 from its rest point")
     v2 = m.state("v2", 0.0, unit="m/s", description="velocity of mass 2")
     m.eq(m.der(x2), v2)
