@@ -124,18 +124,31 @@ def model_guid(model: Model, dae: DaeForm) -> str:
     h.update(repr(sorted(model.event_modes.items())).encode())
     h.update(repr([(e.name, e.description) for e in model.events]).encode())
     h.update(repr([(d.name, d.max_delay) for d in model.delays]).encode())
+    h.update(repr([(v.name, v.message, str(v.expr)) for v in model.validity]).encode())
     h.update(repr(SOLVERS).encode())
     return "{" + str(uuid.UUID(bytes=h.digest()[:16], version=4)) + "}"
 
 
 #: The generated functions in the order of the runtime's LfFunctionId.
 FUNCTIONS = ("wsol", "wjac", "res", "rjac", "out", "evt", "valid", "reinit", "init",
-             "hist", "tau", "cons", "djac")
+             "hist", "tau", "cons", "djac", "yder", "vld")
+
+#: Names of the generated functions' arguments, in order (the runtime fills
+#: c->arg[] in this order, lf_eval_fn).
+ARGUMENTS = ("t", "x", "w", "u", "p", "q", "d", "u_rate", "d_rate")
 
 
 def casadi_functions(dae: DaeForm) -> list[ca.Function]:
-    """The functions the runtime calls, all with arguments (t, x, w, u, p, q, d)
-    (d: the delayed values).
+    """The functions the runtime calls, all with arguments ARGUMENTS:
+    (t, x, w, u, p, q, d, u_rate, d_rate) (d: the delayed values; u_rate:
+    the inputs' time derivatives, from fmi2SetRealInputDerivatives, zero
+    for held inputs; d_rate: the delayed values' time derivatives, passed
+    to ``yder`` only).
+
+    Every partial time derivative the runtime uses is taken with the
+    inputs moving at u_rate: d/dt + (d/du) u_rate (rodas4's df/dt, the
+    delay history's slope), so that interpolated inputs reach the solvers'
+    Jacobian terms too.
 
     Explicit models: wsol -> w, wjac -> (dw/dx, dw/dt); res/rjac return
     zeros (never called).  Implicit models: res -> F, rjac -> (dF/dw, dF/dx,
@@ -150,13 +163,19 @@ def casadi_functions(dae: DaeForm) -> list[ca.Function]:
     """
     name = dae.model.name
     nw, nx = dae.w.numel(), dae.nx
+    ud = ca.SX.sym("u_rate", dae.u.numel())
+    dd = ca.SX.sym("d_rate", dae.d.numel())
+
+    def d_dt(e: ca.SX) -> ca.SX:  # partial time derivative, inputs moving at u_rate
+        return ca.densify(ca.jacobian(e, dae.t) + ca.jacobian(e, dae.u) @ ud)
+
     if dae.implicit:
         wsol, wjac = ca.SX.zeros(nw), [ca.SX.zeros(nw, nx), ca.SX.zeros(nw)]
         F = dae.F
-        rjac = [ca.densify(ca.jacobian(dae.F, v)) for v in (dae.w, dae.x, dae.t)]
+        rjac = [ca.densify(ca.jacobian(dae.F, v)) for v in (dae.w, dae.x)] + [d_dt(dae.F)]
     else:
         wsol = dae.wsol
-        wjac = [ca.densify(ca.jacobian(wsol, dae.x)), ca.densify(ca.jacobian(wsol, dae.t))]
+        wjac = [ca.densify(ca.jacobian(wsol, dae.x)), d_dt(wsol)]
         F = ca.SX.zeros(nw)
         rjac = [ca.SX.zeros(nw, nw), ca.SX.zeros(nw, nx), ca.SX.zeros(nw)]
     zloc = dae.w[nx:, 0]
@@ -166,18 +185,52 @@ def casadi_functions(dae: DaeForm) -> list[ca.Function]:
         "out": ([ca.vertcat(dae.y, zloc)], ["y"]), "evt": ([dae.e], ["e"]),
         "valid": ([dae.valid], ["valid"]), "reinit": ([dae.reinit], ["x_new"]),
         "init": ([dae.init], ["x_start"]),
-        "hist": ([dae.g, dae.gdot], ["g", "g_dot"]), "tau": ([dae.tau], ["tau"]),
+        "hist": ([dae.g, dae.gdot + ca.jacobian(dae.g, dae.u) @ ud], ["g", "g_dot"]),
+        "tau": ([dae.tau], ["tau"]),
         "cons": ([dae.cons], ["c"]),
         "djac": ([ca.densify(ca.jacobian(F if dae.implicit else wsol, dae.d)),
-                  ca.densify(ca.jacobian(dae.g, dae.x)), ca.densify(ca.jacobian(dae.g, dae.t))],
+                  ca.densify(ca.jacobian(dae.g, dae.x)), d_dt(dae.g)],
                  ["dW_dd", "dg_dx", "dg_dt"]),
+        "yder": (_output_rates(dae, ud, dd), ["y_rate", "dy_dw", "w_rate"]),
+        "vld": ([_validity(dae)], ["v"]),
     }
     # Every output dense: CasADi's generated C writes only an output's
     # structural nonzeros (a structural zero entry is never written, and the
     # entries after it land in its place), while the runtime reads every
     # output as a dense column-major array.
-    return [dae.function(f"{name}_{f}", [ca.densify(e) for e in outs[f][0]], outs[f][1])
+    return [ca.Function(f"{name}_{f}", [*dae.args, ud, dd],
+                        [ca.densify(e) for e in outs[f][0]], list(ARGUMENTS), outs[f][1])
             for f in FUNCTIONS]
+
+
+def _validity(dae: DaeForm) -> ca.SX:
+    """The model's validity conditions (Model.require), each >= 0 while valid."""
+    conds = dae.model.validity
+    if not conds:
+        return ca.SX(0, 1)
+    v = ca.vertcat(*[c.expr for c in conds])
+    ysym = dae.model.syms("output")  # a condition may name outputs: their expressions
+    return ca.substitute(v, ysym, dae.y) if ysym.numel() else v
+
+
+def _output_rates(dae: DaeForm, ud: ca.SX, dd: ca.SX) -> list[ca.SX]:
+    """Exact first time derivatives of the outputs and algebraic locals
+    (fmi2GetRealOutputDerivatives, order 1) along the trajectory: states
+    moving at der(x) = w[:nx], inputs at u_rate, delayed values at d_rate.
+
+    Explicit models: [dy/dt, 0, 0] in closed form (the unknowns' rate is
+    the directional derivative of their closed form).  Implicit models:
+    [partial rate of y at fixed w, dy/dw, partial rate of F at fixed w]; the
+    runtime solves dF/dw w_rate = -F_rate and adds dy/dw w_rate."""
+    nx = dae.nx
+    y = ca.vertcat(dae.y, dae.w[nx:, 0])
+    moving = ca.vertcat(dae.t, dae.x, dae.u, dae.d)
+    speed = ca.vertcat(ca.SX(1), dae.w[:nx, 0], ud, dd)
+    y_part = ca.jtimes(y, moving, speed)
+    if dae.implicit:
+        return [y_part, ca.jacobian(y, dae.w), ca.jtimes(dae.F, moving, speed)]
+    w_rate = ca.jtimes(dae.wsol, moving, speed)
+    return [y_part + ca.jtimes(y, dae.w, w_rate), ca.SX.zeros(1, 1), ca.SX.zeros(1, 1)]
 
 
 def _c_double(v: float | None) -> str:
@@ -221,6 +274,7 @@ def declaration_header(model: Model, dae: DaeForm) -> str:
         f"#define LF_IMPLICIT {1 if dae.implicit else 0}",
         f"#define LF_ND {len(model.delays)}",
         f"#define LF_NC {len(model.constraints)}",
+        f"#define LF_NV {len(model.validity)}",
         f"#define LF_N_SOLVERS {len(SOLVERS)}",
     ]
     lines += [f"#define {s.macro} {i}" for i, s in enumerate(SETTINGS)]
@@ -259,6 +313,9 @@ def declaration_source(model: Model, dae: DaeForm, guid: str) -> str:
     out.append(_c_array("char *const", "constraint_messages",
                         [_c_str(f"{c.name}: {c.message}") for c in model.constraints]))
     out.append(_c_array("char *const", "delay_names", [_c_str(v.name) for v in model.delays]))
+    out.append(_c_array("char *const", "validity_names", [_c_str(v.name) for v in model.validity]))
+    out.append(_c_array("char *const", "validity_messages",
+                        [_c_str(v.message) for v in model.validity]))
     fns = ", ".join(f"{{{name}_{f}, {name}_{f}_work}}" for f in FUNCTIONS)
     out.append(f"""const LfModel lf_model = {{
     {_c_str(name)},
@@ -270,6 +327,7 @@ def declaration_source(model: Model, dae: DaeForm, guid: str) -> str:
     delay_names, delay_max,
     constraint_messages, x_computed,
     solver_names,
+    validity_names, validity_messages,
     {{{fns}}}
 }};
 """)

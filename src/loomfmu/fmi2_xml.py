@@ -115,8 +115,8 @@ def model_description(model: Model, dae: DaeForm, guid: str, sources: list[str])
         "variableNamingConvention": "structured", "numberOfEventIndicators": "0"})
     cs = ET.SubElement(root, "CoSimulation", {
         "modelIdentifier": model.name, "needsExecutionTool": "false",
-        "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "false",
-        "maxOutputDerivativeOrder": "0", "canRunAsynchronuously": "false",
+        "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "true",
+        "maxOutputDerivativeOrder": "1", "canRunAsynchronuously": "false",
         "canBeInstantiatedOnlyOncePerProcess": "false",
         "canNotUseMemoryManagementFunctions": "false", "canGetAndSetFMUstate": "true",
         "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false"})

@@ -16,7 +16,13 @@ is >= 0 after reinit), written again here, and the integration restarts.
 Inputs are held at constant values, as the FMU holds them over a
 communication step; ``input_steps`` changes them at given times, where every
 mode is made consistent again (the FMU does the same at a communication
-point where an input changed).  After an event, too, every mode made invalid
+point where an input changed); ``input_functions`` makes inputs functions of
+time (the exact curve an FMU fed with input derivatives interpolates).
+
+Validity conditions (``Model.require``) are terminal events: where one
+crosses below zero the integration stops, as the FMU's step does, and
+:attr:`Reference.violation` names it (the output times after it are not in
+the result).  After an event, too, every mode made invalid
 by the switch is chosen again, round after round, as in the FMU.
 
 At a jump of a delayed expression (an input step), a query from inside an
@@ -74,6 +80,9 @@ class Reference:
     n_rhs: int
     n_segments: int
     switches: list[tuple[float, str, int, int]] = field(default_factory=list)
+    #: (name, message, time, value) of the validity condition that stopped the
+    #: integration (Model.require), or None; ``t`` and ``y`` end before it
+    violation: tuple[str, str, float, float] | None = None
 
 
 def _values(model: Model, kind: str, overrides: dict[str, float]) -> np.ndarray:
@@ -105,13 +114,22 @@ class _Dae:
         self.d = np.zeros(dae.d.numel())
         self.tau = np.asarray(f("tau", [dae.tau], ["tau"])(*self.args(0.0, np.zeros(dae.nx)))
                               ).ravel() if dae.d.numel() else np.zeros(0)
+        self.ufun: dict = {}  # input index -> function of time (input_functions)
         self.segments: list = []  # (t_a, t_b, dense output, inputs) of solved intervals
         self.t_seg = 0.0  # start of the segment being integrated
         self.g0 = None
         self.n_rhs = 0
 
+    def inputs_at(self, t) -> np.ndarray:
+        if not self.ufun:
+            return self.u
+        u = self.u.copy()
+        for k, f in self.ufun.items():
+            u[k] = f(t)
+        return u
+
     def args(self, t, x, w=None):
-        return (t, x, self.w if w is None else w, self.u, self.p, self.q, self.d)
+        return (t, x, self.w if w is None else w, self.inputs_at(t), self.p, self.q, self.d)
 
     def solve(self, t, x) -> np.ndarray:
         if self.wsol is not None:
@@ -146,7 +164,8 @@ class _Dae:
                 ta, tb, sol, u = next(seg for seg in reversed(self.segments)
                                       if (seg[0] < s - eps if left else seg[0] <= s + eps)
                                       or seg is self.segments[0])
-                args = (s, sol(min(s, tb)), self.w, u, self.p, self.q, self.d)
+                u_s = u if not self.ufun else self.inputs_at(s)
+                args = (s, sol(min(s, tb)), self.w, u_s, self.p, self.q, self.d)
                 self.d[k] = float(np.asarray(self.hist(*args)).ravel()[k])
 
     def rhs(self, t, x):
@@ -201,7 +220,8 @@ class _Dae:
 def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: float = 1e-10,
               atol: float = 1e-12, method: str = "DOP853",
               values: dict[str, float] | None = None,
-              input_steps: list[tuple[float, dict[str, float]]] | None = None) -> Reference:
+              input_steps: list[tuple[float, dict[str, float]]] | None = None,
+              input_functions: dict | None = None) -> Reference:
     """Integrate ``model`` with scipy from t = 0 to ``t_end``.
 
     t_end: final time (> 0, at most MAX_HORIZONS x the model's stop time;
@@ -213,7 +233,12 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
     values: start values of parameters, inputs (held constant) and states.
     input_steps: [(t_k, {input: value})], times increasing in (0, t_end):
         from t_k on the inputs named hold the new values.
+    input_functions: {input: f} with f(t) -> float, a smooth function of time
+        (e.g. a ramp), for inputs not in input_steps: the input is f(t).
     Every argument is checked: ValueError names the argument and what is allowed.
+    A validity condition (Model.require) that fails stops the integration:
+    the result ends at the last output time before it and its ``violation``
+    says which condition failed, when, with what value.
     """
     check_model(model)
     values = check_mapping("values", values, settable(model),
@@ -250,6 +275,7 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
         for name, value in new.items():
             model.var(name).check_value(value)
         steps.append((t_k, new))
+    functions = _check_input_functions(model, input_functions, steps)
     if t_eval is None:
         n = int(round(t_end / model.step_size))
         if n + 1 > MAX_OUTPUTS:
@@ -268,6 +294,7 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
     modes = model.of_kind("mode")
     d = _Dae(dae, _values(model, "input", values), _values(model, "parameter", values),
              np.array([int(v.start) for v in modes], dtype=float))
+    d.ufun = {input_names.index(name): f for name, f in functions.items()}
     x = _values(model, "state", values)
     # states with a start expression start there for these parameters, unless given
     x0 = np.asarray(d.init(*d.args(0.0, x))).ravel()
@@ -288,6 +315,7 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
         return ev
 
     events = [make_event(k) for k in range(dae.e.numel())]
+    conditions = _validity_events(model, dae, d)
     if len(d.tau) and events:
         raise ValueError(f"reference for {model.name}: delays together with events are not "
                          "supported")
@@ -297,7 +325,7 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
     xs = np.empty((len(t_eval), len(x)))
     qs = np.empty((len(t_eval), len(modes)))
     us = np.empty((len(t_eval), len(d.u)))
-    t0, segments, pending = 0.0, 0, None
+    t0, segments, pending, violation = 0.0, 0, None, None
     wall = time.perf_counter()
     while True:
         if steps and t0 >= steps[0][0]:  # the inputs step here
@@ -313,8 +341,12 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
             t1_seg, active = min(t_end, t0 + step_limit, t_next_step), events
         else:  # across the root, in the old mode, with no event watched
             t1_seg, active = min(t0 + EVENT_GAP * max(1.0, abs(t0)), t_end, t_next_step), []
+        bad = next((c for c in conditions if c(t0, x) < 0), None)
+        if bad is not None:  # already violated where this segment starts
+            violation = (bad.name, bad.message, t0, bad(t0, x))
+            break
         sol = solve_ivp(d.rhs, (t0, t1_seg), x, method=method, rtol=rtol, atol=atol,
-                        events=active or None, dense_output=True)
+                        events=(active + conditions) or None, dense_output=True)
         if sol.status < 0:
             raise RuntimeError(f"reference for {model.name} failed at t = {sol.t[-1]}: "
                                f"{sol.message}")
@@ -345,11 +377,19 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
             pending = None
         elif sol.status == 1:
             fired = next(k for k, te in enumerate(sol.t_events) if len(te))
+            if fired >= len(active):  # a validity condition crossed zero: stop here
+                c = conditions[fired - len(active)]
+                t_v = float(sol.t_events[fired][0])
+                violation = (c.name, c.message, t_v, c(t_v, sol.sol(t_v)))
+                break
             pending = events.index(active[fired])
         if t1 >= t_end:
             break
         t0 = t1
     wall = time.perf_counter() - wall
+    if violation is not None:  # the result ends before the condition failed
+        keep = t_eval < violation[2]
+        t_eval, xs, qs, us = t_eval[keep], xs[keep], qs[keep], us[keep]
 
     out = {v.name: xs[:, i] for i, v in enumerate(model.of_kind("state"))}
     out.update({v.name: qs[:, i] for i, v in enumerate(modes)})
@@ -361,4 +401,53 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
         ys.append(d.outputs(t, xi))
     ys = np.array(ys).reshape(len(t_eval), len(names))
     out.update({name: ys[:, i] for i, name in enumerate(names)})
-    return Reference(t_eval, out, wall, d.n_rhs, segments, switches)
+    return Reference(t_eval, out, wall, d.n_rhs, segments, switches, violation)
+
+
+def _check_input_functions(model: Model, input_functions, steps) -> dict:
+    """input_functions checked: {input name: callable of t}, none also stepped."""
+    if input_functions is None:
+        return {}
+    names = [v.name for v in model.of_kind("input")]
+    if not isinstance(input_functions, dict):
+        raise ValueError(f"input_functions = {input_functions!r:.60}; allowed: a dict "
+                         f"{{input: function of t}} with inputs of {model.name}: {names}")
+    stepped = {name for _, new in steps for name in new}
+    for name, f in input_functions.items():
+        if name not in names:
+            raise ValueError(f"input_functions: {name!r} is not an input of {model.name}; "
+                             f"allowed: {names}")
+        if not callable(f):
+            raise ValueError(f"input_functions[{name!r}] = {f!r:.60}; allowed: a function "
+                             "of t returning a float")
+        if name in stepped:
+            raise ValueError(f"input_functions[{name!r}]: the input is also in input_steps; "
+                             "allowed: one of the two per input")
+        value = f(0.0)
+        if not isinstance(value, (int, float, np.floating)) or not np.isfinite(value):
+            raise ValueError(f"input_functions[{name!r}](0.0) = {value!r:.60}; allowed: a "
+                             "finite float")
+    return dict(input_functions)
+
+
+class _Condition:
+    """A validity condition as a terminal solve_ivp event (falling through 0)."""
+
+    terminal = True
+    direction = -1.0
+
+    def __init__(self, name: str, message: str, f, d: _Dae):
+        self.name, self.message, self.f, self.d = name, message, f, d
+
+    def __call__(self, t, x) -> float:
+        return float(self.f(*self.d.args(t, x, self.d.solve(t, x))))
+
+
+def _validity_events(model: Model, dae: DaeForm, d: _Dae) -> list[_Condition]:
+    ysym = model.syms("output")
+    out = []
+    for c in model.validity:
+        expr = ca.substitute(c.expr, ysym, dae.y) if ysym.numel() else c.expr
+        out.append(_Condition(c.name, c.message, dae.function(f"v_{c.name}", [expr], ["v"]),
+                              d))
+    return out

@@ -6,8 +6,9 @@ from pathlib import Path
 RUNTIME_DIR = Path(__file__).parent / "runtime"
 
 #: Sources of the shared runtime (compiled with -Wall -Wextra -Werror).
-RUNTIME_SOURCES = ("lf_fmi2.c", "lf_fmi2_state.c", "lf_runtime.c", "lf_newton.c", "lf_delay.c", "lf_events.c",
-                   "lf_step.c", "lf_solvers.c", "lf_dopri5.c", "lf_rodas4.c", "lf_linalg.c",
+RUNTIME_SOURCES = ("lf_fmi2.c", "lf_fmi2_state.c", "lf_fmi2_deriv.c", "lf_runtime.c",
+                   "lf_newton.c", "lf_delay.c", "lf_events.c", "lf_step.c", "lf_inputs.c",
+                   "lf_validity.c", "lf_solvers.c", "lf_dopri5.c", "lf_rodas4.c", "lf_linalg.c",
                    "lf_state.c")
 RUNTIME_HEADERS = ("lf_model.h", "lf_fmi2_internal.h", "lf_runtime.h", "lf_internal.h", "lf_solver.h",
                    "lf_solver_impl.h", "lf_linalg.h", "lf_state.h", "lf_prefix.h")
@@ -16,11 +17,14 @@ RUNTIME_HEADERS = ("lf_model.h", "lf_fmi2_internal.h", "lf_runtime.h", "lf_inter
 #: lf_prefix.h renames each to <modelIdentifier>_<symbol> (the builder checks
 #: with nm that no other global symbol is left).
 RUNTIME_SYMBOLS = (
-    "lf_check_step", "lf_consistent_modes", "lf_delayed_rates", "lf_delayed_values",
-    "lf_do_step", "lf_dopri5", "lf_fmi2_allowed", "lf_fmi2_free_states", "lf_fmi2_live",
+    "lf_check_step", "lf_check_validity", "lf_consistent_modes", "lf_delayed_rates", "lf_delayed_values",
+    "lf_do_step", "lf_dopri5", "lf_fmi2_allowed", "lf_fmi2_check_vrs", "lf_fmi2_free_states", "lf_fmi2_live",
     "lf_fmi2_null_arg", "lf_eval_events", "lf_eval_fn", "lf_first_nonfinite", "lf_free",
     "lf_get_integer", "lf_get_real", "lf_handle_events", "lf_hist_push", "lf_hist_step",
     "lf_init_delays", "lf_initial_modes", "lf_initial_states", "lf_initialize",
+    "lf_input_derivative_check", "lf_input_derivative_set", "lf_input_now", "lf_input_set",
+    "lf_inputs_at", "lf_inputs_moved", "lf_inputs_reset", "lf_inputs_seen",
+    "lf_output_derivative", "lf_solve_dFdw", "lf_validity_at_start",
     "lf_instantiate", "lf_log", "lf_log_category_names", "lf_lu_factor", "lf_lu_piv_doubles",
     "lf_lu_solve", "lf_methods", "lf_model", "lf_n_methods", "lf_next_breakpoint", "lf_ode_of",
     "lf_prepare_initial", "lf_reset_values", "lf_rhs", "lf_rk4", "lf_rodas4",

@@ -2,8 +2,8 @@
  *
  * Every function checks the instance pointer and the call order against a
  * mask of allowed states, and logs expected vs actual on failure.  Features
- * the model description declares as absent (directional derivatives, input
- * derivatives) return fmi2Error with a log line.
+ * the model description declares as absent (directional derivatives) return
+ * fmi2Error with a log line.  Input and output derivatives: lf_fmi2_deriv.c.
  *
  * Misuse is refused, never a crash: NULL arrays, sizes no array of this FMU
  * can have, non-finite or backward time, FMU states not made by this
@@ -227,6 +227,11 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
         return fmi2Error;
     }
     inst->t_start = inst->t = inst->last_successful_time = startTime;
+    {   /* input derivatives set before refer to the start */
+        int k;
+        for (k = 0; k < LF_NU; k++) inst->u_t0[k] = startTime;
+        inst->seen_t = startTime;
+    }
     inst->t_stop = stopTimeDefined ? stopTime : INFINITY;
     /* the importer's tolerance is the solvers' relative tolerance (it wins over
      * solver_rtol, which keeps its value); it is limited to solver_rtol's range */
@@ -307,7 +312,7 @@ fmi2Status fmi2Reset(fmi2Component c) {
 
 /* The arrays of a get/set call: present if nvr > 0, nvr plausible, every
  * value reference of the type (checked before any value is read or written). */
-static int check_vrs(LfInstance *c, const char *fn, const fmi2ValueReference vr[], size_t nvr,
+int lf_fmi2_check_vrs(LfInstance *c, const char *fn, const fmi2ValueReference vr[], size_t nvr,
                      const void *value, unsigned n_vars) {
     size_t i;
     if (nvr == 0) return 1;
@@ -340,7 +345,7 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
                        fmi2Real value[]) {
     size_t i;
     CHECK("fmi2GetReal", GET_STATES);
-    if (!check_vrs((LfInstance *)c, "fmi2GetReal", vr, nvr, value, LF_NREAL)) return fmi2Error;
+    if (!lf_fmi2_check_vrs((LfInstance *)c, "fmi2GetReal", vr, nvr, value, LF_NREAL)) return fmi2Error;
     for (i = 0; i < nvr; i++)
         if (lf_get_real((LfInstance *)c, vr[i], &value[i]) != LF_OK) return fmi2Error;
     return fmi2OK;
@@ -350,12 +355,17 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
  * part way: a refused call changes nothing. */
 typedef struct {
     double r[LF_NREAL];
+    double u_d1[LF_DIM(LF_NU)], u_d2[LF_DIM(LF_NU)], u_t0[LF_DIM(LF_NU)];
     int x_set[LF_DIM(LF_NX)];
-    int inputs_changed, outputs_valid, solver_id, delay_interp;
+    int inputs_changed, outputs_valid, solver_id, delay_interp, u_poly;
 } SetUndo;
 
 static void undo_save(const LfInstance *c, SetUndo *u) {
     memcpy(u->r, c->r, sizeof u->r);
+    memcpy(u->u_d1, c->u_d1, sizeof u->u_d1);
+    memcpy(u->u_d2, c->u_d2, sizeof u->u_d2);
+    memcpy(u->u_t0, c->u_t0, sizeof u->u_t0);
+    u->u_poly = c->u_poly;
     memcpy(u->x_set, c->x_set, sizeof u->x_set);
     u->inputs_changed = c->inputs_changed;
     u->outputs_valid = c->outputs_valid;
@@ -365,6 +375,10 @@ static void undo_save(const LfInstance *c, SetUndo *u) {
 
 static fmi2Status undo(LfInstance *c, const SetUndo *u) {
     memcpy(c->r, u->r, sizeof u->r);
+    memcpy(c->u_d1, u->u_d1, sizeof u->u_d1);
+    memcpy(c->u_d2, u->u_d2, sizeof u->u_d2);
+    memcpy(c->u_t0, u->u_t0, sizeof u->u_t0);
+    c->u_poly = u->u_poly;
     memcpy(c->x_set, u->x_set, sizeof u->x_set);
     c->inputs_changed = u->inputs_changed;
     c->outputs_valid = u->outputs_valid;
@@ -381,7 +395,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     int rtol_set = 0;
     fmi2Status worst = fmi2OK;
     CHECK("fmi2SetReal", SET_STATES);
-    if (!check_vrs(inst, "fmi2SetReal", vr, nvr, value, LF_NREAL)) return fmi2Error;
+    if (!lf_fmi2_check_vrs(inst, "fmi2SetReal", vr, nvr, value, LF_NREAL)) return fmi2Error;
     undo_save(inst, &u);
     for (i = 0; i < nvr; i++) {
         LfStatus st = lf_set_real(inst, vr[i], value[i]);
@@ -397,7 +411,7 @@ fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
                           fmi2Integer value[]) {
     size_t i;
     CHECK("fmi2GetInteger", GET_STATES);
-    if (!check_vrs((LfInstance *)c, "fmi2GetInteger", vr, nvr, value, N_INTEGER))
+    if (!lf_fmi2_check_vrs((LfInstance *)c, "fmi2GetInteger", vr, nvr, value, N_INTEGER))
         return fmi2Error;
     for (i = 0; i < nvr; i++) {
         int v;
@@ -413,7 +427,7 @@ fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
     SetUndo u;
     size_t i;
     CHECK("fmi2SetInteger", SET_STATES);
-    if (!check_vrs(inst, "fmi2SetInteger", vr, nvr, value, N_INTEGER)) return fmi2Error;
+    if (!lf_fmi2_check_vrs(inst, "fmi2SetInteger", vr, nvr, value, N_INTEGER)) return fmi2Error;
     undo_save(inst, &u);
     for (i = 0; i < nvr; i++)
         if (lf_set_integer(inst, vr[i], value[i]) != LF_OK) return undo(inst, &u);
@@ -423,7 +437,7 @@ fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
 /* Boolean and String: this FMU has none, so any reference is refused */
 static fmi2Status none_of_type(fmi2Component c, const char *fn, const fmi2ValueReference vr[],
                                size_t nvr, const void *value) {
-    return check_vrs((LfInstance *)c, fn, vr, nvr, value, 0) ? fmi2OK : fmi2Error;
+    return lf_fmi2_check_vrs((LfInstance *)c, fn, vr, nvr, value, 0) ? fmi2OK : fmi2Error;
 }
 
 fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
@@ -463,18 +477,6 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
                                         const fmi2Real dv[], fmi2Real dz[]) {
     (void)u; (void)nu; (void)z; (void)nz; (void)dv; (void)dz;
     return unsupported(c, "fmi2GetDirectionalDerivative");
-}
-fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
-                                       size_t nvr, const fmi2Integer order[],
-                                       const fmi2Real value[]) {
-    (void)vr; (void)nvr; (void)order; (void)value;
-    return unsupported(c, "fmi2SetRealInputDerivatives");
-}
-fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
-                                        size_t nvr, const fmi2Integer order[],
-                                        fmi2Real value[]) {
-    (void)vr; (void)nvr; (void)order; (void)value;
-    return unsupported(c, "fmi2GetRealOutputDerivatives");
 }
 
 /* ---- co-simulation ------------------------------------------------------ */
@@ -559,7 +561,8 @@ fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Int
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
     STATUS_CHECK("fmi2GetBooleanStatus");
     if (s != fmi2Terminated) return status_kind_unknown(c, "fmi2GetBooleanStatus", s);
-    *value = fmi2False;
+    /* true after a validity condition failed: the model cannot go on */
+    *value = ((LfInstance *)c)->wants_terminate ? fmi2True : fmi2False;
     return fmi2OK;
 }
 

@@ -35,6 +35,10 @@ LfInstance *lf_fmi2_live(fmi2Component c);
 int lf_fmi2_allowed(fmi2Component c, const char *fn, int mask);
 /* Logs that argument `arg` of `fn` is NULL; fmi2Error. */
 fmi2Status lf_fmi2_null_arg(LfInstance *c, const char *fn, const char *arg);
+/* The arrays of a get/set call: present if nvr > 0, nvr plausible, every
+ * value reference below n_vars (else logs and gives 0). */
+int lf_fmi2_check_vrs(LfInstance *c, const char *fn, const fmi2ValueReference vr[], size_t nvr,
+                      const void *value, unsigned n_vars);
 /* Frees every FMU state the instance made. */
 void lf_fmi2_free_states(LfInstance *inst);
 

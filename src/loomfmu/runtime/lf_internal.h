@@ -36,6 +36,20 @@ LfStatus lf_consistent_modes(LfInstance *c, double t, double *x, int touched);
 LfStatus lf_initial_modes(LfInstance *c);
 LfStatus lf_handle_events(LfInstance *c);
 
+/* lf_inputs.c: the inputs (u, du/dt) at time t: the instance's values, or
+ * their polynomials; did they change since the solver last started? */
+void lf_inputs_at(LfInstance *c, double t, const double **u, const double **rate);
+int lf_inputs_moved(LfInstance *c);
+void lf_inputs_seen(LfInstance *c);
+
+/* lf_validity.c: validity conditions (Model.require) after an accepted step;
+ * LF_DISCARD with the state at the last valid time where one fails. */
+LfStatus lf_check_validity(LfInstance *c);
+LfStatus lf_validity_at_start(LfInstance *c);
+
+/* lf_newton.c: solve dF/dw v = b at (t, x, w) in place (implicit models). */
+LfStatus lf_solve_dFdw(LfInstance *c, double t, const double *x, const double *w, double *b);
+
 /* lf_step.c: start values of the states from the parameters. */
 LfStatus lf_initial_states(LfInstance *c);
 

@@ -1,7 +1,7 @@
 /* loomfmu shared runtime: the contract a generated model fulfils.
  *
  * A model contributes CasADi-generated functions with the fixed argument
- * list (t, x, w, u, p, q) and one `const LfModel lf_model` (model_decl.c),
+ * list (t, x, w, u, p, q, d, u_rate, d_rate) and one `const LfModel lf_model` (model_decl.c),
  * both written by loomfmu.codegen from the Python declaration.  Nothing here
  * is written by hand per model.
  *
@@ -50,7 +50,9 @@ enum {
     LF_FN_TAU = 10,   /* -> the delays (from the parameters) */
     LF_FN_CONS = 11,  /* -> constraints on the parameters, each >= 0 */
     LF_FN_DJAC = 12,  /* -> dw/dd (explicit) or dF/dd (implicit), dg/dx, dg/dt */
-    LF_N_FN = 13
+    LF_FN_YDER = 13,  /* -> output rates (explicit: complete; implicit: parts) */
+    LF_FN_VLD = 14,   /* -> validity conditions (Model.require), each >= 0 */
+    LF_N_FN = 15
 };
 
 /* Real value references are laid out as
@@ -87,6 +89,8 @@ typedef struct {
     const char *const *constraint_messages;
     const int *x_computed;           /* state's start computed (initial="approx") */
     const char *const *solver_names; /* must match lf_methods[] */
+    const char *const *validity_names;    /* Model.require: name, message */
+    const char *const *validity_messages;
     LfFunction fn[LF_N_FN];
 } LfModel;
 

@@ -157,3 +157,11 @@ LfOde lf_ode_of(LfInstance *c) {
     ode.jac = jac_cb;
     return ode;
 }
+
+/* b := (dF/dw)^-1 b at (t, x, w) (implicit models; output derivatives). */
+LfStatus lf_solve_dFdw(LfInstance *c, double t, const double *x, const double *w, double *b) {
+    LfStatus st = factor_dFdw(c, t, x, w);
+    if (st != LF_OK) return st;
+    lf_lu_solve(c->jac_ww, LF_NW, c->piv, b);
+    return LF_OK;
+}

@@ -81,6 +81,8 @@ void lf_reset_values(LfInstance *c) {
     for (k = 0; k < LF_N_LOG; k++) c->log_on[k] = c->log_on_start;
     c->outputs_valid = 0;
     c->inputs_changed = 0;
+    c->wants_terminate = 0;
+    lf_inputs_reset(c, 0.0);
     c->n_events = 0;
     c->max_steps = (long)lf_model.real_start[LF_SET_MAX_STEPS];
     if (c->solver_ready) {
@@ -115,19 +117,24 @@ LfInstance *lf_instantiate(const char *name, LfLogFn log, void *log_env,
 
 /* ---- evaluating the generated functions ------------------------------- */
 
-/* Call generated function `fn` at (t, x, w) with the instance's u, p, q and
- * the delayed values at t. */
+/* Call generated function `fn` at (t, x, w) with the instance's inputs at t
+ * (held, or their polynomials) and their rates, p, q and the delayed values
+ * at t. */
 LfStatus lf_eval_fn(LfInstance *c, int fn, double t, const double *x, const double *w,
                         double *out0, double *out1, double *out2) {
+    const double *u, *u_rate;
     if (LF_ND > 0 && fn != LF_FN_HIST && fn != LF_FN_TAU && lf_delayed_values(c, t, x) != LF_OK)
         return LF_ERROR;
+    lf_inputs_at(c, t, &u, &u_rate);
     c->arg[6] = c->dval;
     c->arg[0] = &t;
     c->arg[1] = x;
     c->arg[2] = w;
-    c->arg[3] = &c->r[LF_VR_U0];
+    c->arg[3] = u;
     c->arg[4] = &c->r[LF_VR_P0];
     c->arg[5] = c->q;
+    c->arg[7] = u_rate;
+    c->arg[8] = c->d_rate;
     c->res[0] = out0; /* functions with fewer outputs do not read the rest */
     c->res[1] = out1;
     c->res[2] = out2;
@@ -207,9 +214,7 @@ LfStatus lf_set_real(LfInstance *c, unsigned vr, double value) {
         lf_log(c, LF_WARNING, LF_LOG_WARNING,
                "t = %.17g: input %s = %g is outside its range [%g, %g]; the model may not be "
                "valid there", c->t, name, value, lf_model.real_min[vr], lf_model.real_max[vr]);
-        if (value != c->r[vr]) c->inputs_changed = 1;
-        c->r[vr] = value;
-        c->outputs_valid = 0;
+        lf_input_set(c, vr, value);
         return LF_WARNING;
     }
     if (!isfinite(value) || value < lf_model.real_min[vr] || value > lf_model.real_max[vr]) {
@@ -218,7 +223,10 @@ LfStatus lf_set_real(LfInstance *c, unsigned vr, double value) {
                name, value, lf_model.real_min[vr], lf_model.real_max[vr]);
         return LF_ERROR;
     }
-    if (kind == LF_KIND_INPUT && value != c->r[vr]) c->inputs_changed = 1;
+    if (kind == LF_KIND_INPUT) {
+        lf_input_set(c, vr, value);
+        return LF_OK;
+    }
     if (kind == LF_KIND_STATE) c->x_set[vr - LF_VR_X0] = 1;
     c->r[vr] = value;
     c->outputs_valid = 0;
@@ -237,7 +245,7 @@ LfStatus lf_get_real(LfInstance *c, unsigned vr, double *value) {
     if ((kind == LF_KIND_OUTPUT || kind == LF_KIND_LOCAL) && lf_update_outputs(c) != LF_OK)
         return LF_ERROR;
     if (kind == LF_KIND_STATE && lf_prepare_initial(c) != LF_OK) return LF_ERROR;
-    *value = c->r[vr];
+    *value = kind == LF_KIND_INPUT ? lf_input_now(c, vr) : c->r[vr];
     return LF_OK;
 }
 

@@ -93,6 +93,19 @@ typedef struct {
     int n_bp;
     double t_bp_step;   /* end of the step being taken, if a breakpoint; else inf */
 
+    /* inputs as polynomials of time (fmi2SetRealInputDerivatives): input k
+     * is r[LF_VR_U0 + k] + u_d1[k] s + u_d2[k] s^2 / 2, s = t - u_t0[k]
+     * (lf_inputs.c); held constant while both derivatives are 0 */
+    double u_d1[LF_DIM(LF_NU)], u_d2[LF_DIM(LF_NU)], u_t0[LF_DIM(LF_NU)];
+    int u_poly;                   /* some input derivative is nonzero */
+    /* the input polynomials the solver last started a step with, at seen_t
+     * (value, slope, second derivative): a change restarts the solver */
+    double seen_u[LF_DIM(LF_NU)], seen_d1[LF_DIM(LF_NU)], seen_d2[LF_DIM(LF_NU)];
+    double seen_t;
+    double u_now[LF_DIM(LF_NU)], u_rate[LF_DIM(LF_NU)], u_zero[LF_DIM(LF_NU)];
+    double d_rate[LF_DIM(LF_ND)]; /* delayed values' rates (output derivatives) */
+    int wants_terminate;          /* fmi2Terminated: a validity condition failed */
+
     LfSolver solver;
     int solver_ready;
     double e_old[LF_DIM(LF_NE)];
@@ -123,5 +136,19 @@ LfStatus lf_check_step(LfInstance *c, double t0, double h);
 /* Advance from c->t by h: integrate, locate events, update outputs. */
 LfStatus lf_do_step(LfInstance *c, double t0, double h);
 LfStatus lf_update_outputs(LfInstance *c);
+
+/* lf_inputs.c: inputs interpolated by their time derivatives. */
+void lf_inputs_reset(LfInstance *c, double t0);
+/* Input vr (an input's value reference) at the current time c->t. */
+double lf_input_now(const LfInstance *c, unsigned vr);
+/* fmi2SetReal of input vr: the new value holds from c->t on, its
+ * derivatives are reset to 0 (FMI 2.0: set with respect to the
+ * communication point where they are set). */
+void lf_input_set(LfInstance *c, unsigned vr, double value);
+/* Is (vr, order, value) a valid input derivative? (logs why not) */
+LfStatus lf_input_derivative_check(LfInstance *c, unsigned vr, int order, double value);
+void lf_input_derivative_set(LfInstance *c, unsigned vr, int order, double value);
+/* Output derivative of order 1 of output/local vr at the current time. */
+LfStatus lf_output_derivative(LfInstance *c, unsigned vr, double *value);
 
 #endif

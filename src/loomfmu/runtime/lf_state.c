@@ -66,6 +66,14 @@ static void write_values(const LfInstance *c, LfStateValues *v) {
     memcpy(v->tau, c->tau, sizeof v->tau);
     memcpy(v->hist_count, c->hist_count, sizeof v->hist_count);
     memcpy(v->x_set, c->x_set, sizeof v->x_set);
+    memcpy(v->u_d1, c->u_d1, sizeof v->u_d1);
+    memcpy(v->u_d2, c->u_d2, sizeof v->u_d2);
+    memcpy(v->u_t0, c->u_t0, sizeof v->u_t0);
+    memcpy(v->seen_u, c->seen_u, sizeof v->seen_u);
+    memcpy(v->seen_d1, c->seen_d1, sizeof v->seen_d1);
+    memcpy(v->seen_d2, c->seen_d2, sizeof v->seen_d2);
+    v->seen_t = c->seen_t;
+    v->wants_terminate = c->wants_terminate;
     v->t = c->t;
     v->t_start = c->t_start;
     v->t_stop = c->t_stop;
@@ -163,7 +171,7 @@ static int check_header(LfInstance *c, const unsigned char *buf, size_t n, LfSta
         return 0;
     }
     memcpy(h, buf, sizeof *h);
-    REQUIRE(h->magic == LF_STATE_MAGIC, "format tag", h->magic, "a loomfmu state (LFS3)");
+    REQUIRE(h->magic == LF_STATE_MAGIC, "format tag", h->magic, "a loomfmu state (LFS4)");
     memset(guid, 0, sizeof guid);
     strncpy(guid, lf_model.guid, sizeof guid - 1);
     if (memcmp(guid, h->guid, sizeof guid) != 0) {
@@ -205,6 +213,7 @@ static int check_flags(LfInstance *c, const LfStateValues *v) {
             "a solver of this FMU");
     REQUIRE(is_flag(v->outputs_valid), "outputs_valid", v->outputs_valid, "0 or 1");
     REQUIRE(is_flag(v->inputs_changed), "inputs_changed", v->inputs_changed, "0 or 1");
+    REQUIRE(is_flag(v->wants_terminate), "wants_terminate", v->wants_terminate, "0 or 1");
     REQUIRE(v->delay_interp == LF_DELAY_HERMITE || v->delay_interp == LF_DELAY_LINEAR,
             "delay_interpolation", v->delay_interp, "1 (hermite) or 2 (linear)");
     REQUIRE(v->max_steps > 0, "max_steps", v->max_steps, "> 0");
@@ -260,6 +269,11 @@ static int check_modes_delays(LfInstance *c, const LfStateValues *v) {
     REQUIRE(all_finite(v->w_cur, LF_DIM(LF_NW)), "unknowns w (Newton start)", NAN, "finite");
     REQUIRE(all_finite(v->e_old, LF_DIM(LF_NE)), "event indicators", NAN, "finite");
     REQUIRE(all_finite(v->dval, LF_DIM(LF_ND)), "delayed values", NAN, "finite");
+    REQUIRE(all_finite(v->u_d1, LF_DIM(LF_NU)) && all_finite(v->u_d2, LF_DIM(LF_NU)) &&
+                all_finite(v->u_t0, LF_DIM(LF_NU)) && all_finite(v->seen_u, LF_DIM(LF_NU)) &&
+                all_finite(v->seen_d1, LF_DIM(LF_NU)) && all_finite(v->seen_d2, LF_DIM(LF_NU)) &&
+                isfinite(v->seen_t),
+            "input derivatives", NAN, "finite");
     REQUIRE(v->n_bp >= 0 && v->n_bp <= LF_BP_CAP, "number of delay breakpoints", v->n_bp,
             "0 ... this FMU's capacity (8192 with delays, 0 without)");
     for (k = 0; k < LF_DIM(LF_ND); k++) {
@@ -373,6 +387,17 @@ static void apply_values(LfInstance *c, const LfStateValues *v, const double *hi
     memcpy(c->dval, v->dval, sizeof v->dval);
     memcpy(c->tau, v->tau, sizeof v->tau);
     memcpy(c->x_set, v->x_set, sizeof v->x_set);
+    memcpy(c->u_d1, v->u_d1, sizeof v->u_d1);
+    memcpy(c->u_d2, v->u_d2, sizeof v->u_d2);
+    memcpy(c->u_t0, v->u_t0, sizeof v->u_t0);
+    memcpy(c->seen_u, v->seen_u, sizeof v->seen_u);
+    memcpy(c->seen_d1, v->seen_d1, sizeof v->seen_d1);
+    memcpy(c->seen_d2, v->seen_d2, sizeof v->seen_d2);
+    c->seen_t = v->seen_t;
+    c->wants_terminate = v->wants_terminate;
+    c->u_poly = 0;
+    for (k = 0; k < LF_NU; k++)
+        if (c->u_d1[k] != 0 || c->u_d2[k] != 0) c->u_poly = 1;
     c->t = v->t;
     c->t_start = v->t_start;
     c->t_stop = v->t_stop;

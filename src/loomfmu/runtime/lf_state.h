@@ -13,7 +13,7 @@
 #include <stddef.h>
 #include "lf_runtime.h"
 
-#define LF_STATE_MAGIC 0x4C465333u /* "LFS3" */
+#define LF_STATE_MAGIC 0x4C465334u /* "LFS4": input derivatives added */
 #define LF_STATE_GUID_LEN 64
 #define LF_FNV_OFFSET 0xcbf29ce484222325ULL
 #define LF_FNV_PRIME 0x100000001b3ULL
@@ -37,9 +37,12 @@ typedef struct {
     double tau[LF_DIM(LF_ND)];
     long hist_count[LF_DIM(LF_ND)];
     int x_set[LF_DIM(LF_NX)];
+    double u_d1[LF_DIM(LF_NU)], u_d2[LF_DIM(LF_NU)], u_t0[LF_DIM(LF_NU)];
+    double seen_u[LF_DIM(LF_NU)], seen_d1[LF_DIM(LF_NU)], seen_d2[LF_DIM(LF_NU)], seen_t;
     double t, t_start, t_stop, rtol_importer, last_successful_time;
     long max_steps, n_events, n_newton_fail;
     int solver_id, outputs_valid, inputs_changed, delay_interp, n_bp, solver_ready, state;
+    int wants_terminate;
     /* solver fields (the work buffer follows separately) */
     double s_t, s_t_old, s_h;
     LfSolverOptions s_opt;

@@ -1,7 +1,10 @@
 /* loomfmu shared runtime: initialization and the co-simulation step loop.
  *
- * Inputs are held constant over a communication step (zero-order hold); a
- * change of an input restarts the solver at the communication point. */
+ * Inputs are held constant over a communication step (zero-order hold), or
+ * follow their polynomials where the importer set input derivatives
+ * (lf_inputs.c); a change of an input's value or derivatives restarts the
+ * solver at the communication point.  Validity conditions are checked
+ * after every accepted step (lf_validity.c). */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -69,6 +72,7 @@ LfStatus lf_initialize(LfInstance *c) {
     }
     c->solver_ready = 1;
     c->inputs_changed = 0;
+    lf_inputs_seen(c);
     c->outputs_valid = 0;
     if (lf_hist_push(c, c->t, &c->r[LF_VR_X0], 1) != LF_OK) return LF_ERROR;
     st = lf_eval_events(c, c->t, &c->r[LF_VR_X0], c->e_old);
@@ -155,9 +159,11 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
     int bad;
     LfStatus st = lf_check_step(c, t0, h);
     if (st != LF_OK) return st;
-    if (c->inputs_changed) {
-        /* the held inputs jump here: modes made invalid by the jump (a
-         * stuck joint now loaded beyond its static limit) are chosen again */
+    c->wants_terminate = 0;
+    if (c->inputs_changed || lf_inputs_moved(c)) {
+        /* the inputs jump (or their derivatives change) here: modes made
+         * invalid by the jump (a stuck joint now loaded beyond its static
+         * limit) are chosen again */
         memcpy(c->x_tmp, s->x, sizeof(double) * LF_NX);
         if (LF_NQ > 0) {
             st = lf_consistent_modes(c, s->t, c->x_tmp, -1);
@@ -169,7 +175,11 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
         st = lf_eval_events(c, s->t, s->x, c->e_old);
         if (st != LF_OK) return fail_step(c, st, "event indicators not finite");
         c->inputs_changed = 0;
+        lf_inputs_seen(c);
     }
+    st = lf_validity_at_start(c);
+    if (st != LF_OK)
+        return c->wants_terminate ? st : fail_step(c, st, "validity conditions not evaluable");
     while (s->t < t_end) {
         int is_bp = 0;
         double t_bound = LF_ND > 0 ? lf_next_breakpoint(c, s->t, t_end, &is_bp) : t_end;
@@ -183,6 +193,12 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
         if (LF_NE > 0) {
             st = lf_handle_events(c);
             if (st != LF_OK) return fail_step(c, st, "event handling failed");
+        }
+        if (LF_NV > 0) {
+            st = lf_check_validity(c);
+            if (st != LF_OK)
+                return c->wants_terminate ? st
+                                          : fail_step(c, st, "validity conditions not evaluable");
         }
         if (LF_ND > 0) {
             int at_bp = is_bp && s->t == t_bound;

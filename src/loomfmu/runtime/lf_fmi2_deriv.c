@@ -1,0 +1,71 @@
+/* loomfmu shared runtime: FMI 2.0 co-simulation input and output
+ * derivatives (canInterpolateInputs="true", maxOutputDerivativeOrder="1").
+ *
+ * fmi2SetRealInputDerivatives: orders 1 and 2 of Real inputs, set with
+ * respect to the current communication point (lf_inputs.c); allowed where
+ * fmi2SetReal is (instantiated, initialization mode, step complete).  The
+ * call is checked whole before anything is set: every value reference an
+ * input, every order 1 or 2, every value finite.
+ *
+ * fmi2GetRealOutputDerivatives: order 1 of outputs (and algebraic locals),
+ * exact, at the current time (after fmi2DoStep: the end of the step), with
+ * the inputs' current slopes; allowed after initialization (step complete or
+ * failed, terminated).  Order 2 and higher: fmi2Error (maxOutputDerivativeOrder
+ * is 1). */
+#include <math.h>
+#include <stddef.h>
+
+#include "fmi2Functions.h"
+#include "lf_fmi2_internal.h"
+
+#define SET_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | LF_ST_STEP_COMPLETE)
+#define OUT_DER_STATES (RUNNING | LF_ST_TERMINATED)
+
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
+                                       size_t nvr, const fmi2Integer order[],
+                                       const fmi2Real value[]) {
+    LfInstance *inst = (LfInstance *)c;
+    size_t i;
+    CHECK("fmi2SetRealInputDerivatives", SET_STATES);
+    if (nvr > 0 && !order)
+        return lf_fmi2_null_arg(inst, "fmi2SetRealInputDerivatives", "order (with nvr > 0)");
+    if (!lf_fmi2_check_vrs(inst, "fmi2SetRealInputDerivatives", vr, nvr, value, LF_NREAL))
+        return fmi2Error;
+    for (i = 0; i < nvr; i++)
+        if (lf_input_derivative_check(inst, vr[i], order[i], value[i]) != LF_OK)
+            return fmi2Error;
+    for (i = 0; i < nvr; i++) lf_input_derivative_set(inst, vr[i], order[i], value[i]);
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
+                                        size_t nvr, const fmi2Integer order[],
+                                        fmi2Real value[]) {
+    LfInstance *inst = (LfInstance *)c;
+    size_t i;
+    CHECK("fmi2GetRealOutputDerivatives", OUT_DER_STATES);
+    if (nvr > 0 && !order)
+        return lf_fmi2_null_arg(inst, "fmi2GetRealOutputDerivatives", "order (with nvr > 0)");
+    if (!lf_fmi2_check_vrs(inst, "fmi2GetRealOutputDerivatives", vr, nvr, value, LF_NREAL))
+        return fmi2Error;
+    for (i = 0; i < nvr; i++) {
+        LfKind kind = lf_model.real_kind[vr[i]];
+        if (kind != LF_KIND_OUTPUT && kind != LF_KIND_LOCAL) {
+            lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: fmi2GetRealOutputDerivatives: "
+                   "vr[%lu] = %u (%s) is not an output (outputs: %u ... %u)", inst->t,
+                   (unsigned long)i, (unsigned)vr[i], lf_model.real_names[vr[i]],
+                   (unsigned)LF_VR_Y0, (unsigned)(LF_NREAL - 1));
+            return fmi2Error;
+        }
+        if (order[i] != 1) {
+            lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: fmi2GetRealOutputDerivatives: "
+                   "order[%lu] = %d for %s; allowed 1 (maxOutputDerivativeOrder = 1; 0 is "
+                   "not allowed by FMI 2.0)", inst->t, (unsigned long)i, (int)order[i],
+                   lf_model.real_names[vr[i]]);
+            return fmi2Error;
+        }
+    }
+    for (i = 0; i < nvr; i++)
+        if (lf_output_derivative(inst, vr[i], &value[i]) != LF_OK) return fmi2Error;
+    return fmi2OK;
+}
