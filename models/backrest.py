@@ -331,8 +331,8 @@ def _lagrange(m: Model, p: dict, x: _X, w: dict, spring: dict) -> None:
                      unit="N.m", group=Q_G, symbol="Q",
                      description="generalized forces (Q_1 about O1, Q_2 about O2): the "
                      "coefficients of phi1', phi2' in the power of the applied forces (warp "
-                     "tensions, spring, friction torques) held at their values; equal to the "
-                     "seed's (7) and (10) (test)",
+                     "tensions, spring, friction torques) held at their values; the weight is "
+                     "in V, and Q - dV/dq equals the seed's (7) and (10) (test)",
                      source=SEED + " (1), (2), (7), (10); " + defect("B1"))
     L = "Lagrange's equations"
     m.quantity("M_q", ca.hessian(x.T, x.qd)[0], unit="kg.m2", group=L, symbol="M(q)",
