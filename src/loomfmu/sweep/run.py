@@ -1,0 +1,199 @@
+"""Running a study: on dask.distributed, or as a plain serial loop.
+
+    result = run_study(study, out="docs/sweep/x.csv", workers=2)   # LocalCluster
+    result = run_study(study, out=..., scheduler="tcp://host:8786") # any cluster
+    rows = run_serial(study)                                       # the baseline
+
+The FMU is built once here (or given), its bytes scattered to every worker
+(so workers need not share a file system with the client), and each case is
+one dask task. Rows are appended to ``out`` as cases finish; a second call
+with the same study and ``out`` skips every case already there (finished:
+ok or failed), so an interrupted study resumes where it stopped.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import logging
+import tempfile
+import time
+from pathlib import Path
+
+from ..checks import check_bool, check_int
+from . import store
+from .study import Study, case_key
+from .worker import FmuBlob, run_case
+
+#: most local worker processes
+MAX_WORKERS = 64
+
+
+@dataclasses.dataclass
+class StudyResult:
+    """rows: every case's row, by index; executed: cases run by this call;
+    skipped: cases found finished in ``out``; wall_s: this call's wall time;
+    workers: worker processes used (0: the serial loop)."""
+    rows: list
+    executed: int
+    skipped: int
+    wall_s: float
+    workers: int
+    out: Path | None
+
+    @property
+    def failed(self) -> list[dict]:
+        return [r for r in self.rows if r["status"] != "ok"]
+
+
+def fmu_blob(study: Study, fmu: Path | str | None = None) -> FmuBlob:
+    """The study's FMU as bytes: ``fmu`` (a built .fmu of the study's model)
+    or built now from loomfmu.registry with the study's options."""
+    if fmu is None:
+        from ..builder import build_fmu
+        from ..registry import load_model
+        with tempfile.TemporaryDirectory() as tmp:
+            path = build_fmu(load_model(study.model, **study.options), out_dir=tmp,
+                             validate=False).path
+            data = Path(path).read_bytes()
+            name = Path(path).name
+    else:
+        if not isinstance(fmu, (str, Path)) or not Path(fmu).is_file():
+            raise ValueError(f"fmu = {fmu!r:.80}; allowed: None or the path of an "
+                             "existing .fmu file")
+        data, name = Path(fmu).read_bytes(), Path(fmu).name
+    return FmuBlob(data, hashlib.sha256(data).hexdigest(), name)
+
+
+def _check_fmu(study: Study, blob: FmuBlob) -> None:
+    """The study's names against the FMU's variables."""
+    import fmpy
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / blob.name
+        path.write_bytes(blob.data)
+        try:
+            md = fmpy.read_model_description(str(path), validate=False)
+        except Exception as exc:  # noqa: BLE001 (FMPy raises bare Exceptions)
+            raise ValueError(f"fmu = {blob.name!r}: not a readable FMU ({exc})") from None
+    settable = [v.name for v in md.modelVariables if v.start is not None]
+    study.check_names(settable, [v.name for v in md.modelVariables])
+
+
+def _keys(study: Study, blob: FmuBlob) -> list[str]:
+    fp = study.fingerprint(blob.sha256)
+    keys = [case_key(fp, c) for c in study.cases]
+    if len(set(keys)) != len(keys):
+        raise ValueError("cases: some cases repeat; allowed: distinct cases")
+    return keys
+
+
+def run_serial(study: Study, *, fmu=None, blob: FmuBlob | None = None,
+               reuse: bool = False) -> list[dict]:
+    """Every case in this process, one after the other: with ``reuse`` False
+    (the plain loop) ``fmpy.simulate_fmu`` instantiates the FMU afresh for
+    each case; with True it reuses one instance with fmi2Reset."""
+    blob = blob or fmu_blob(study, fmu)
+    _check_fmu(study, blob)
+    reuse = check_bool("reuse", reuse)
+    setup = study.setup()
+    return [run_case(blob, setup, i, k, c, reuse=reuse)
+            for i, (k, c) in enumerate(zip(_keys(study, blob), study.cases))]
+
+
+def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
+              scheduler: str | None = None, fmu=None, blob: FmuBlob | None = None,
+              resume: bool = True, progress: bool = True) -> StudyResult:
+    """Run ``study`` on dask.distributed and return every case's row.
+
+    out: the results CSV (None: none kept, no resume). workers: local worker
+    processes of the embedded LocalCluster (1 ... MAX_WORKERS; one thread
+    each); scheduler: the address of a running dask scheduler instead
+    ("tcp://host:8786"), whose workers must have loomfmu installed. fmu: a
+    built .fmu of the model (default: built now). resume: skip the cases
+    already in ``out``; False starts ``out`` afresh. progress: a
+    loomfmu.progress bar over the cases as they complete.
+    """
+    workers = check_int("workers", workers, lo=1, hi=MAX_WORKERS)
+    resume, progress = check_bool("resume", resume), check_bool("progress", progress)
+    if scheduler is not None and (not isinstance(scheduler, str) or "://" not in scheduler):
+        raise ValueError(f"scheduler = {scheduler!r:.60}; allowed: None or an address "
+                         "such as tcp://host:8786")
+    if out is not None and not isinstance(out, (str, Path)):
+        raise ValueError(f"out = {out!r:.60}; allowed: None or a .csv path")
+    blob = blob or fmu_blob(study, fmu)
+    _check_fmu(study, blob)
+    keys = _keys(study, blob)
+    cols = store.columns(study.case_names, [f.name for f in study.figures])
+    done = _finished(out, keys, cols, resume)
+    pending = [(i, k, c) for i, (k, c) in enumerate(zip(keys, study.cases)) if k not in done]
+    t0 = time.perf_counter()
+    rows = dict(done)
+    appender = store.Appender(Path(out), cols) if out is not None else None
+    try:
+        if pending:
+            rows.update(_dask_run(study, blob, pending, workers, scheduler, progress,
+                                  appender))
+    finally:
+        if appender is not None:
+            appender.close()
+    ordered = sorted(rows.values(), key=lambda r: r["index"])
+    if out is not None:
+        store.write_rows(Path(out), cols, ordered)
+    return StudyResult(ordered, len(pending), len(done), time.perf_counter() - t0,
+                       workers if scheduler is None else -1, None if out is None else Path(out))
+
+
+def _finished(out, keys: list[str], cols: list[str], resume: bool) -> dict[str, dict]:
+    """Rows of ``out`` that belong to this study (by case key)."""
+    if out is None:
+        return {}
+    path = Path(out)
+    if not resume or (path.exists() and store.header_of(path) != cols):
+        if path.exists():
+            path.unlink()  # another study's table, or a fresh start: begin again
+        return {}
+    index = {k: i for i, k in enumerate(keys)}
+    rows = {}
+    for r in store.read_rows(path):
+        if r.get("key") in index:
+            r["index"] = index[r["key"]]
+            rows[r["key"]] = r
+    if len(rows) < len(store.read_rows(path)):  # rows of other settings: keep only ours
+        store.write_rows(path, cols, list(rows.values()))
+    return rows
+
+
+def _dask_run(study, blob, pending, workers, scheduler, progress, appender) -> dict:
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    from ..progress import Progress
+    cluster = None
+    if scheduler is None:
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=logging.ERROR)
+        client = Client(cluster)
+    else:
+        client = Client(scheduler)
+    rows = {}
+    try:
+        setup = study.setup()
+        remote_blob = client.scatter(blob, broadcast=True)
+        futures = [client.submit(run_case, remote_blob, setup, i, k, c,
+                                 key=f"{study.name}-{i}-{k}", pure=False)
+                   for i, k, c in pending]
+        bar = Progress(total=len(pending), desc=f"sweep {study.name}") if progress else None
+        try:
+            for fut in as_completed(futures):
+                row = fut.result()
+                rows[row["key"]] = row
+                if appender is not None:
+                    appender.add(row)
+                if bar is not None:
+                    bar.advance(f"case {row['index']}: {row['status']}")
+        finally:
+            if bar is not None:
+                bar.close()
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    return rows

@@ -1,0 +1,177 @@
+"""One case of a study, run where dask puts it.
+
+Each worker process extracts a study's FMU once (keyed by the FMU's SHA-256)
+and instantiates it once per thread; every further case on that worker
+starts with ``fmi2Reset`` on the same instance, as FMPy's parameter-variation
+example does. A case that fails (the FMU returned Discard/Error, or the
+case's values were refused before running) comes back as a row with its
+status and the FMU's last log line: it is never lost and never stops the
+study. ``reuse=False`` runs the plain loop instead: ``fmpy.simulate_fmu``
+with a fresh instance per case (the serial baseline the sweep is compared
+with).
+"""
+from __future__ import annotations
+
+import atexit
+import dataclasses
+import os
+import shutil
+import socket
+import tempfile
+import threading
+import time
+from typing import Callable
+
+import fmpy
+import numpy as np
+
+#: FMI status codes -> the status a row records
+FMI_STATUS = {2: "discard", 3: "error", 4: "fatal"}
+#: statuses a row can have
+STATUSES = ("ok", "discard", "error", "fatal", "invalid", "failed")
+SOLVER_INDEX = {"dopri5": 1, "rodas4": 2, "rk4": 3}
+
+
+@dataclasses.dataclass(frozen=True)
+class FmuBlob:
+    """An FMU's bytes and their SHA-256: shipped once to every worker."""
+    data: bytes
+    sha256: str
+    name: str
+
+
+@dataclasses.dataclass(frozen=True)
+class Setup:
+    """The experiment every case of a study shares (see Study)."""
+    solver: str
+    rtol: float
+    atol: float
+    stop_time: float
+    output_interval: float
+    outputs: tuple
+    figures: tuple
+    fixed: dict
+    prepare: Callable | None
+
+
+class _Slot:
+    """An extracted FMU and (per thread) its instance and log."""
+
+    def __init__(self, blob: FmuBlob):
+        self.dir = tempfile.mkdtemp(prefix=f"loomfmu-sweep-{blob.sha256[:8]}-")
+        path = os.path.join(self.dir, blob.name)
+        with open(path, "wb") as f:
+            f.write(blob.data)
+        self.unzipdir = fmpy.extract(path, unzipdir=os.path.join(self.dir, "x"))
+        self.md = fmpy.read_model_description(self.unzipdir, validate=False)
+        self.log: list[tuple[int, str]] = []
+        self.instance = None
+        self.used = False
+
+    def logger(self, component, instance, status, category, message):
+        self.log.append((int(status), f"[{category.decode()}] {message.decode()}"))
+
+    def get_instance(self):
+        if self.instance is None:
+            self.instance = fmpy.instantiate_fmu(self.unzipdir, self.md, "CoSimulation",
+                                                 logger=self.logger)
+            self.used = False
+        return self.instance
+
+    def drop_instance(self) -> None:
+        if self.instance is not None:
+            try:
+                self.instance.freeInstance()
+            except Exception:  # noqa: BLE001 (an instance in Error may refuse; drop it)
+                pass
+            self.instance = None
+
+    def close(self) -> None:
+        self.drop_instance()
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+
+_SLOTS: dict[tuple[str, int], _Slot] = {}
+_LOCK = threading.Lock()
+
+
+def _slot(blob: FmuBlob) -> _Slot:
+    key = (blob.sha256, threading.get_ident())
+    with _LOCK:
+        if key not in _SLOTS:
+            _SLOTS[key] = _Slot(blob)
+        return _SLOTS[key]
+
+
+@atexit.register
+def _close_all() -> None:
+    for slot in _SLOTS.values():
+        slot.close()
+    _SLOTS.clear()
+
+
+def instances_made() -> int:
+    """Extracted FMUs held by this process (one per FMU and thread)."""
+    return len(_SLOTS)
+
+
+def case_values(setup: Setup, case: dict) -> tuple[dict, float]:
+    """The start values and stop time of ``case``: the study's fixed values
+    and the case, or what the study's ``prepare(case, fixed)`` makes of them."""
+    if setup.prepare is None:
+        return {**setup.fixed, **case}, setup.stop_time
+    values, stop = setup.prepare(case, dict(setup.fixed))
+    return values, (setup.stop_time if stop is None else float(stop))
+
+
+def _message(log: list[tuple[int, str]], exc: Exception) -> str:
+    bad = [text for status, text in log if status >= 2]
+    last = bad[-1] if bad else (log[-1][1] if log else "no log")
+    return f"{exc}; log: {last}"
+
+
+def run_case(blob: FmuBlob, setup: Setup, index: int, key: str, case: dict,
+             reuse: bool = True) -> dict:
+    """Run one case; return its row (index, key, case, status, message,
+    figures, wall_s, worker)."""
+    row = {"index": index, "key": key, **case, "status": "ok", "message": ""}
+    row.update({f.name: float("nan") for f in setup.figures})
+    t0 = time.perf_counter()
+    slot = _slot(blob)
+    try:
+        values, stop = case_values(setup, case)
+    except (ValueError, TypeError) as exc:
+        row.update(status="invalid", message=str(exc), wall_s=0.0, worker=_worker())
+        return row
+    start = {"solver": SOLVER_INDEX[setup.solver], "solver_atol": setup.atol, **values}
+    slot.log.clear()
+    kwargs = dict(validate=False, model_description=slot.md, stop_time=stop,
+                  relative_tolerance=setup.rtol, output_interval=setup.output_interval,
+                  start_values=start, output=list(setup.outputs))
+    try:
+        if reuse:
+            inst = slot.get_instance()
+            if slot.used:
+                inst.reset()
+            slot.used = True
+            res = fmpy.simulate_fmu(slot.unzipdir, fmu_instance=inst, **kwargs)
+        else:
+            res = fmpy.simulate_fmu(slot.unzipdir, logger=slot.logger, **kwargs)
+    except Exception as exc:  # noqa: BLE001 (FMPy raises FMICallException or bare Exception)
+        status = FMI_STATUS.get(getattr(exc, "status", None), "error")
+        row.update(status=status, message=_message(slot.log, exc))
+        slot.drop_instance()  # a fresh instance for the next case
+    else:
+        t = np.asarray(res["time"])
+        y = {n: np.asarray(res[n]) for n in setup.outputs}
+        try:
+            for fig in setup.figures:
+                row[fig.name] = fig(t, y, case)
+        except (ValueError, ArithmeticError) as exc:
+            row.update(status="failed", message=f"figure: {exc}")
+    row.update(wall_s=time.perf_counter() - t0, worker=_worker())
+    return row
+
+
+def _worker() -> str:
+    return f"{socket.gethostname()}:{os.getpid()}"
