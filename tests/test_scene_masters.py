@@ -251,3 +251,152 @@ def test_taylor_coefficients_of_the_extrapolation():
     hist.discard()
     c = hist.coefficients(0, 0.05, 2.0, 0.05, 1)
     assert np.allclose(c, [2.0, 20.0])
+
+
+# -- extrapolation on the two-mass benchmark ----------------------------------------
+Z = ("force.x1_out", "force.v1_out", "disp.x2_out", "disp.v2_out")
+Z0 = [0.1, 0.0, 0.0, 0.0]
+#: master name and options for each algorithm of the theory
+MASTERS = {"jacobi": ("jacobi", {}),
+           "gauss-seidel:force-first": ("gauss-seidel", {}),
+           "gauss-seidel:disp-first": ("gauss-seidel", {"order": ["disp", "force"]})}
+
+
+@pytest.fixture(scope="module")
+def bench(tmp_path_factory):
+    scene = tm.scene(stop_time=1.0)
+    fmus = build_fmus(scene, tmp_path_factory.mktemp("two_mass"))
+    return scene, fmus, tm.Params.declared()
+
+
+def states(res) -> np.ndarray:
+    return np.column_stack([res[n] for n in Z])
+
+
+def ours(bench, algorithm, h, n, order, **kw):
+    scene, fmus, _ = bench
+    master, opts = MASTERS[algorithm]
+    return run(scene, master=master, step=h, stop=n * h, fmus=fmus, extrapolation=order,
+               master_options=opts, **kw)
+
+
+def identified_radius(z: np.ndarray, depth: int) -> float:
+    """Spectral radius of z_{n+1} = sum_j K_j z_{n-j} (j < depth) fitted by least
+    squares to a run: the extrapolated map acts on the last ``depth`` states."""
+    X = np.hstack([z[depth - 1 - j:len(z) - 1 - j] for j in range(depth)])
+    K, *_ = np.linalg.lstsq(X, z[depth:], rcond=None)
+    M = np.zeros((4 * depth, 4 * depth))
+    M[:4] = K.T
+    M[4:, :-4] = np.eye(4 * (depth - 1))
+    return float(max(abs(np.linalg.eigvals(M))))
+
+
+@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("algorithm", list(MASTERS))
+def test_extrapolating_master_reproduces_the_exact_map(bench, algorithm, order):
+    """From the first step (a shorter history: lower order), at a step well
+    inside and one past the stability limit."""
+    p = bench[2]
+    lim = tm.stability_limit(p, algorithm, order=order)
+    for h in (1e-3, 1.2 * lim):
+        n = 100
+        z = states(ours(bench, algorithm, h, n, order))
+        ref = tm.extrapolated_trajectory(p, h, n, Z0, algorithm, order)
+        assert np.abs(z - ref).max() < 1e-9 * np.abs(ref).max(), (h, np.abs(z - ref).max())
+    # the map differs from the zero-order hold's: the test can fail
+    ref0 = tm.extrapolated_trajectory(p, 1e-3, 100, Z0, algorithm, 0)
+    assert np.abs(ref0 - tm.extrapolated_trajectory(p, 1e-3, 100, Z0, algorithm,
+                                                    order)).max() > 1e-4
+
+
+@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("algorithm", ["jacobi", "gauss-seidel:force-first"])
+def test_extrapolated_stability_is_lost_where_the_theory_says(bench, algorithm, order):
+    p = bench[2]
+    lim = tm.stability_limit(p, algorithm, order=order)
+    for f, below in ((0.999, True), (1.001, False)):
+        h = f * lim
+        rho = tm.spectral_radius(p, h, algorithm, order)
+        assert (rho < 1) == below
+        z = states(ours(bench, algorithm, h, 60, order))
+        measured = identified_radius(z[2 * order + 2:], order + 1)
+        assert measured == pytest.approx(rho, abs=1e-7)
+    # a long run decays below the limit and grows above it
+    for f, grows in ((0.8, False), (1.25, True)):
+        z = states(ours(bench, algorithm, f * lim, 600, order))
+        late = np.abs(z[-100:]).max() / np.abs(z[:100]).max()
+        assert (late > 1.5) if grows else (late < 0.5), (f, late)
+
+
+@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_adaptive_extrapolated_run_keeps_no_sample_of_a_rejected_step(bench, master, order):
+    """The run equals the theory over its accepted steps, whose polynomials go
+    through samples at the accepted communication points only."""
+    scene, fmus, p = bench
+    res = run(scene, master=master, step=1e-3, adaptive=True, rtol=1e-2, atol=1e-4,
+              fmus=fmus, stop=0.3, extrapolation=order)
+    assert res.rejected > 0 and res.accepted == len(res.h)
+    assert len(set(np.round(res.h, 12))) > 10
+    algorithm = "jacobi" if master == "jacobi" else "gauss-seidel:force-first"
+    z = states(res)
+    ref = tm.extrapolated_run(p, res.h, Z0, algorithm, order)
+    assert np.abs(z - ref).max() < 1e-9 * np.abs(ref).max()
+
+
+def test_extrapolation_order_raises_the_accuracy(bench):
+    """Error against the monolithic solution over 1 s at H = 1 ms: the order
+    k extrapolation's error falls by more than 10x per order; the output
+    derivatives (order 1) do as well as the history's line."""
+    p = bench[2]
+    errs = {}
+    for k, od in ((0, False), (1, False), (2, False), (1, True)):
+        res = ours(bench, "gauss-seidel:force-first", 1e-3, 1000, k,
+                   ) if not od else run(bench[0], master="gauss-seidel", step=1e-3,
+                                        stop=1.0, fmus=bench[1], extrapolation=1,
+                                        master_options={"output_derivatives": True})
+        z = states(res)
+        exact = tm.exact_solution(p, res["time"], z[0])
+        errs[(k, od)] = np.abs(z - exact).max() / np.abs(exact).max()
+    assert errs[(1, False)] < errs[(0, False)] / 10
+    assert errs[(2, False)] < errs[(1, False)] / 10
+    assert errs[(1, True)] < errs[(1, False)]
+
+
+def test_extrapolation_is_refused_where_an_fmu_cannot_interpolate(bench, tmp_path):
+    scene, fmus, _ = bench
+    # the displacement side's FMU, its model description saying it cannot interpolate
+    plain = tmp_path / "disp_plain.fmu"
+    with zipfile.ZipFile(fmus["disp"]) as src, zipfile.ZipFile(plain, "w") as dst:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                text = data.decode()
+                assert 'canInterpolateInputs="true"' in text
+                data = text.replace('canInterpolateInputs="true"',
+                                    'canInterpolateInputs="false"').replace(
+                    'maxOutputDerivativeOrder="1"', 'maxOutputDerivativeOrder="0"').encode()
+            dst.writestr(item, data)
+    s = Scene("plain", stop_time=0.01, step=1e-3)
+    s.add("force", fmu=fmus["force"], start={"x1": 0.1})
+    s.add("disp", fmu=plain)
+    s.connect("force.F_c", "disp.F_in")
+    s.connect("disp.x2_out", "force.x2_in")
+    s.connect("disp.v2_out", "force.v2_in")
+    with raises(r"extrapolation = 1: component disp cannot interpolate inputs \(its FMU "
+                r"declares canInterpolateInputs = false\); allowed: extrapolation = 0"):
+        run(s, extrapolation=1)
+    # its outputs have no derivatives: the force side cannot take them
+    s2 = Scene("plain2", stop_time=0.01, step=1e-3)
+    s2.add("force", fmu=fmus["force"], start={"x1": 0.1})
+    s2.add("disp", fmu=fmus["disp"])
+    s2.add("mon", fmu=plain)
+    s2.connect("mon.x2_out", "force.x2_in")
+    with raises(r"output_derivatives = True: component mon declares "
+                r"maxOutputDerivativeOrder = 0 < extrapolation = 1"):
+        run(s2, extrapolation=1, master_options={"output_derivatives": True})
+    with raises(r"extrapolation = 3; allowed: one of 0, 1, 2"):
+        run(s2, extrapolation=3)
+    with raises(r"resolve_feedthrough = False with extrapolation = 1"):
+        run(s2, extrapolation=1, master_options={"resolve_feedthrough": False})
+    assert run(s, extrapolation=0).accepted == 10      # order 0 needs nothing

@@ -130,12 +130,17 @@ class Master:
         return value(self._coef[i], t_end - self._t0[i])
 
     def _stepped(self, name: str, t_end: float) -> None:
-        """After component ``name`` stepped: its extrapolated inputs take their
-        value at the step's end (so an output with direct feedthrough read
-        now is computed with the input the FMU had there)."""
-        if self.extrapolation:
-            into = self.system.into[name]
-            self.system.set_inputs(into, [self._end_value(i, t_end) for i in into], t_end)
+        """After component ``name`` stepped: its extrapolated inputs are set to
+        the same polynomial anchored at the step's end (value and derivatives
+        there), so an output with direct feedthrough, or an output derivative,
+        read now is computed with the input the FMU had there (FMI 2.0 does
+        not say what an FMU's input is after fmi2DoStep)."""
+        if not self.extrapolation:
+            return
+        for i in self.system.into[name]:
+            c = shift(self._coef[i], t_end - self._t0[i])
+            self.system.set_inputs([i], [float(c[0])], t_end)
+            self.system.set_input_derivatives(i, [float(x) for x in c[1:]], t_end)
 
     def _advance(self, t: float, h: float) -> None:
         """Exchange values and step every FMU from t to t + h."""

@@ -234,18 +234,30 @@ def extrapolated_trajectory(p: Params, h: float, n: int, z0, algorithm: str,
     """z at t = 0, h, ..., n h (n + 1 rows) of ``algorithm`` with input
     extrapolation of ``order``, from its first step (where the history is
     shorter and the order lower, as in the master)."""
-    ops = _ops(p, h, order)
-    z = np.zeros((n + 1, 4))
+    return extrapolated_run(p, [h] * n, z0, algorithm, order)
+
+
+def extrapolated_run(p: Params, steps, z0, algorithm: str, order: int) -> np.ndarray:
+    """z after each of the communication ``steps`` (len + 1 rows, from z0):
+    the steps of an adaptive run's accepted steps, the polynomials through
+    samples at their unequal times."""
+    z = np.zeros((len(steps) + 1, 4))
     z[0] = z0
     z1, z2 = np.array(z0[:2], dtype=float), np.array(z0[2:], dtype=float)
     hist1: list = []
     hist2: list = []
-    for k in range(n):
-        z1, z2, s1, s2 = _one_step(ops, z1, z2, hist1, hist2, k * h, h, algorithm, order)
+    ops: dict[float, tuple] = {}
+    t = 0.0
+    for k, h in enumerate(steps):
+        h = float(h)
+        if h not in ops:
+            ops[h] = _ops(p, h, order)
+        z1, z2, s1, s2 = _one_step(ops[h], z1, z2, hist1, hist2, t, h, algorithm, order)
         for hist, smp in ((hist1, s1), (hist2, s2)):
             if not hist or smp[0] > hist[-1][0]:
                 hist.append(smp)
                 del hist[:-3]
+        t += h
         z[k + 1] = np.concatenate([z1, z2])
     return z
 
