@@ -36,6 +36,7 @@ ANALYSES = {
     "inspect": ("loomfmu.inspect_report",
                 "a model's equations as HTML (MathML), Markdown or LaTeX"),
     "scene": ("loomfmu.scene.__main__", "co-simulation scenes: list | run | export"),
+    "sweep": ("loomfmu.sweep.__main__", "studies on dask: design-map | drive-grid | hinge | run"),
 }
 
 
