@@ -128,10 +128,10 @@ def declare_quantities(m: Model, *, mo: Motion, w: Warp, sec: Section | None = N
 
     # -- motion law ----------------------------------------------------------------
     _, phi_r, phi_a, sign = shaft_angle(mo.phi, mo.end_dwell)
-    Q("phi_r", phi_r, unit="rad", group=G_H, symbol=r"\varphi_r",
+    Q("phi_r", phi_r, unit="rad", group=G_H, symbol=r"\phi_r",
       description="main-shaft angle within the current revolution",
       source=SEED0 + ", motion law: phi_r = phi - 2 pi (k_f - 1)")
-    Q("phi_a", phi_a, unit="rad", group=G_H, symbol=r"\varphi_a",
+    Q("phi_a", phi_a, unit="rad", group=G_H, symbol=r"\phi_a",
       description="angle of the stroke: 0 in the dwell 0..40 deg, phi_r - 40 deg up to "
       "320 deg, then " + ("280 deg (" + D2 + ")" if mo.end_dwell == "corrected" else
                           "0 as printed (build option end_dwell='printed'; " + D2 + ")"),
@@ -139,19 +139,19 @@ def declare_quantities(m: Model, *, mo: Motion, w: Warp, sec: Section | None = N
     Q("stroke_sign", sign, group=G_H, symbol=r"(-1)^{k_f+1}",
       description="direction of the stroke: +1 up in odd revolutions, -1 down in even ones "
       "(one frame cycle is two revolutions)", source=SEED0 + ", motion law")
-    Q("H", mo.H, unit="m", group=G_H, symbol=r"H(\varphi)",
+    Q("H", mo.H, unit="m", group=G_H, symbol=r"H(\phi)",
       description="displacement of the drive locks from the middle: h_m {[k_H phi_a - "
       "sin(k_H phi_a)]/pi - 1} (-1)^(k_f+1), k_H = 9/7 (" + D1 + "); output h",
       source=SEED0 + ", motion law (corrected D1" +
       (", D2)" if mo.end_dwell == "corrected" else "; D2 printed by the build option)"))
     Q("H_printed", motion_law(mo.phi, mo.h_m, 1.2, "printed"), unit="m", group=G_H,
-      symbol=r"H^{\mathrm{printed}}(\varphi)",
+      symbol=r"H^{\mathrm{printed}}(\phi)",
       description="the motion law exactly as printed (coefficient 1.2, phi_a = 0 after "
       "320 deg); not used: " + D1 + "; " + D2, source=SEED0 + ", motion law as printed")
-    Q("dH_dphi", mo.H1, unit="m", group=G_H, symbol=r"H'(\varphi)",
+    Q("dH_dphi", mo.H1, unit="m", group=G_H, symbol=r"H'(\phi)",
       description="first derivative of H by the shaft angle (per rad; CasADi AD); "
       "h' = H' omega", source="derived: AD of H")
-    Q("d2H_dphi2", mo.H2, unit="m", group=G_H, symbol=r"H''(\varphi)",
+    Q("d2H_dphi2", mo.H2, unit="m", group=G_H, symbol=r"H''(\phi)",
       description="second derivative of H by the shaft angle (per rad^2); h'' = H'' "
       "omega^2 (omega held over a step: its derivative taken as zero)",
       source="derived: AD of H")
@@ -176,9 +176,9 @@ def declare_quantities(m: Model, *, mo: Motion, w: Warp, sec: Section | None = N
           description="total tension of the frame's n_n ends, the input T (build option "
           "warp_tension='input'; seed 000 computes it from dl instead)",
           source="input, e.g. a backrest's front tension")
-    Q("sin_sum", w.s_y, group=G_W, symbol=r"\sin\alpha_1 + \sin\alpha_2",
+    Q("sin_sum", w.s_y, group=G_W, symbol=r"\left(\sin\alpha_1 + \sin\alpha_2\right)",
       description="vertical direction sum of the two shed branches", source=SEED0 + ", fig. 2")
-    Q("cos_diff", w.s_x, group=G_W, symbol=r"\cos\alpha_2 - \cos\alpha_1",
+    Q("cos_diff", w.s_x, group=G_W, symbol=r"\left(\cos\alpha_2 - \cos\alpha_1\right)",
       description="horizontal direction sum of the two shed branches (zero for a symmetric "
       "shed, k_z = 1)", source=SEED0 + ", fig. 2")
     Q("f_y_warp", w.f_y, unit="N", group=G_W, symbol=r"f_y",
@@ -190,21 +190,22 @@ def declare_quantities(m: Model, *, mo: Motion, w: Warp, sec: Section | None = N
 
     # -- loads of (2) -------------------------------------------------------------------
     if by is not None:
-        Q("Y_static", -by.d_f * w.f_y, unit="m", group=G_EQ, symbol=r"-\delta_{yf} f_y",
-          description="static deflection of y1, y2, y3 under the warp load (the start values "
-          "of y at the start time)", source=SEED0 + ", (1) with the accelerations zero")
+        Q("Y_static", -by.d_f * w.f_y, unit="m", group=G_EQ, symbol=r"Y_{\mathrm{st}}",
+          description="static deflection of y1, y2, y3 under the warp load, -delta_yf f_y "
+          "(the start values of y at the start time)", source=SEED0 + ", (1) with the accelerations zero")
         M_H = by.M if inertia == "corrected" else -bx.M
-        Q("F_inertia_y", -M_H * mo.h_ddot, unit="N", group=G_EQ, symbol=r"-M_y \ddot H",
-          description="d'Alembert load of the moving frame on y1, y2, y3 in (2)" +
+        Q("F_inertia_y", -M_H * mo.h_ddot, unit="N", group=G_EQ, symbol=r"F_{\ddot H}",
+          description="d'Alembert load of the moving frame on y1, y2, y3 in (2), -M_y H''" +
           (" (" + D3 + ")" if inertia == "corrected" else
            ", as printed +M_x H'' (build option inertia='printed'; " + D3 + ")"),
           source=SEED0 + ", (2), corrected D3" if inertia == "corrected" else
           SEED0 + ", (2) as printed")
         if bx is not None and inertia == "corrected":
             Q("F_inertia_y_printed", bx.M * mo.h_ddot, unit="N", group=G_EQ,
-              symbol=r"+M_x \ddot H", description="the printed d'Alembert load of (2); not "
-              "used: " + D3, source=SEED0 + ", (2) as printed")
+              symbol=r"F_{\ddot H}^{\mathrm{printed}}", description="the printed d'Alembert load of "
+              "(2), +M_x H''; not used: " + D3, source=SEED0 + ", (2) as printed")
     if bx is not None:
-        Q("X_static", bx.d_f * w.f_x, unit="m", group=G_EQ, symbol=r"\delta_{xf} f_x",
-          description="static deflection of x1, x2, x3 under the warp load",
+        Q("X_static", bx.d_f * w.f_x, unit="m", group=G_EQ, symbol=r"X_{\mathrm{st}}",
+          description="static deflection of x1, x2, x3 under the warp load, delta_xf f_x "
+          "(the start values of x)",
           source=SEED0 + ", (1) with the accelerations zero")
