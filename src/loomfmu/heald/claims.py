@@ -178,12 +178,11 @@ def claims() -> list[dict]:
              f"{scale:.3f} x that warp load (n_n = {1000*scale:.0f}); "
              + (f"or with slat width b1 = {b1*1e3:.1f} mm instead of the printed 10 mm. "
                 if b1 == b1 else "no slat width b1 <= 0.2 m reaches it. ")
-             + f"The seed's T is printed as "
-             f"the total tension with T_min = 0.3 N, which gives a ratio far below 1; its "
-             f"reading cannot be settled from the text"))
+             + "The seed's T is printed as "
+             "the total tension with T_min = 0.3 N, which gives a ratio far below 1; its "
+             "reading cannot be settled from the text"))
     freqs = natural_frequencies()
     fx = [f for f in freqs if f["axis"] == "x"]
-    stay = min(fx, key=lambda f: f["f_Hz"])
     lowest = min(freqs, key=lambda f: f["f_Hz"])
     rows.append(dict(
         claim="lowest natural frequency (side stay)", source="000", seed="67 Hz",

@@ -192,7 +192,8 @@ def declare_quantities(m: Model, *, mo: Motion, w: Warp, sec: Section | None = N
     if by is not None:
         Q("Y_static", -by.d_f * w.f_y, unit="m", group=G_EQ, symbol=r"Y_{\mathrm{st}}",
           description="static deflection of y1, y2, y3 under the warp load, -delta_yf f_y "
-          "(the start values of y at the start time)", source=SEED0 + ", (1) with the accelerations zero")
+          "(the start values of y at the start time)",
+          source=SEED0 + ", (1) with the accelerations zero")
         M_H = by.M if inertia == "corrected" else -bx.M
         Q("F_inertia_y", -M_H * mo.h_ddot, unit="N", group=G_EQ, symbol=r"F_{\ddot H}",
           description="d'Alembert load of the moving frame on y1, y2, y3 in (2), -M_y H''" +
@@ -202,8 +203,9 @@ def declare_quantities(m: Model, *, mo: Motion, w: Warp, sec: Section | None = N
           SEED0 + ", (2) as printed")
         if bx is not None and inertia == "corrected":
             Q("F_inertia_y_printed", bx.M * mo.h_ddot, unit="N", group=G_EQ,
-              symbol=r"F_{\ddot H}^{\mathrm{printed}}", description="the printed d'Alembert load of "
-              "(2), +M_x H''; not used: " + D3, source=SEED0 + ", (2) as printed")
+              symbol=r"F_{\ddot H}^{\mathrm{printed}}",
+              description="the printed d'Alembert load of (2), +M_x H''; not used: " + D3,
+              source=SEED0 + ", (2) as printed")
     if bx is not None:
         Q("X_static", bx.d_f * w.f_x, unit="m", group=G_EQ, symbol=r"X_{\mathrm{st}}",
           description="static deflection of x1, x2, x3 under the warp load, delta_xf f_x "
