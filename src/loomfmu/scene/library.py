@@ -11,11 +11,27 @@ def _two_mass() -> Scene:
     return scene()
 
 
+def _spinning() -> Scene:
+    from .spinning import scene
+    return scene()
+
+
+def _loom() -> Scene:
+    from .loom import scene
+    return scene()
+
+
 #: scene name -> (factory, one-line description)
 SCENES: dict[str, tuple[Callable[[], Scene], str]] = {
     "two_mass": (_two_mass, "two masses coupled by a spring-damper, split into two FMUs "
                             "(force-displacement coupling): the benchmark with an exact "
                             "co-simulation map"),
+    "spinning": (_spinning, "spinning position: the spindle drive with its layer cam "
+                            "(compensated) feeding the spindle rotor (full FE model), which "
+                            "starts on its periodic unbalance solution; one layer cycle"),
+    "loom": (_loom, "loom: main shaft, two heald frames in opposition (plain weave) "
+                    "stretching the warp, the backrest taking it up and returning the "
+                    "tension to the frames"),
 }
 
 
