@@ -5,10 +5,15 @@
 * :mod:`.hinge`: the seed's kinetostatic hinge load over the eight phases;
 * :mod:`.claims`: natural frequencies, the seed's claims, the fidelity
   comparison and the slat-section design function;
+* :mod:`.derivation`: the derivation's named quantities (Model.quantity);
+* :mod:`.tension_input`: the warp tension as an input (build option
+  ``warp_tension="input"``): lockstep with the geometry tension, the
+  defaults shared with the backrest, frames in opposition;
 
     loomfmu heald claims     # docs/heald_claims.md
     loomfmu heald fidelity   # docs/heald_fidelity.md
     loomfmu heald design --gap 0.004
+    loomfmu heald tension-input   # docs/heald_tension_input.md
 """
 from .hinge import PHASES, hinge_load_kinetostatic, hinge_load_phases
 from .presets import MAKERS, WIDTHS_CM, YARNS, preset_names, preset_values
