@@ -42,6 +42,39 @@ BREAKPOINTS_DEG = (0.0, 40.0, 320.0)
 G_STD = 9.80665
 
 
+#: print defects of seed 000: (where, printed, corrected, reason, how to get the
+#: printed form).  One source for the model docstring and the derivation report.
+DEFECTS = {
+    "D1": ("motion law", "coefficient 1.2: H = h_m{[1.2 phi_a - sin(1.2 phi_a)]/pi - 1}",
+           "360/280 = 9/7 (the cycloidal law)",
+           "phi_a runs over 280 deg, so 1.2 phi_a ends at 336 deg, not 360 deg: H reaches "
+           "only 0.996 h_m and jumps at the next revolution, and H', H'' jump at the top "
+           "dwell (H'' by 41 % of its peak); with 9/7 H, H', H'' are continuous at both "
+           "dwells and across revolutions",
+           "parameter k_H = 1.2 (run time)"),
+    "D2": ("motion law, cases of phi_a", "phi_a = 0 for 320..360 deg",
+           "phi_a = 280 deg (the frame dwells at the top)",
+           "the printed form throws the frame back to -h_m at 320 deg",
+           "build option end_dwell='printed'"),
+    "D3": ("(2)", "+ M_x H''", "- M_y H''",
+           "solving (1) for Y'' gives M_y, not M_x; with y up (the sign under which the "
+           "warp load enters as -delta_yf F_y, since f_y > 0 pulls the up-frame down) the "
+           "d'Alembert force of the moving frame is -M_y H'' (a frame decelerating into the "
+           "top dwell throws the slats up)", "build option inertia='printed'"),
+    "D4": ("m_x1", "m_B 33/280", "m_B 33/140",
+           "the tip-equivalent mass of a uniform cantilever is 33/140 of its mass "
+           "(Rayleigh), the factor the seed itself uses for the lower slat's cantilevers "
+           "in m_y1", "parameter k_B = 33/280 (run time)"),
+}
+
+
+def defect(key: str) -> str:
+    """Print defect ``key`` (D1-D4) as one line: printed, corrected, reason."""
+    where, printed, corrected, reason, select = DEFECTS[key]
+    return (f"print defect {key} in seed 000's {where}: printed {printed}, corrected "
+            f"{corrected} ({reason}; the printed form: {select})")
+
+
 def influence(d11, d22):
     """The 3x3 influence matrix delta of (3): same structure for x and y."""
     return ca.vertcat(ca.horzcat(d11, d11 / 2, 0), ca.horzcat(d11 / 2, d22, d11 / 2),

@@ -10,28 +10,10 @@ x1, x3 horizontal (out of the frame plane) displacement of the top slat's
 left/right corners, x2 of its mid-section; y1, y2, y3 the same vertically.
 y points up like h; x points to the long (back) side of the shed.
 
-Print defects of the seed, and what this model does (docs/heald_frame.md):
-
-D1  Motion-law coefficient.  Printed: H = h_m{[1.2 phi_a - sin(1.2 phi_a)]/pi - 1}.
-    phi_a runs over 280 deg = 4.887 rad, so 1.2 phi_a ends at 336 deg, not
-    360 deg: H reaches only 0.996 h_m, and H' and H'' jump at the dwell
-    (H'' by 41 % of its peak).  Corrected: 360/280 = 9/7, the cycloidal law,
-    for which H, H', H'' are continuous at both dwells and across
-    revolutions.  Parameter ``k_H`` (start 9/7; the printed 1.2 is allowed).
-D2  End dwell.  Printed: phi_a = 0 for 320..360 deg, which would throw the
-    frame back to -h_m at 320 deg.  Corrected: phi_a = 280 deg (the frame
-    dwells at the top).  Build option ``end_dwell="printed"`` keeps the
-    printed form.
-D3  Inertia term of (2).  Printed: M_y Y'' = -C_y(Y + d_yf F_y) - mu Y' + M_x H''.
-    Solving (1) for Y'' gives M_y (the vertical masses), not M_x.  And with y
-    up (the sign for which the warp load enters as -d_yf F_y, since f_y > 0
-    pulls the up-frame down), the d'Alembert force of the moving frame is
-    -M_y H'' (a frame decelerating into the top dwell throws the slats up).
-    Corrected: -M_y H''.  Build option ``inertia="printed"`` gives +M_x H''.
-D4  Reduced mass of the side stay's cantilever: printed m_B 33/280.  The
-    tip-equivalent mass of a uniform cantilever is 33/140 m (Rayleigh), the
-    factor the seed itself uses for the lower slat's cantilevers in m_y1.
-    Parameter ``k_B`` (start 33/140; the printed 33/280 is allowed).
+Print defects of the seed, corrected (listed at the end of this docstring
+from heald_common.DEFECTS, the one source of the docstring, the derivation
+report and docs/heald_frame.md's table): D1 the motion-law coefficient, D2
+the end dwell, D3 the inertia term of (2), D4 the side stay's reduced mass.
 
 Additions (issue 3): the hinge load N_rem of seed 002 from the frame's
 actual accelerations (see models/heald_common.py), presets of seed 002's
@@ -50,12 +32,13 @@ import casadi as ca
 
 from loomfmu.declare import Model
 from loomfmu.models.heald_common import (  # noqa: F401  (re-exported for tests)
-    BREAKPOINTS_DEG, DEG, SEED0, WARP_TENSION, apply_preset, apply_values, box_inertia,
+    BREAKPOINTS_DEG, DEFECTS, DEG, SEED0, WARP_TENSION, apply_preset, apply_values, box_inertia,
     check_option, declare_hinge_outputs, declare_loads, declare_motion, declare_motion_outputs,
-    declare_ports, declare_section, declare_warp, declare_warp_outputs, horizontal, influence,
-    motion_law, stiffness, vertical)
+    declare_ports, declare_section, declare_warp, declare_warp_outputs, defect, horizontal,
+    influence, motion_law, stiffness, vertical)
 
 SEED = SEED0
+__doc__ += "\n" + "".join(f"{defect(k)}\n" for k in DEFECTS)
 
 
 def build(*, end_dwell: str = "corrected", inertia: str = "corrected",

@@ -191,3 +191,18 @@ def test_equations_of_motion_from_the_quantities(ev):
             match = [b for b in blocks if b.size == 3 and
                      np.max(np.abs(b - r)) < 1e-9 * np.max(np.abs(r))]
             assert match, (ax, r, blocks)
+
+
+def test_print_defects_come_from_one_source():
+    """D1-D4 (heald_common.DEFECTS) appear word for word in the model's
+    docstring and next to the quantities they touch."""
+    from loomfmu.models import heald_frame
+    from loomfmu.models.heald_common import DEFECTS, defect
+    q = {x.name: x for x in load_model("heald_frame").quantities}
+    touched = {"D1": ["H", "H_printed"], "D2": ["phi_a", "H_printed"],
+               "D3": ["F_inertia_y", "F_inertia_y_printed"], "D4": ["M_x", "M_x_printed"]}
+    assert set(touched) == set(DEFECTS)
+    for key, names in touched.items():
+        assert defect(key) in heald_frame.__doc__
+        for name in names:
+            assert defect(key) in q[name].description, (key, name)

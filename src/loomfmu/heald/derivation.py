@@ -19,7 +19,7 @@ import casadi as ca
 
 from loomfmu.declare import Model
 from loomfmu.models.heald_common import (
-    SEED0, Bending, Motion, Section, Warp, motion_law, shaft_angle)
+    SEED0, Bending, Motion, Section, Warp, defect, motion_law, shaft_angle)
 
 G_SEC = "1. slat and side-stay sections"
 G_DELTA = "2. influence coefficients (seed 000, (3))"
@@ -29,16 +29,7 @@ G_H = "5. motion law H(phi)"
 G_W = "6. shed geometry and warp forces"
 G_EQ = "7. loads of the equations of motion (2)"
 
-D1 = ("defect D1: printed coefficient 1.2; with it theta = 1.2 phi_a ends at 336 deg, H "
-      "reaches only 0.996 h_m and jumps at the next revolution, H' and H'' jump at the top "
-      "dwell; corrected: 360/280 = 9/7 (cycloidal law: H, H', H'' continuous)")
-D2 = ("defect D2: printed phi_a = 0 for 320..360 deg, which throws the frame back to -h_m "
-      "at 320 deg; corrected: phi_a = 280 deg (the frame dwells at the top)")
-D3 = ("defect D3: printed + M_x H'' in (2); solving (1) for Y'' gives M_y, and with y up "
-      "(the sign under which the warp load enters as -delta_yf F_y) the d'Alembert force "
-      "of the moving frame is -M_y H''")
-D4 = ("defect D4: printed m_B 33/280; the tip-equivalent mass of a uniform cantilever is "
-      "33/140 m_B (Rayleigh), the factor the seed itself uses for the lower slat in m_y1")
+D1, D2, D3, D4 = (defect(k) for k in ("D1", "D2", "D3", "D4"))
 
 
 def _influence(m: Model, b: Bending, axis: str) -> None:
