@@ -1,8 +1,9 @@
 """Stability and error of each master on the two-mass benchmark against the
-communication step: theory (the exact co-simulation maps of
-loomfmu.scene.two_mass) as lines, runs of our master and of libcosim on the
-exported SSP as points.  Writes docs/scenes/two_mass_stability.png and the
-verdict table between the markers in docs/scenes.md.
+communication step, for input extrapolation of order 0, 1 and 2: theory (the
+exact co-simulation maps of loomfmu.scene.two_mass) as lines, runs of our
+master and of libcosim on the exported SSP as points.  Writes
+docs/scenes/two_mass_stability.png, its json and the verdict table between
+the markers in docs/scenes.md.
 
     .venv/bin/python benchmarks/scene_stability.py [--out-dir docs] [--quick]
 """
@@ -25,11 +26,22 @@ from loomfmu.scene.fmus import build_fmus
 Z = ("force.x1_out", "force.v1_out", "disp.x2_out", "disp.v2_out")
 HORIZON = 1.0   # s: the error is the largest over [0, HORIZON]
 BEGIN, END = "<!-- scene_stability:begin -->", "<!-- scene_stability:end -->"
-#: algorithm of the theory -> (label, master, master options, colour)
+#: curve -> (algorithm of the theory, extrapolation order, label, master, master
+#: options, colour, line style)
 CURVES = {
-    "jacobi": ("Jacobi (ours)", "jacobi", {}, "C0"),
-    "gauss-seidel:force-first": ("Gauss-Seidel (ours)", "gauss-seidel", {}, "C1"),
-    "libcosim": ("libcosim fixed step", "jacobi", {"resolve_feedthrough": False}, "C2"),
+    "jacobi": ("jacobi", 0, "Jacobi (ours)", "jacobi", {}, "C0", "-"),
+    "gauss-seidel:force-first": ("gauss-seidel:force-first", 0, "Gauss-Seidel (ours)",
+                                 "gauss-seidel", {}, "C1", "-"),
+    "libcosim": ("libcosim", 0, "libcosim fixed step", "jacobi",
+                 {"resolve_feedthrough": False}, "C2", "-"),
+    "jacobi/1": ("jacobi", 1, "Jacobi, extrapolation 1", "jacobi", {}, "C0", "--"),
+    "jacobi/2": ("jacobi", 2, "Jacobi, extrapolation 2", "jacobi", {}, "C0", ":"),
+    "gauss-seidel:force-first/1": ("gauss-seidel:force-first", 1,
+                                   "Gauss-Seidel, extrapolation 1", "gauss-seidel", {},
+                                   "C1", "--"),
+    "gauss-seidel:force-first/2": ("gauss-seidel:force-first", 2,
+                                   "Gauss-Seidel, extrapolation 2", "gauss-seidel", {},
+                                   "C1", ":"),
 }
 
 
@@ -42,24 +54,41 @@ def error(p, z: np.ndarray, t: np.ndarray) -> float:
     return float(np.abs(z - exact).max() / np.abs(exact).max())
 
 
-def identified_radius(z: np.ndarray, algorithm: str) -> float:
+def identified_radius(z: np.ndarray, algorithm: str, order: int = 0) -> float:
+    """Spectral radius of the step map fitted by least squares to a run: on z
+    (order 0), on z and x2, v2 of the step before (libcosim), on the last
+    order + 1 states (extrapolation: z_{n+1} = sum_j K_j z_{n-j}; the first
+    2 order + 2 points, with a shorter history, are left out)."""
     if algorithm == "libcosim":   # its state holds x2, v2 of the step before
         z = np.column_stack([z, np.vstack([z[:1, 2:4], z[:-1, 2:4]])])
-    M = z[1:].T @ np.linalg.pinv(z[:-1].T)
+    if order == 0:
+        M = z[1:].T @ np.linalg.pinv(z[:-1].T)
+        return float(max(abs(np.linalg.eigvals(M))))
+    z, d = z[2 * order + 2:], order + 1
+    X = np.hstack([z[d - 1 - j:len(z) - 1 - j] for j in range(d)])
+    K, *_ = np.linalg.lstsq(X, z[d:], rcond=None)
+    M = np.zeros((4 * d, 4 * d))
+    M[:4] = K.T
+    M[4:, :-4] = np.eye(4 * (d - 1))
     return float(max(abs(np.linalg.eigvals(M))))
 
 
 def theory(p, hs) -> dict:
+    """Spectral radius and error over HORIZON of each curve on the grid hs
+    (extrapolated curves from 1e-4 s: their trajectories step in Python)."""
     out = {}
     z0 = [0.1, 0.0, 0.0, 0.0]
-    for a in CURVES:
-        rho = [tm.spectral_radius(p, h, a) for h in hs]
+    for key, (a, order, *_rest) in CURVES.items():
+        grid = [h for h in hs if order == 0 or h >= 1e-4]
+        rho = [tm.spectral_radius(p, h, a, order) for h in grid]
         err = []
-        for h in hs:
+        for h in grid:
             n = int(round(HORIZON / h))
-            z = tm.trajectory(p, h, n, z0, a)
+            z = (tm.trajectory(p, h, n, z0, a) if order == 0 else
+                 tm.extrapolated_trajectory(p, h, n, z0, a, order))
             err.append(error(p, z, h * np.arange(n + 1)))
-        out[a] = {"rho": rho, "error": err, "limit": tm.stability_limit(p, a)}
+        out[key] = {"h": grid, "rho": rho, "error": err,
+                    "limit": tm.stability_limit(p, a, order=order)}
     out["exact_rate"] = float(np.linalg.eigvals(tm.monolithic(p)).real.max())
     return out
 
@@ -72,16 +101,17 @@ def measured(p, hs, fmus, scene, tmp: Path, bar) -> dict:
     out["libcosim (engine)"] = {"h": [], "rho": [], "error": [], "seconds_per_step": []}
     for h in hs:
         n = int(round(HORIZON / h))
-        for a, (label, master, opts, _) in CURVES.items():
+        for key, (a, order, label, master, opts, *_rest) in CURVES.items():
             bar.stage(f"{label}, h = {h:.3g} s")
             t0 = time.perf_counter()
             res = run(scene, master=master, step=h, stop=n * h, fmus=fmus,
-                      master_options=opts)
+                      master_options=opts, extrapolation=order)
             dt = (time.perf_counter() - t0) / n
             z = states(res)
-            rec = out[a]
+            rec = out[key]
             rec["h"].append(h)
-            rec["rho"].append(identified_radius(z[: min(len(z), 60)], a))
+            rec["rho"].append(identified_radius(z[: min(len(z), 60)], a, order)
+                              if len(z) > 8 * order + 8 else float("nan"))
             rec["error"].append(error(p, z, res["time"]))
             rec["seconds_per_step"].append(dt)
         bar.stage(f"libcosim engine, h = {h:.3g} s")
@@ -102,12 +132,14 @@ def measured(p, hs, fmus, scene, tmp: Path, bar) -> dict:
 def adaptive(p, scene, fmus, bar) -> list[dict]:
     rows = []
     for master in ("jacobi", "gauss-seidel"):
-        for rtol in (1e-1, 1e-2, 1e-3):
-            bar.stage(f"adaptive {master}, rtol {rtol:g}")
+        for order, rtol in [(0, 1e-1), (0, 1e-2), (0, 1e-3), (1, 1e-2), (1, 1e-3), (2, 1e-2),
+                            (2, 1e-3)]:
+            bar.stage(f"adaptive {master}, extrapolation {order}, rtol {rtol:g}")
             t0 = time.perf_counter()
             res = run(scene, master=master, step=1e-3, adaptive=True, rtol=rtol, atol=1e-4,
-                      stop=HORIZON, fmus=fmus)
-            rows.append({"master": master, "rtol": rtol, "accepted": res.accepted,
+                      stop=HORIZON, fmus=fmus, extrapolation=order)
+            rows.append({"master": master, "order": order, "rtol": rtol,
+                         "accepted": res.accepted,
                          "rejected": res.rejected, "h_max": float(res.h.max()),
                          "error": error(p, states(res), res["time"]),
                          "seconds": time.perf_counter() - t0})
@@ -119,20 +151,20 @@ def chart(path: Path, hs_theory, th: dict, me: dict) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.8))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(14, 6))
     def rate(rho, h):   # growth rate per second: ln(rho) / H
         return np.log(np.asarray(rho)) / np.asarray(h)
 
-    for a, (label, _, _, colour) in CURVES.items():
-        ax1.semilogx(hs_theory, rate(th[a]["rho"], hs_theory), colour,
+    markers = {0: "o", 1: "s", 2: "^"}
+    for a, (_, order, label, _, _, colour, ls) in CURVES.items():
+        ax1.semilogx(th[a]["h"], rate(th[a]["rho"], th[a]["h"]), color=colour, ls=ls,
                      label=f"{label}: theory")
-        ax1.semilogx(me[a]["h"], rate(me[a]["rho"], me[a]["h"]), "o", color=colour,
-                     mfc="none", label=f"{label}: measured")
-        ax2.loglog(hs_theory, th[a]["error"], colour, label=f"{label}: theory")
-        ax2.loglog(me[a]["h"], me[a]["error"], "o", color=colour, mfc="none",
+        ax1.semilogx(me[a]["h"], rate(me[a]["rho"], me[a]["h"]), markers[order],
+                     color=colour, mfc="none", label=f"{label}: measured")
+        ax2.loglog(th[a]["h"], th[a]["error"], color=colour, ls=ls, label=f"{label}: theory")
+        ax2.loglog(me[a]["h"], me[a]["error"], markers[order], color=colour, mfc="none",
                    label=f"{label}: measured")
-        for ax in (ax1, ax2):
-            ax.axvline(th[a]["limit"], color=colour, ls=":", lw=1)
+        ax1.axvline(th[a]["limit"], color=colour, ls=ls, lw=0.6)
     eng = me["libcosim (engine)"]
     ax1.semilogx(eng["h"], rate(eng["rho"], eng["h"]), "x", color="k",
                  label="libcosim engine (SSP)")
@@ -143,14 +175,15 @@ def chart(path: Path, hs_theory, th: dict, me: dict) -> None:
     ax1.set_ylim(-3, 12)
     ax1.set_xlabel("communication step H (s)")
     ax1.set_ylabel("growth rate ln(spectral radius) / H  (1/s)")
-    ax1.set_title("stability: above 0 the co-simulation grows (dotted: limits)")
-    ax2.set_ylim(1e-4, 1e3)
+    ax1.set_title("stability: above 0 the co-simulation grows (thin lines: limits)")
+    ax2.set_ylim(1e-8, 1e3)
     ax2.set_xlabel("communication step H (s)")
     ax2.set_ylabel(f"max |z - z_exact| / max |z_exact| over {HORIZON:g} s")
     ax2.set_title("error against the monolithic exact solution")
-    ax1.legend(fontsize=7, loc="upper left")
+    ax1.legend(fontsize=6, loc="upper left", ncol=2)
     fig.suptitle("two masses, spring-damper coupling split into two FMUs "
-                 "(force-displacement), zero-order hold")
+                 "(force-displacement)\ninput extrapolation of order 0 (solid, circles), "
+                 "1 (dashed, squares), 2 (dotted, triangles)")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -167,9 +200,9 @@ def verdict(th: dict, me: dict, hs_theory, ad: list[dict]) -> str:
     lines = ["| master | stability limit H* (theory) | measured radius at 0.999 H* / "
              "1.001 H* | largest H for 1 % error | for 0.1 % error | steps per simulated "
              "second at 1 % | wall time per step (measured) |", "|" + "---|" * 7]
-    for a, (label, *_rest) in CURVES.items():
-        h1 = h_for_error(hs_theory, th[a]["error"], 1e-2)
-        h01 = h_for_error(hs_theory, th[a]["error"], 1e-3)
+    for a, (_, _, label, *_rest) in CURVES.items():
+        h1 = h_for_error(th[a]["h"], th[a]["error"], 1e-2)
+        h01 = h_for_error(th[a]["h"], th[a]["error"], 1e-3)
         r = me[a]
         lines.append(f"| {label} | {th[a]['limit'] * 1e3:.4f} ms | "
                      f"{r['rho_below']:.7f} / {r['rho_above']:.7f} | {h1} | {h01} | "
@@ -181,10 +214,11 @@ def verdict(th: dict, me: dict, hs_theory, ad: list[dict]) -> str:
                  f"| | | {np.median(eng['seconds_per_step']) * 1e6:.0f} µs |")
     lines += ["", "Adaptive step (our master, error estimate from the coupling signals, "
               f"atol 1e-4, first step 1 ms, over {HORIZON:g} s):", "",
-              "| master | rtol | accepted | rejected | largest H | error | wall time |",
-              "|---|---|---|---|---|---|---|"]
+              "| master | extrapolation | rtol | accepted | rejected | largest H | error | "
+              "wall time |", "|---|---|---|---|---|---|---|---|"]
     for row in ad:
-        lines.append(f"| {row['master']} | {row['rtol']:g} | {row['accepted']} | "
+        lines.append(f"| {row['master']} | {row['order']} | {row['rtol']:g} | "
+                     f"{row['accepted']} | "
                      f"{row['rejected']} | {row['h_max'] * 1e3:.3g} ms | {row['error']:.2g} | "
                      f"{row['seconds']:.2f} s |")
     return "\n".join(lines)
@@ -194,12 +228,13 @@ def radius_at_limit(p, scene, fmus, tmp, me, th) -> None:
     """The measured radius just below and just above each limit (our master's
     runs, and the libcosim engine at libcosim's limit rounded to ns)."""
     from loomfmu.scene.libcosim import run_ssp
-    for a, (_, master, opts, _) in CURVES.items():
+    for a, (alg, order, _, master, opts, *_rest) in CURVES.items():
         lim = th[a]["limit"]
         for key, f in (("rho_below", 0.999), ("rho_above", 1.001)):
-            res = run(scene, master=master, step=f * lim, stop=40 * f * lim, fmus=fmus,
-                      master_options=opts)
-            me[a][key] = identified_radius(states(res), a)
+            n = 40 if order == 0 else 60
+            res = run(scene, master=master, step=f * lim, stop=n * f * lim, fmus=fmus,
+                      master_options=opts, extrapolation=order)
+            me[a][key] = identified_radius(states(res), alg, order)
     lim = th["libcosim"]["limit"]
     ssp = tmp / "two_mass.ssp"
     for key, f in (("rho_below", 0.999), ("rho_above", 1.001)):
@@ -236,7 +271,9 @@ def main(argv=None) -> int:
     table = verdict(th, me, hs_theory, ad)
     (args.out_dir / "scenes" / "two_mass_stability.json").write_text(json.dumps(
         {"theory_limits": {a: th[a]["limit"] for a in CURVES}, "measured": me,
-         "theory_error_1e-2": {a: h_for_error(hs_theory, th[a]["error"], 1e-2)
+         "theory_error_1e-2": {a: h_for_error(th[a]["h"], th[a]["error"], 1e-2)
+                               for a in CURVES},
+         "theory_error_1e-3": {a: h_for_error(th[a]["h"], th[a]["error"], 1e-3)
                                for a in CURVES},
          "adaptive": ad}, indent=1, default=float) + "\n")
     md = args.out_dir / "scenes.md"

@@ -400,3 +400,15 @@ def test_extrapolation_is_refused_where_an_fmu_cannot_interpolate(bench, tmp_pat
     with raises(r"resolve_feedthrough = False with extrapolation = 1"):
         run(s2, extrapolation=1, master_options={"resolve_feedthrough": False})
     assert run(s, extrapolation=0).accepted == 10      # order 0 needs nothing
+
+
+def test_scene_command_takes_the_extrapolation_and_the_order(bench, capsys):
+    from loomfmu.scene.__main__ import main
+    fmu_dir = str(bench[1]["force"].parent)
+    assert main(["run", "two_mass", "--master", "gauss-seidel", "--extrapolation", "2",
+                 "--order", "disp,force", "--stop", "0.01", "--fmu-dir", fmu_dir]) == 0
+    out = capsys.readouterr().out
+    assert "master gauss-seidel, extrapolation 2: 10 steps accepted" in out
+    assert main(["run", "two_mass", "--order", "disp,force", "--stop", "0.01"]) == 2
+    assert "--order disp,force: applies to --master gauss-seidel only" in \
+        capsys.readouterr().err

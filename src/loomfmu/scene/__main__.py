@@ -34,6 +34,15 @@ def _parser(prog: str) -> argparse.ArgumentParser:
                    help="control the step by the coupling error estimate (--rtol)")
     r.add_argument("--rtol", type=float, default=1e-3,
                    help="tolerance of the adaptive step (0 < rtol < 1; default 1e-3)")
+    r.add_argument("--extrapolation", type=int, choices=(0, 1, 2), default=0,
+                   help="order of the input extrapolation (0: hold; 1, 2: polynomial "
+                        "through the last 2-3 values, for FMUs that interpolate inputs)")
+    r.add_argument("--output-derivatives", action="store_true",
+                   help="with --extrapolation 1: take the slope from the sources' "
+                        "output derivatives instead of their last values")
+    r.add_argument("--order", default=None,
+                   help="gauss-seidel: the components in stepping order, comma-separated "
+                        "(default: the scene's)")
     r.add_argument("--stop", type=float, default=None,
                    help="stop time in s (> 0; default: the scene's)")
     r.add_argument("--csv", type=Path, default=None, help="write the results as CSV")
@@ -56,6 +65,8 @@ def _list() -> int:
             print(f"  component {c.name}: {c.source}")
         for c in s.connections:
             print(f"  connection {c}" + (f"  [{c.port}]" if c.port else ""))
+        for loop in s.loops():
+            print("  algebraic loop (iterated): " + "; ".join(map(str, loop)))
     return 0
 
 
@@ -63,16 +74,24 @@ def _run(args, prog: str) -> int:
     from .run import run
     from .system import FMUError
     s = load_scene(args.scene)
+    opts = {}
+    if args.order is not None:
+        if args.master != "gauss-seidel":
+            raise ValueError(f"--order {args.order}: applies to --master gauss-seidel only")
+        opts["order"] = [x.strip() for x in args.order.split(",")]
+    if args.output_derivatives:
+        opts["output_derivatives"] = True
     try:
         res = run(s, master=args.master, step=args.step, stop=args.stop,
                   adaptive=args.adaptive, rtol=args.rtol, fmu_dir=args.fmu_dir,
-                  progress=True)
+                  progress=True, extrapolation=args.extrapolation, master_options=opts)
     except (FMUError, RuntimeError) as exc:
         print(f"{prog}: run failed: {exc}", file=sys.stderr)
         return 1
     last = res.data[-1]
-    print(f"scene {s.name}, master {res.master}: {res.accepted} steps accepted, "
-          f"{res.rejected} rejected, t = {last['time']:.6g} s")
+    print(f"scene {s.name}, master {res.master}, extrapolation {args.extrapolation}: "
+          f"{res.accepted} steps accepted, {res.rejected} rejected, t = {last['time']:.6g} s"
+          + (f", {res.loop_iterations} loop iterations" if res.loop_iterations else ""))
     for name in res.data.dtype.names[1:]:
         comp, var = name.split(".", 1)
         unit = s.components[comp].interface.variables[var].unit
