@@ -10,6 +10,17 @@ drive would; bobbin and whorl eccentricity 5 um each.  The error of a
 reduced model is max_t |r_top,red - r_top,full| / max_t r_top,full (r_top:
 radial displacement of the top of the blade).  Real-time factor: wall time /
 simulated time (below 1: faster than real time), median of ``--repeats``.
+
+    python benchmarks/spindle_runup.py --interp [--interp-steps 1 5 25 125]
+        [--model spindle] [--out docs/spindle_runup_interp.json]
+
+Input derivatives (FMI 2.0 fmi2SetRealInputDerivatives): the same ramp given
+at each communication point by its value and slope, so that the FMU
+integrates the ramp instead of a staircase, at communication steps
+``DT`` x each of ``--interp-steps``; against the staircase at ``DT`` (the
+scene above).  Oracle: the interpolated run at ``DT`` (the exact ramp to the
+solver's tolerance); error: max over the common communication points of
+|r_top - r_top,oracle| / max r_top,oracle.
 """
 from __future__ import annotations
 
@@ -54,14 +65,108 @@ def run(fmu: Path, solver: str, rtol: float, repeats: int):
     return res, statistics.median(times)
 
 
+def ramp_rpm(t: float) -> tuple[float, float]:
+    """n_rpm of the scene at t and its slope (the slope after the ramp: 0)."""
+    if t < RAMP - 1e-12:
+        return TOP_RPM * t / RAMP, TOP_RPM / RAMP
+    return TOP_RPM, 0.0
+
+
+def run_driven(fmu: Path, solver: str, rtol: float, h: float, interp: bool):
+    """The scene driven call by call at communication step h:
+    n_rpm set at each communication point (held: a staircase), with its
+    slope as an input derivative if ``interp``.  (times, r_top), wall s."""
+    md = fmpy.read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    unzip = fmpy.extract(str(fmu))
+    slave = fmpy.fmi2.FMU2Slave(guid=md.guid, unzipDirectory=unzip,
+                                modelIdentifier=md.coSimulation.modelIdentifier,
+                                instanceName="runup")
+    n = int(round((RAMP + HOLD) / h))
+    t0 = time.perf_counter()
+    slave.instantiate()
+    slave.setupExperiment(tolerance=rtol, startTime=0.0)
+    slave.setInteger([vr["solver"]], [SOLVERS.index(solver) + 1])
+    slave.setReal([vr["solver_atol"], vr["e_b"], vr["e_w"], vr["n_rpm"]], [1e-12, ECC, ECC, 0.0])
+    slave.enterInitializationMode()
+    slave.exitInitializationMode()
+    times, r_top = [], []
+    for i in range(n):
+        t = i * h
+        n_rpm, slope = ramp_rpm(t)
+        slave.setReal([vr["n_rpm"]], [n_rpm])
+        if interp and slope:
+            slave.setRealInputDerivatives([vr["n_rpm"]], [1], [slope])
+        slave.doStep(t, h)
+        times.append((i + 1) * h)
+        r_top.append(slave.getReal([vr["r_top"]])[0])
+    wall = time.perf_counter() - t0
+    slave.terminate()
+    slave.freeInstance()
+    return np.array(times), np.array(r_top), wall
+
+
+def main_interp(args) -> int:
+    with tempfile.TemporaryDirectory() as tmp:
+        opts = {"n_modes": args.n_modes} if args.model == "spindle_modal" else {}
+        fmu = build_fmu(load_model(args.model, **opts), out_dir=tmp, validate=False).path
+        t_ref, r_ref, wall_ref = run_driven(fmu, args.solver, args.rtol, DT, True)
+        peak = float(np.max(r_ref))
+        rows = []
+        runs = [(DT / k, False) for k in args.stair_refine] + \
+            [(DT * k, True) for k in args.interp_steps]
+        for h, interp in runs:
+            walls = []
+            for _ in range(args.repeats):
+                if h == DT and interp:
+                    t, r, wall = t_ref, r_ref, wall_ref
+                else:
+                    t, r, wall = run_driven(fmu, args.solver, args.rtol, h, interp)
+                walls.append(wall)
+            # at the communication points both runs have
+            k_ref, k_run = max(1, round(h / DT)), max(1, round(DT / h))
+            err = float(np.max(np.abs(r[k_run - 1::k_run] - r_ref[k_ref - 1::k_ref])) / peak)
+            rows.append({"inputs": "derivatives" if interp else "staircase",
+                         "comm_step_s": h, "comm_steps": len(t),
+                         "wall_s": statistics.median(walls), "error": err})
+    base = rows[0]["wall_s"]
+    for r in rows:
+        r["speedup_vs_staircase"] = base / r["wall_s"]
+    result = {"scene": {"model": args.model, "ramp_s": RAMP, "hold_s": HOLD, "dt_s": DT,
+                        "top_rpm": TOP_RPM, "solver": args.solver, "rtol": args.rtol,
+                        "repeats": args.repeats},
+              "oracle": "input derivatives at dt_s", "rows": rows}
+    print(f"{'inputs':<13}{'comm step':>11}{'steps':>7}{'wall s':>9}{'speedup':>9}{'error':>10}")
+    for r in rows:
+        print(f"{r['inputs']:<13}{r['comm_step_s']:>11.4g}{r['comm_steps']:>7}"
+              f"{r['wall_s']:>9.3f}{r['speedup_vs_staircase']:>9.2f}{r['error']:>10.2e}")
+    out = args.out if args.out != DEFAULT_OUT else ROOT / "docs" / "spindle_runup_interp.json"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=1))
+    return 0
+
+
+DEFAULT_OUT = ROOT / "docs" / "spindle_runup.json"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--modes", type=int, nargs="*", default=[1, 2, 3, 4, 5, 6, 8])
     ap.add_argument("--solver", default="rodas4", choices=SOLVERS)
     ap.add_argument("--rtol", type=float, default=1e-6)
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--out", type=Path, default=ROOT / "docs" / "spindle_runup.json")
+    ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    ap.add_argument("--interp", action="store_true", help="input derivatives against the "
+                    "staircase (writes docs/spindle_runup_interp.json)")
+    ap.add_argument("--interp-steps", type=int, nargs="*", default=[1, 5, 25, 125],
+                    help="communication steps of the interpolated runs, in units of DT")
+    ap.add_argument("--stair-refine", type=int, nargs="*", default=[1, 10],
+                    help="communication steps of the staircase runs, DT divided by these")
+    ap.add_argument("--model", default="spindle", choices=("spindle", "spindle_modal"))
+    ap.add_argument("--n-modes", type=int, default=4)
     args = ap.parse_args(argv)
+    if args.interp:
+        return main_interp(args)
     sim_time = RAMP + HOLD
     with tempfile.TemporaryDirectory() as tmp:
         full = build_fmu(load_model("spindle"), out_dir=tmp, validate=False).path

@@ -301,3 +301,33 @@ def test_spindle_ramp_through_input_derivatives(spindle, slave_factory):
     assert e_stair > 100 * e_deriv and e_stair > 1e-3, (e_stair, e_deriv)
     assert e_fine < e_stair / 30, (e_fine, e_stair)  # the staircase converges to it
     assert e_deriv < e_fine, (e_deriv, e_fine)
+
+
+def test_solver_index_chooses_the_solver_as_an_integer(poly_fmu, slave_factory):
+    """`solver_index` (Integer: libcosim cannot set the `solver` Enumeration)
+    wins over `solver` when > 0: the same bits as choosing by `solver`."""
+    md = read_model_description(str(poly_fmu))
+    var = next(v for v in md.modelVariables if v.name == "solver_index")
+    assert (var.type, var.causality, var.start) == ("Integer", "parameter", "0")
+
+    def run(name, **ints):
+        s = slave_factory(poly_fmu, name)
+        s.fmu.setupExperiment(startTime=0.0)
+        s.fmu.setReal([s.vr["solver_h_fixed"], s.vr["u"]], [0.05, U0])
+        s.fmu.setRealInputDerivatives([s.vr["u"], s.vr["u"]], [1, 2], [A, B])
+        for k, v in ints.items():
+            s.fmu.setInteger([s.vr[k]], [v])
+        s.fmu.enterInitializationMode()
+        s.fmu.exitInitializationMode()
+        s.fmu.doStep(0.0, 1.0)
+        return s, s.get("phi")[0]
+
+    _, rk4 = run("rk4", solver=3)
+    s, alias = run("alias", solver=1, solver_index=3)
+    _, dopri5 = run("dopri5", solver=1)
+    assert alias == rk4 != dopri5
+    assert s.fmu.getInteger([s.vr["solver"], s.vr["solver_index"]]) == [3, 3]
+    bad = slave_factory(poly_fmu, "bad")
+    with pytest.raises(FMICallException):
+        bad.fmu.setInteger([bad.vr["solver_index"]], [7])
+    assert "solver = 7 is not a solver" in bad.log[-1][2]

@@ -107,6 +107,10 @@ def _resolved_outputs(dae: DaeForm) -> ca.SX:
     return y
 
 
+#: Integer parameter every FMU has: the solver as a plain Integer
+SOLVER_INDEX = "solver_index"
+
+
 def model_description(model: Model, dae: DaeForm, guid: str, sources: list[str]) -> str:
     rows = real_table(model)
     root = ET.Element("fmiModelDescription", {
@@ -177,6 +181,20 @@ def model_description(model: Model, dae: DaeForm, guid: str, sources: list[str])
             "description": "how the history of delayed values is interpolated: "
                            "1 = hermite, 2 = linear"})
         ET.SubElement(sv, "Enumeration", {"declaredType": "DelayInterpolation", "start": "1"})
+
+    # the solver again as a plain Integer: importers that cannot set an
+    # Enumeration (libcosim) can choose the solver through it
+    if any(r.name == SOLVER_INDEX for r in rows):
+        raise ValueError(f"model {model.name}: variable name {SOLVER_INDEX!r} is reserved "
+                         "(every FMU has it)")
+    sv = ET.SubElement(mv, "ScalarVariable", {
+        "name": SOLVER_INDEX,
+        "valueReference": str(1 + len(model.of_kind("mode")) + (1 if model.delays else 0)),
+        "causality": "parameter", "variability": "fixed",
+        "description": "the embedded solver as an Integer, for importers that cannot set an "
+                       "Enumeration: 0 = as `solver` says; otherwise it wins over `solver`: "
+                       + "; ".join(f"{i} = {s}" for i, s in enumerate(SOLVERS, 1))})
+    ET.SubElement(sv, "Integer", {"start": "0", "min": "0", "max": str(len(SOLVERS))})
 
     _model_structure(root, model, dae, rows)
     ET.indent(root, "  ")

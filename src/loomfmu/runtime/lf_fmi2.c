@@ -303,7 +303,7 @@ fmi2Status fmi2Reset(fmi2Component c) {
  * before initialization, in it and after a completed step */
 #define GET_STATES (LF_ST_INIT | RUNNING | LF_ST_TERMINATED | LF_ST_ERROR)
 #define SET_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | LF_ST_STEP_COMPLETE)
-#define N_INTEGER (LF_VR_Q0 + LF_NQ + (LF_ND > 0))
+#define N_INTEGER LF_N_INTEGER
 /* Longest value-reference array accepted: FMI 2.0 allows a reference more
  * than once, but a request this long cannot be a real one and is refused
  * before either array is read.  (Arrays shorter than nvr below this limit
@@ -357,7 +357,7 @@ typedef struct {
     double r[LF_NREAL];
     double u_d1[LF_DIM(LF_NU)], u_d2[LF_DIM(LF_NU)], u_t0[LF_DIM(LF_NU)];
     int x_set[LF_DIM(LF_NX)];
-    int inputs_changed, outputs_valid, solver_id, delay_interp, u_poly;
+    int inputs_changed, outputs_valid, solver_id, delay_interp, u_poly, solver_index;
 } SetUndo;
 
 static void undo_save(const LfInstance *c, SetUndo *u) {
@@ -370,6 +370,7 @@ static void undo_save(const LfInstance *c, SetUndo *u) {
     u->inputs_changed = c->inputs_changed;
     u->outputs_valid = c->outputs_valid;
     u->solver_id = c->solver_id;
+    u->solver_index = c->solver_index;
     u->delay_interp = c->delay_interp;
 }
 
@@ -383,6 +384,7 @@ static fmi2Status undo(LfInstance *c, const SetUndo *u) {
     c->inputs_changed = u->inputs_changed;
     c->outputs_valid = u->outputs_valid;
     c->solver_id = u->solver_id;
+    c->solver_index = u->solver_index;
     c->delay_interp = u->delay_interp;
     return fmi2Error;
 }

@@ -64,10 +64,13 @@ enum {
 #define LF_VR_Z0 (LF_VR_Y0 + LF_NY)
 #define LF_NREAL (LF_VR_Z0 + LF_NZ)
 /* Integer value references: the `solver` enumeration, the modes, then (with
- * delays) the `delay_interpolation` enumeration */
+ * delays) the `delay_interpolation` enumeration, then `solver_index` (the
+ * solver as a plain Integer, for importers that cannot set Enumerations) */
 #define LF_VR_SOLVER 0
 #define LF_VR_Q0 1
 #define LF_VR_DINTERP (LF_VR_Q0 + LF_NQ)
+#define LF_VR_SOLVER_INDEX (LF_VR_DINTERP + (LF_ND > 0))
+#define LF_N_INTEGER (LF_VR_SOLVER_INDEX + 1)
 
 typedef struct {
     const char *identifier;

@@ -75,6 +75,7 @@ void lf_reset_values(LfInstance *c) {
     c->delay_interp = LF_DELAY_HERMITE;
     memset(c->w_cur, 0, sizeof c->w_cur);
     c->solver_id = 1;
+    c->solver_index = 0;
     c->t = c->t_start = c->last_successful_time = 0.0;
     c->t_stop = INFINITY;
     c->rtol_importer = 0.0;
@@ -262,14 +263,28 @@ LfStatus lf_get_integer(LfInstance *c, unsigned vr, int *value) {
         *value = c->delay_interp;
         return LF_OK;
     }
+    if (vr == LF_VR_SOLVER_INDEX) {
+        *value = c->solver_index;
+        return LF_OK;
+    }
     lf_log(c, LF_ERROR, LF_LOG_ERROR,
            "fmi2GetInteger: value reference %u is not an Integer (expected < %d)", vr,
-           LF_VR_Q0 + LF_NQ + (LF_ND > 0));
+           LF_N_INTEGER);
     return LF_ERROR;
 }
 
 LfStatus lf_set_integer(LfInstance *c, unsigned vr, int value) {
     if (vr == LF_VR_SOLVER) return lf_set_solver(c, value);
+    if (vr == LF_VR_SOLVER_INDEX) {
+        if (value != 0 && lf_set_solver(c, value) != LF_OK) return LF_ERROR;
+        if (value == 0 && !(c->state & (LF_ST_INSTANTIATED | LF_ST_INIT))) {
+            lf_log(c, LF_ERROR, LF_LOG_ERROR,
+                   "solver_index can only be set before fmi2ExitInitializationMode");
+            return LF_ERROR;
+        }
+        c->solver_index = value; /* lf_set_solver set solver_id too: both say the same */
+        return LF_OK;
+    }
     if (LF_ND > 0 && vr == LF_VR_DINTERP) {
         if (value != LF_DELAY_HERMITE && value != LF_DELAY_LINEAR) {
             lf_log(c, LF_ERROR, LF_LOG_ERROR,
@@ -285,8 +300,8 @@ LfStatus lf_set_integer(LfInstance *c, unsigned vr, int value) {
         return LF_OK;
     }
     lf_log(c, LF_ERROR, LF_LOG_ERROR,
-           "fmi2SetInteger: value reference %u cannot be set (solver: %d%s)", vr, LF_VR_SOLVER,
-           LF_ND > 0 ? ", delay_interpolation" : "");
+           "fmi2SetInteger: value reference %u cannot be set (solver: %d, solver_index: %d%s)",
+           vr, LF_VR_SOLVER, LF_VR_SOLVER_INDEX, LF_ND > 0 ? ", delay_interpolation" : "");
     return LF_ERROR;
 }
 

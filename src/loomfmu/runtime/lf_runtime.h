@@ -54,6 +54,7 @@ typedef struct {
 
     double r[LF_NREAL];      /* every Real by value reference */
     int solver_id;           /* 1-based index into lf_methods[] */
+    int solver_index;        /* `solver_index`: 0, or the solver that wins over `solver` */
     double t;                /* current communication time */
     double t_start;
     double t_stop;           /* stopTime of fmi2SetupExperiment (INFINITY: none) */

@@ -74,6 +74,7 @@ static void write_values(const LfInstance *c, LfStateValues *v) {
     memcpy(v->seen_d2, c->seen_d2, sizeof v->seen_d2);
     v->seen_t = c->seen_t;
     v->wants_terminate = c->wants_terminate;
+    v->solver_index = c->solver_index;
     v->t = c->t;
     v->t_start = c->t_start;
     v->t_stop = c->t_stop;
@@ -214,6 +215,8 @@ static int check_flags(LfInstance *c, const LfStateValues *v) {
     REQUIRE(is_flag(v->outputs_valid), "outputs_valid", v->outputs_valid, "0 or 1");
     REQUIRE(is_flag(v->inputs_changed), "inputs_changed", v->inputs_changed, "0 or 1");
     REQUIRE(is_flag(v->wants_terminate), "wants_terminate", v->wants_terminate, "0 or 1");
+    REQUIRE(v->solver_index >= 0 && v->solver_index <= (int)lf_n_methods, "solver_index",
+            v->solver_index, "0 or a solver of this FMU");
     REQUIRE(v->delay_interp == LF_DELAY_HERMITE || v->delay_interp == LF_DELAY_LINEAR,
             "delay_interpolation", v->delay_interp, "1 (hermite) or 2 (linear)");
     REQUIRE(v->max_steps > 0, "max_steps", v->max_steps, "> 0");
@@ -395,6 +398,7 @@ static void apply_values(LfInstance *c, const LfStateValues *v, const double *hi
     memcpy(c->seen_d2, v->seen_d2, sizeof v->seen_d2);
     c->seen_t = v->seen_t;
     c->wants_terminate = v->wants_terminate;
+    c->solver_index = v->solver_index;
     c->u_poly = 0;
     for (k = 0; k < LF_NU; k++)
         if (c->u_d1[k] != 0 || c->u_d2[k] != 0) c->u_poly = 1;

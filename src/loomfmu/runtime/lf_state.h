@@ -42,7 +42,7 @@ typedef struct {
     double t, t_start, t_stop, rtol_importer, last_successful_time;
     long max_steps, n_events, n_newton_fail;
     int solver_id, outputs_valid, inputs_changed, delay_interp, n_bp, solver_ready, state;
-    int wants_terminate;
+    int wants_terminate, solver_index;
     /* solver fields (the work buffer follows separately) */
     double s_t, s_t_old, s_h;
     LfSolverOptions s_opt;

@@ -59,6 +59,7 @@ LfStatus lf_initialize(LfInstance *c) {
     c->max_steps = (long)c->r[LF_SET_MAX_STEPS];
     opt.max_steps = c->max_steps;
     c->t = c->last_successful_time = c->t_start;
+    if (c->solver_index > 0) c->solver_id = c->solver_index; /* set after `solver`: it wins */
     if (check_constraints(c) != LF_OK) return LF_ERROR;
     if (lf_initial_states(c) != LF_OK) return LF_ERROR;
     if (lf_init_delays(c, &opt) != LF_OK) return LF_ERROR;
