@@ -149,6 +149,158 @@ def test_printed_form_evaluates_as_casadi(name):
     assert time.process_time() - t0 < 30
 
 
+_NUMPY = {sympy.sin: np.sin, sympy.cos: np.cos, sympy.tan: np.tan, sympy.asin: np.arcsin,
+          sympy.acos: np.arccos, sympy.atan: np.arctan, sympy.sinh: np.sinh,
+          sympy.cosh: np.cosh, sympy.tanh: np.tanh, sympy.asinh: np.arcsinh,
+          sympy.acosh: np.arccosh, sympy.atanh: np.arctanh, sympy.exp: np.exp,
+          sympy.log: np.log, sympy.Abs: np.abs, sympy.sign: np.sign, sympy.floor: np.floor,
+          sympy.ceiling: np.ceil, sympy.atan2: np.arctan2,
+          sympy.Min: lambda *a: functools.reduce(np.minimum, a),
+          sympy.Max: lambda *a: functools.reduce(np.maximum, a),
+          sympy.Lt: np.less, sympy.Le: np.less_equal, sympy.Gt: np.greater,
+          sympy.Ge: np.greater_equal, sympy.Eq: np.equal, sympy.Ne: np.not_equal,
+          sympy.And: lambda *a: functools.reduce(np.logical_and, a),
+          sympy.Or: lambda *a: functools.reduce(np.logical_or, a), sympy.Not: np.logical_not,
+          sympy.Add: lambda *a: functools.reduce(np.add, a),
+          sympy.Mul: lambda *a: functools.reduce(np.multiply, a), sympy.Pow: np.power}
+
+
+def _numeric(e, env: dict, memo: dict):
+    """A SymPy expression evaluated at many points at once (numpy arrays in
+    ``env``, by symbol), visiting each shared node once (SymPy's printers,
+    hence lambdify, walk a DAG as a tree: minutes for the spindle's matrices)."""
+    if e in memo:
+        return memo[e]
+    if e.is_Symbol:
+        out = env[e]
+    elif e.is_Number or e.is_NumberSymbol:
+        out = float(e)
+    elif e is sympy.true or e is sympy.false:
+        out = bool(e)
+    elif isinstance(e, sympy.Piecewise):
+        conds = [np.broadcast_to(_numeric(c, env, memo), env["shape"]) for _, c in e.args]
+        vals = [np.broadcast_to(_numeric(x, env, memo), env["shape"]) for x, _ in e.args]
+        out = np.select(conds, vals, np.nan)
+    elif e.func in _NUMPY:
+        out = _NUMPY[e.func](*(_numeric(a, env, memo) for a in e.args))
+    else:
+        raise AssertionError(f"no numeric form for {e.func} in the test")
+    memo[e] = out
+    return out
+
+
+def _compare_quantities(model, written) -> tuple[int, int, list[str]]:
+    """Evaluate every named quantity through CasADi and through the printed
+    forms ``written`` [(Quantity, symbol, form)]: each form evaluated with the
+    earlier quantities' symbols bound to their printed values, and the
+    direct SymPy form (``readable.quantity``) too; return (entries, least
+    points at which every entry was finite and compared, mismatches)."""
+    exprs = [ca.vec(ca.densify(q.expr)) for q, _, _ in written]
+    every = ca.vertcat(*exprs)
+    syms = ca.symvar(every)
+    names = [s.name() for s in syms]
+    f = ca.Function("q", [ca.vertcat(*syms) if syms else ca.SX(0, 1)], [every])
+    table = readable.symbols(model)
+    direct = [readable.quantity(model, q) for q, _, _ in written]
+    rng = np.random.default_rng(15)
+    ok = np.zeros(every.numel(), dtype=int)
+    bad: list[str] = []
+    shrink = 1.0
+    for attempt in range(MAX_TRIES):
+        pts = _points(model, names, rng, shrink)
+        want = np.hstack([np.array(f(p).full()) for p in pts])  # entries x points
+        env = {table[n]: pts[:, j] for j, n in enumerate(names)}
+        env["shape"] = (len(pts),)
+        memo_p: dict = {}
+        memo_d: dict = {}
+        got_p, got_d = [], []
+        with np.errstate(all="ignore"):
+            for (q, sym, form), d in zip(written, direct):
+                for forms, got, memo in (((form,), got_p, memo_p), ((d,), got_d, memo_d)):
+                    m = forms[0]
+                    entries = m.T if isinstance(m, sympy.MatrixBase) else [m]  # column-major
+                    got += [np.broadcast_to(np.asarray(_numeric(x, env, memo), dtype=float),
+                                            env["shape"]) for x in entries]
+                if q.expr.numel() == 1:
+                    env[sym] = got_p[-1]
+        finite = np.isfinite(want)
+        tol = RTOL * np.maximum(np.abs(want), 1e-300) + 1e-15
+        for label, got in (("printed", np.array(got_p)), ("sympy", np.array(got_d))):
+            close = np.abs(got - want) <= tol
+            for i, k in zip(*np.nonzero(finite & ~close)):
+                bad.append(f"{label} entry {i} at {dict(zip(names, pts[k]))}: casadi "
+                           f"{want[i, k]!r}, {label} {got[i, k]!r}")
+        ok += (finite & (np.abs(np.array(got_p) - want) <= tol)).sum(axis=1)
+        if bad or ok.min() >= N_POINTS:
+            break
+        shrink *= 0.3
+    return every.numel(), int(ok.min()) if ok.size else 0, bad
+
+
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_quantities_evaluate_as_casadi(name):
+    """Every named quantity of every model, as the report writes it (with the
+    earlier quantities' symbols) and as loomfmu.inspect's .sympy gives it."""
+    model = load_model(name)
+    if not model.quantities:
+        pytest.skip(f"{name} declares no named quantities (Model.quantity) yet")
+    t0 = time.process_time()
+    written = readable.quantities_written(model)
+    assert [q.name for q, _, _ in written] == [q.name for q in model.quantities]
+    rows, least, bad = _compare_quantities(model, written)
+    assert not bad, f"{name}: {len(bad)} mismatches, first: {bad[:3]}"
+    assert least >= N_POINTS, f"{name}: some quantity entry was finite at only {least} points"
+    assert time.process_time() - t0 < 60
+
+
+def _springs():
+    """A model declared here: two springs in series and a mass, with scalar,
+    vector and matrix quantities that build on each other."""
+    from loomfmu import Model
+    m = Model("springs", description="a mass on two springs in series")
+    src = "assumption: test model"
+    k1 = m.parameter("k1", 100.0, unit="N/m", description="first spring", min=1.0, source=src)
+    k2 = m.parameter("k2", 300.0, unit="N/m", description="second spring", min=1.0, source=src)
+    mass = m.parameter("mass", 2.0, unit="kg", description="mass", min=0.1, source=src)
+    x = m.state("x", 0.01, unit="m", description="position")
+    v = m.state("v", 0.0, unit="m/s", description="velocity")
+    g = "1. springs"
+    m.quantity("c1", 1 / k1, unit="m/N", description="compliance of spring 1", symbol="c_1",
+               group=g)
+    k = m.quantity("k", 1 / (1 / k1 + 1 / k2), unit="N/m", description="series stiffness",
+                   symbol=r"k_{\mathrm{s}}", source="derived: compliances add", group=g)
+    m.quantity("K", ca.vertcat(ca.horzcat(k1 + k2, -k2), ca.horzcat(-k2, 3 * k2)),
+               unit="N/m", description="stiffness matrix", symbol=r"\mathbf{K}", group=g)
+    m.quantity("T", 0.5 * mass * v**2, unit="N.m", description="kinetic energy", group="2. energy")
+    m.quantity("V", 0.5 * k * x**2, unit="N.m", description="potential energy",
+               symbol=r"V", group="2. energy")
+    m.quantity("Kbig", np.diag(np.arange(1.0, 13.0)) + np.diag(np.full(11, 0.5), 1), unit="N/m",
+               description="a large numeric matrix", symbol=r"\mathbf{K}_{12}", group="3. big")
+    m.eq(m.der(x), v)
+    m.eq(mass * m.der(v), -k * x)
+    m.output("x_out", x, unit="m", description="position")
+    return m
+
+
+def test_quantities_of_a_declared_model_evaluate_as_casadi():
+    model = _springs()
+    written = readable.quantities_written(model)
+    forms = {q.name: form for q, _, form in written}
+    assert forms["V"].has(readable.QuantitySymbol("k", r"k_{\mathrm{s}}")), forms["V"]
+    rows, least, bad = _compare_quantities(model, written)
+    assert not bad and least >= N_POINTS and rows == 1 + 1 + 4 + 1 + 1 + 144
+
+
+def test_tampered_quantity_form_is_detected():
+    """A written form off by one part in a million must be caught."""
+    model = _springs()
+    written = readable.quantities_written(model)
+    q, sym, form = written[4]  # V, written with k
+    written[4] = (q, sym, form * (1 + sympy.Rational(1, 10**6)))
+    _, _, bad = _compare_quantities(model, written)
+    assert bad and all("printed" in b for b in bad)
+
+
 def test_tampered_op_is_detected():
     """Mapping one op wrongly (sin as cos) must make the comparison fail."""
     tampered = {**readable.OPS, ca.OP_SIN: sympy.cos}

@@ -34,9 +34,11 @@ from .listing import (Listing, _lift, delays, equations, events, listing, mode_r
                       outputs)
 from .names import Shared, Var, latex_name
 from .printing import latex, mathml, mathml_body, mathml_line, to_latex
-from .quantities import QuantitySymbol, quantities, quantity
+from .quantities import (QuantitySymbol, entry_symbol, quantities, quantities_written,
+                         quantity, symbol_mathml)
 
 __all__ = ["OPS", "Var", "Shared", "Listing", "QuantitySymbol", "latex_name", "to_sympy",
            "to_sympy_matrix", "symbols", "equations", "outputs", "events", "mode_rules",
-           "delays", "listing", "quantities", "quantity", "latex", "mathml", "mathml_line",
+           "delays", "listing", "quantities", "quantity", "quantities_written",
+           "entry_symbol", "symbol_mathml", "latex", "mathml", "mathml_line",
            "mathml_body", "to_latex"]

@@ -209,3 +209,111 @@ def quantities(model) -> list[tuple[object, sympy.Expr | sympy.Matrix]]:
     """Each of the model's named quantities in declaration order, with its
     SymPy form: [(Quantity, expr or Matrix), ...]."""
     return [(q, quantity(model, q)) for q in model.quantities]
+
+
+def entry_symbol(sym: QuantitySymbol, i: int, j: int, shape) -> QuantitySymbol:
+    """The symbol of one entry of a matrix quantity: ``{C}_{12}`` (column: ``{v}_{2}``)."""
+    idx = f"{i + 1}" if shape[1] == 1 else f"{i + 1}{j + 1}" if max(shape) < 10 else \
+        f"{i + 1},{j + 1}"
+    base = (sym._symbol_latex or latex_name(sym.name)).split("=")[0].strip()
+    return QuantitySymbol(f"{sym.name}[{i},{j}]", f"{{{base}}}_{{{idx}}}")
+
+
+class _Vocabulary:
+    """The scalar quantities declared so far, to write later ones with.
+
+    An earlier quantity's form ``c * Y`` (c a rational number) found in a
+    later expression is replaced by its symbol: whole, as an integer power of
+    its factors inside a product (``E (b h^3 - ...)`` -> ``12 E J_x``,
+    ``H / sqrt(l^2 + h^2)`` -> ``H / L``), or as some of the terms of a sum.
+    Each replacement is an identity (integer powers only), so substituting
+    the definitions back gives the declared expression."""
+
+    def __init__(self, min_ops: int):
+        self.min_ops = min_ops
+        self.exact: dict = {}
+        self.products: list[tuple[dict, object]] = []  # (factor -> power, Y's value)
+        self.sums: list[tuple[frozenset, object]] = []  # (terms, their sum's value)
+
+    def learn(self, form, sym) -> None:
+        if isinstance(form, sympy.MatrixBase) or form.is_Atom or form in self.exact \
+                or sympy.count_ops(form) < self.min_ops:
+            return
+        self.exact[form] = sym
+        c, rest = form.as_coeff_Mul()
+        if not (c.is_Rational and c != 0) or rest.is_Atom:
+            return
+        self.exact.setdefault(rest, sym / c)
+        if isinstance(rest, (sympy.Mul, sympy.Pow)):
+            self.products.append((rest.as_powers_dict(), sym / c))
+        if isinstance(rest, sympy.Add):
+            self.sums.append((frozenset(rest.args), sym / c))
+            self.products.append(({rest: sympy.Integer(1)}, sym / c))
+
+    def write(self, e, memo: dict):
+        if isinstance(e, sympy.MatrixBase):
+            return e.applyfunc(lambda x: self.write(x, memo))
+        if e in memo:
+            return memo[e]
+        out = e
+        if not e.is_Atom and isinstance(e, sympy.Expr):
+            args = [self.write(a, memo) for a in e.args]
+            out = e.func(*args) if args != list(e.args) else e
+            out = self.exact.get(out, out)
+            if isinstance(out, (sympy.Mul, sympy.Pow)):
+                out = self._product(out)
+            elif isinstance(out, sympy.Add):
+                out = self._sum(out)
+        memo[e] = out
+        return out
+
+    def _product(self, e):
+        for want, value in self.products:  # every earlier quantity, in order
+            if not isinstance(e, (sympy.Mul, sympy.Pow)):
+                break
+            have = e.as_powers_dict()
+            k = _common_ratio(have, want)
+            if k is not None:
+                rest = {f: p for f, p in have.items() if f not in want}
+                e = sympy.Mul(value**k, *(f**p for f, p in rest.items()))
+        return e
+
+    def _sum(self, e):
+        terms = set(e.args)
+        for want, value in self.sums:
+            if want < terms:
+                return sympy.Add(value, *(terms - want))
+        return e
+
+
+def _common_ratio(have: dict, want: dict):
+    """The integer k != 0 with have[f] == k * want[f] for every factor f of
+    ``want``, else None."""
+    k = None
+    for f, p in want.items():
+        q = have.get(f, 0)
+        if q == 0 or not p:
+            return None
+        r = q / p
+        if not r.is_Integer or (k is not None and r != k):
+            return None
+        k = r
+    return k
+
+
+def quantities_written(model, *, min_ops: int = 1) -> list[tuple[object, QuantitySymbol,
+                                                                  object]]:
+    """Each named quantity as the report writes it: [(Quantity, its symbol,
+    its definition), ...] in declaration order, each definition written with
+    the symbols of the scalar quantities declared before it (an earlier
+    quantity's expression with at least ``min_ops`` operations, found inside
+    a later one, alone or as factors of a product, is replaced by its symbol),
+    so that e.g. C = delta^-1 shows in terms of the deltas.  Substituting the
+    earlier definitions back gives the quantity (the round-trip test does)."""
+    out, vocab = [], _Vocabulary(min_ops)
+    for q, form in quantities(model):
+        sym = QuantitySymbol(q.name, q.symbol)
+        shown = vocab.write(form, {}) if vocab.exact else form
+        out.append((q, sym, shown))
+        vocab.learn(shown, sym)
+    return out

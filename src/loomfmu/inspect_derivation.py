@@ -1,0 +1,166 @@
+"""The "Derivation" section of ``loomfmu inspect``: a model's named quantities
+(``Model.quantity``) in declaration order under their group headings, each
+with its symbol, definition, unit, description and source.
+
+Scalars and matrices up to :data:`SMALL` x :data:`SMALL` print entry by
+entry (written with the earlier scalar quantities' symbols); larger ones as a
+picture: the non-zero pattern coloured by magnitude at the parameters'
+defaults (inline SVG for HTML, digits for Markdown and LaTeX), with size,
+non-zeros and symmetry.
+"""
+from __future__ import annotations
+
+import html
+import math
+
+import casadi as ca
+import numpy as np
+import sympy
+
+from . import readable
+from .inspect_doc import Code, Def, Equations, Math, Para, Picture, Section
+from .inspection import evaluate
+
+#: a matrix quantity with both dimensions up to this prints entry by entry
+SMALL = 8
+#: a small matrix whose plain print is longer than this prints one entry per line
+LONG_MATRIX = 400
+#: the picture's width and height in pixels, at most
+PICTURE_PX = 480
+#: colour stops from the smallest to the largest magnitude (viridis-like)
+PALETTE = ((68, 1, 84), (59, 82, 139), (33, 145, 140), (94, 201, 98), (253, 231, 37))
+
+
+def derivation(model) -> Section | None:
+    """The Derivation section, or None when the model keeps no quantity."""
+    if not model.quantities:
+        return None
+    sec = Section("Derivation", [
+        f"The {len(model.quantities)} named quantities of the derivation, in the order the "
+        "model declares them, each written with the quantities before it. They are kept "
+        "for reading: the equations below are what runs."])
+    groups: dict[str, Section] = {}
+    for q, sym, shown in readable.quantities_written(model):
+        title = q.group or "Other quantities"
+        if title not in groups:
+            groups[title] = Section(title, level=3)
+            sec.blocks.append(groups[title])
+        groups[title].blocks += _quantity_blocks(model, q, sym, shown)
+    return sec
+
+
+def _about(q, sym) -> Para:
+    parts = [Math(sym), " (", Code(q.name)]
+    parts += [f", {q.unit})" if q.unit else ")", f": {q.description}"]
+    if q.source:
+        parts.append(f". Source: {q.source}")
+    return Para(parts)
+
+
+def _quantity_blocks(model, q, sym, shown) -> list:
+    blocks = [_about(q, sym)]
+    n1, n2 = q.expr.shape
+    if (n1, n2) == (1, 1):
+        return blocks + [Equations([(sympy.Eq(sym, shown, evaluate=False), "")])]
+    if max(n1, n2) <= SMALL:
+        if len(str(shown)) <= LONG_MATRIX:
+            return blocks + [Equations([(Def(sym, shown), "")])]
+        lines = [(sympy.Eq(readable.entry_symbol(sym, i, j, (n1, n2)), shown[i, j],
+                           evaluate=False), "")
+                 for j in range(n2) for i in range(n1) if shown[i, j] != 0]
+        return blocks + [f"{n1} \u00d7 {n2}, the non-zero entries one per line:",
+                         Equations(lines)]
+    return blocks + [_picture(model, q)]
+
+
+def _values(model, q) -> np.ndarray | None:
+    """The quantity at the variables' start values, or None when some symbol
+    has none (e.g. der(x))."""
+    try:
+        return evaluate(model, q.expr)
+    except ValueError:
+        return None
+
+
+def _colour(t: float) -> str:
+    """The palette at t in [0, 1], as #rrggbb."""
+    t = min(max(t, 0.0), 1.0) * (len(PALETTE) - 1)
+    k = min(int(t), len(PALETTE) - 2)
+    f = t - k
+    rgb = (round(a + (b - a) * f) for a, b in zip(PALETTE[k], PALETTE[k + 1]))
+    return "#%02x%02x%02x" % tuple(rgb)
+
+
+def _picture(model, q) -> Picture:
+    expr = ca.SX(q.expr)
+    n1, n2 = expr.shape
+    nonzero = np.array([[not expr[i, j].is_zero() for j in range(n2)] for i in range(n1)])
+    vals = _values(model, q)
+    if vals is not None:
+        nonzero &= vals != 0
+    nnz = int(nonzero.sum())
+    mags = np.abs(vals[nonzero]) if vals is not None and nnz else np.array([])
+    lo = math.floor(math.log10(mags.min())) if mags.size else 0
+    hi = math.floor(math.log10(mags.max())) if mags.size else 0
+    cell = max(1, min(24, PICTURE_PX // max(n1, n2)))
+    rects, text = [], []
+    for i in range(n1):
+        row = []
+        for j in range(n2):
+            if not nonzero[i, j]:
+                row.append("\u00b7")
+                continue
+            if vals is None:
+                colour, dec, tip = "#444444", 0, f"({i + 1},{j + 1})"
+            else:
+                dec = math.floor(math.log10(abs(vals[i, j])))
+                colour = _colour((dec - lo) / (hi - lo) if hi > lo else 1.0)
+                tip = f"({i + 1},{j + 1}) = {vals[i, j]:.4g}"
+            row.append(str(min(dec - lo, 9)) if vals is not None else "\u25a0")
+            rects.append(f'<rect x="{j * cell}" y="{i * cell}" width="{cell}" '
+                         f'height="{cell}" fill="{colour}"><title>{html.escape(tip)}'
+                         "</title></rect>")
+        text.append("".join(row))
+    w, h = n2 * cell, n1 * cell
+    legend = _legend(lo, hi, w, h) if vals is not None and mags.size else ""
+    svg = (f'<svg xmlns="http://www.w3.org/2000/svg" width="{w + 2}" height="{h + 40}" '
+           f'viewBox="-1 -1 {w + 2} {h + 40}" role="img" aria-label="{html.escape(q.name)}: '
+           f'non-zero pattern"><rect x="-0.5" y="-0.5" width="{w + 1}" height="{h + 1}" '
+           f'fill="#fff" stroke="#999"/>{"".join(rects)}{legend}</svg>')
+    return Picture(svg, "\n".join(text), _facts(q, vals, nonzero, lo, hi))
+
+
+def _legend(lo: int, hi: int, w: int, h: int) -> str:
+    steps = max(hi - lo, 0) + 1
+    bw = max(w, 160) / steps
+    out = []
+    for k in range(steps):
+        colour = _colour(k / (steps - 1) if steps > 1 else 1.0)
+        out.append(f'<rect x="{k * bw:.1f}" y="{h + 6}" width="{bw:.1f}" height="10" '
+                   f'fill="{colour}"/>')
+    out.append(f'<text x="0" y="{h + 30}" font-size="11">1e{lo}</text>')
+    out.append(f'<text x="{max(w, 160)}" y="{h + 30}" font-size="11" '
+               f'text-anchor="end">1e{hi}</text>')
+    return "".join(out)
+
+
+def _facts(q, vals, nonzero, lo: int, hi: int) -> str:
+    n1, n2 = nonzero.shape
+    facts = [f"{q.name}: {n1} \u00d7 {n2}, {int(nonzero.sum())} non-zeros"]
+    if n1 == n2:
+        sym_struct = bool((nonzero == nonzero.T).all())
+        if vals is not None:
+            scale = np.abs(vals).max() or 1.0
+            sym_vals = bool(np.allclose(vals, vals.T, rtol=0, atol=1e-12 * scale))
+            facts.append("symmetric" if sym_vals else
+                         "not symmetric" + (" (symmetric pattern)" if sym_struct else ""))
+        else:
+            facts.append("symmetric pattern" if sym_struct else "unsymmetric pattern")
+    if vals is not None and nonzero.any():
+        mags = np.abs(vals[nonzero])
+        facts.append(f"|entries| from {mags.min():.3g} to {mags.max():.3g}"
+                     + (f" {q.unit}" if q.unit else "") + " at the default parameters; "
+                     f"colour (text: digit k) = decade 1e{lo}+k, up to 1e{hi}")
+    elif vals is None:
+        facts.append("values depend on variables without a start value: pattern only")
+    return "; ".join(facts) + "."
