@@ -103,7 +103,7 @@ def build(*, cam: str = "compensated", harmonics: int = 96, m: int = 40,
     u = U_z + U_p + u_ext
     u_delayed = m_.delay("u", u, tau, max_delay=max_delay,
                          description="drive input signal, tau ago")
-    drive_quantities(m_, U_z=U_z, U_p=U_p, u=u, tau=tau, u_delayed=u_delayed, n=n, K=K, T=T)
+    drive_quantities(m_, U_z=U_z, U_p=U_p, u=u, u_delayed=u_delayed, n=n, K=K)
     m_.eq(T * m_.der(n), K * u_delayed - n)
     m_.eq(m_.der(phi), f_rad * n / 60.0)
     m_.set_starts_from(n, K * u)  # steady state of the initial signal

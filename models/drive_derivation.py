@@ -126,7 +126,7 @@ def cam_quantities(m, phi, n, r, coeffs, a0, f_rad) -> None:
       symbol=r"\dot\varphi", source=SEED + " (4), corrected (D11)", group=CAM)
 
 
-def drive_quantities(m, *, U_z, U_p, u, tau, u_delayed, n, K, T) -> None:
+def drive_quantities(m, *, U_z, U_p, u, u_delayed, n, K) -> None:
     """The drive signal (3) and the delay equation (9)."""
     Q = m.quantity
     Q("U_z", U_z, unit="V", description="set-point signal n_min / K: r = r_min gives "
@@ -136,11 +136,9 @@ def drive_quantities(m, *, U_z, U_p, u, tau, u_delayed, n, K, T) -> None:
       "k_g: assumption)", symbol=r"U_{\mathrm{p}}", source=SEED + " (3)", group=DRIVE)
     Q("u_in", u, unit="V", description="drive input signal U_z + U_p + u_ext",
       symbol="u", source=SEED + " (3), fig. 2", group=DRIVE)
-    Q("tau_d", tau, unit="s", description="pure delay of the drive; " + defect_note("D9"),
-      symbol=r"\tau", source=SEED + " (9), corrected (D9)", group=DRIVE)
-    Q("u_tau", u_delayed, unit="V", description="the delayed signal u(t - tau), read from "
-      "the FMU's history", symbol=r"u(t-\tau)", source=SEED + " (9): e^{-s tau}",
-      group=DRIVE)
+    Q("u_tau", u_delayed, unit="V", description="the delayed signal u(t - tau), tau the "
+      "pure delay (parameter tau), read from the FMU's history; " + defect_note("D9"),
+      symbol=r"u(t-\tau)", source=SEED + " (9): e^{-s tau}, corrected (D9)", group=DRIVE)
     Q("T_ndot", K * u_delayed - n, unit="rpm", description="the delay equation (9) in the "
       "time domain: T n' = K u(t - tau) - n (the lag 1/(T s + 1) after the delay)",
       symbol=r"T\dot n", source=SEED + " (9), corrected (D9)", group=DRIVE)

@@ -74,7 +74,6 @@ def test_delay_equation_is_the_fmus_speed_derivative(model, run):
     assert err < 1e-3 * scale
     # and not merely close to anything: the lag with the wrong sign of n misses
     assert np.max(np.abs(T * dndt - (lhs + 2 * run.y["n_out"]))) > 1e3 * err
-    assert quantity(model, "tau_d").item() == tau
     assert quantity(model, "breakpoint_lag").item() == tau
     # the delayed signal is the signal tau ago (history before t = 0: u(0))
     late = run.t >= tau + 1e-9
