@@ -145,7 +145,7 @@ def _parameters(m: Model, shedding: bool) -> dict:
     p["k_s"] = P("k_s", 5e4, unit="N/m", description="spring stiffness", min=1e2, max=1e7,
                  source=SEED + " (9); value " + A + "two springs of 25 kN/m")
     ends = 2 * HEALD_ENDS
-    c2 = round(ends * (HEALD_T_MAX - HEALD_T_MIN) / HEALD_DL_MAX, -3)
+    c2 = round(ends * (HEALD_T_MAX - HEALD_T_MIN) / HEALD_DL_MAX, -2)
     c1 = 2 * c2
     p["S0"] = P("S0", ends * HEALD_T_MIN, unit="N", description="static warp tension "
                 "(whole sheet; closed shed, all elongations zero)", min=10.0, max=2e4,
