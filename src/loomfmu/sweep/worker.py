@@ -133,7 +133,8 @@ def _message(log: list[tuple[int, str]], exc: Exception) -> str:
 def run_case(blob: FmuBlob, setup: Setup, index: int, key: str, case: dict,
              reuse: bool = True) -> dict:
     """Run one case; return its row (index, key, case, status, message,
-    figures, wall_s, worker)."""
+    figures, wall_s, worker; and instance: 'new', 'reset' (an instance reused
+    after fmi2Reset) or 'plain' (reuse False), not written to the table)."""
     row = {"index": index, "key": key, **case, "status": "ok", "message": ""}
     row.update({f.name: float("nan") for f in setup.figures})
     t0 = time.perf_counter()
@@ -153,9 +154,11 @@ def run_case(blob: FmuBlob, setup: Setup, index: int, key: str, case: dict,
             inst = slot.get_instance()
             if slot.used:
                 inst.reset()
+            row["instance"] = "reset" if slot.used else "new"
             slot.used = True
             res = fmpy.simulate_fmu(slot.unzipdir, fmu_instance=inst, **kwargs)
         else:
+            row["instance"] = "plain"
             res = fmpy.simulate_fmu(slot.unzipdir, logger=slot.logger, **kwargs)
     except Exception as exc:  # noqa: BLE001 (FMPy raises FMICallException or bare Exception)
         status = FMI_STATUS.get(getattr(exc, "status", None), "error")

@@ -1,0 +1,190 @@
+"""loomfmu.sweep: studies on dask.distributed against the plain serial loop.
+
+One two-worker LocalCluster run of a small rigid-frame study (9 cases, 3 of
+them with a value the FMU refuses) is shared by the tests below; the serial
+loop is fmpy.simulate_fmu with a fresh instance per case, the sweep reuses
+one instance per worker with fmi2Reset.
+"""
+from __future__ import annotations
+
+import csv
+import math
+
+import psutil
+import pytest
+
+from loomfmu import build_fmu, load_model
+from loomfmu.cli import main as cli_main
+from loomfmu.sweep import (Derived, Figure, Study, case_key, fmu_blob, grid, latin_hypercube,
+                           lists, parse_figure, run_serial, run_study)
+from loomfmu.sweep import store, studies
+
+FIGS = ["max_N_rem", "min_N_rem", "final_h"]
+
+
+def _study(**kw):
+    args = dict(cases=grid(omega=[40.0, 60.0, 80.0], k_z=[2.0, 5.0, 500.0]),
+                figures=[Figure("max", "N_rem"), Figure("min", "N_rem"),
+                         Figure("final", "h", after=0.1)],
+                stop_time=0.2, output_interval=1e-3, rtol=1e-8, atol=1e-10, name="small")
+    args.update(kw)
+    return Study("heald_frame_rigid", **args)
+
+
+@pytest.fixture(scope="module")
+def blob(tmp_path_factory):
+    path = build_fmu(load_model("heald_frame_rigid"), out_dir=tmp_path_factory.mktemp("sw"),
+                     validate=False).path
+    return fmu_blob(_study(), path)
+
+
+@pytest.fixture(scope="module")
+def swept(blob, tmp_path_factory):
+    out = tmp_path_factory.mktemp("sweep") / "small.csv"
+    result = run_study(_study(), out=out, workers=2, blob=blob, progress=False)
+    return result, out
+
+
+def test_two_workers_equal_the_serial_loop_bit_for_bit(swept, blob):
+    result, out = swept
+    serial = run_serial(_study(), blob=blob)  # fmpy.simulate_fmu, a fresh instance per case
+    assert [r["status"] for r in result.rows] == [r["status"] for r in serial]
+    ok = [(a, b) for a, b in zip(result.rows, serial) if a["status"] == "ok"]
+    assert len(ok) == 6
+    for a, b in ok:
+        for f in FIGS:
+            assert math.isfinite(a[f]) and a[f].hex() == b[f].hex(), (a["index"], f)
+    # the workers reused their instance (fmi2Reset): 6 ok cases, at most 2 first cases
+    # and 3 cases after a failed one (which drops its instance) start a new one
+    assert sum(a["instance"] == "reset" for a, _ in ok) >= 1
+    assert sum(a["instance"] == "new" for a in result.rows) <= 2 + 3
+    assert {b["instance"] for b in serial} == {"plain"}
+    # the table read back gives the same bits
+    for a, b in zip(store.read_rows(out), serial):
+        if b["status"] == "ok":
+            assert [a[f].hex() for f in FIGS] == [b[f].hex() for f in FIGS]
+    # the figures do depend on the case (a sweep that ignored the values would pass above)
+    # (N_rem's extremes are the dwells' static loads: they follow k_z; h follows omega)
+    assert len({(round(a["max_N_rem"], 9), round(a["final_h"], 12)) for a, _ in ok}) == 6
+    # the cluster is closed: no worker process left behind (multiprocessing's own
+    # resource tracker stays until this process ends)
+    left = [p.cmdline() for p in psutil.Process().children(recursive=True)]
+    assert [c for c in left if not any("resource_tracker" in a for a in c)] == []
+
+
+def test_failed_case_is_recorded_with_the_fmus_message(swept):
+    result, out = swept
+    assert result.executed == 9 and len(result.rows) == 9
+    bad = [r for r in result.rows if r["k_z"] == 500.0]
+    assert len(bad) == 3 and result.failed == bad
+    for r in bad:
+        assert r["status"] == "error"
+        assert "k_z = 500 is outside its range [0.1, 50]" in r["message"], r["message"]
+        assert "t = 0" in r["message"]
+        assert all(math.isnan(r[f]) for f in FIGS)
+    with open(out, newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert sum(r["status"] == "error" for r in rows) == 3
+    assert all("outside its range" in r["message"] for r in rows if r["status"] == "error")
+
+
+def test_resume_skips_finished_cases(swept, blob, tmp_path):
+    result, out = swept
+    lines = out.read_text().splitlines()
+    part = tmp_path / "small.csv"
+    part.write_text("\n".join(lines[:5]) + "\n")  # interrupted after 4 finished cases
+    again = run_study(_study(), out=part, workers=1, blob=blob, progress=False)
+    assert (again.executed, again.skipped) == (5, 4)
+    for a, b in zip(again.rows, result.rows):
+        assert a["status"] == b["status"]
+        if a["status"] == "ok":
+            assert [a[f].hex() for f in FIGS] == [b[f].hex() for f in FIGS]
+    kept = {r["key"]: r["worker"] for r in store.read_rows(part)}
+    first = {r["key"]: r["worker"] for r in store.read_rows(out)}
+    assert sum(kept[k] == first[k] for k in list(first)[:4]) == 4
+    done = run_study(_study(), out=part, workers=1, blob=blob, progress=False)
+    assert (done.executed, done.skipped) == (0, 9)
+    # another setting is another study: its keys differ, nothing is resumed
+    fp1, fp2 = _study().fingerprint(blob.sha256), _study(rtol=1e-7).fingerprint(blob.sha256)
+    assert fp1 != fp2
+    assert case_key(fp1, {"omega": 40.0}) != case_key(fp2, {"omega": 40.0})
+
+
+def test_invalid_case_is_refused_before_running(blob, tmp_path):
+    study = Study("heald_frame_rigid", cases=lists(preset=[0, 999], omega=[60.0, 60.0]),
+                  figures=[Figure("max", "N_rem")], stop_time=0.1, output_interval=1e-3,
+                  prepare=studies.prepare_hinge)
+    rows = run_serial(study, blob=blob, reuse=True)
+    assert rows[0]["status"] == "ok" and rows[0]["max_N_rem"] > 0
+    assert rows[1]["status"] == "invalid"
+    assert rows[1]["message"].startswith("preset = 999; allowed: an integer in [0, 55]")
+
+
+def _derived(t, y, case):
+    return float(y["h"].max() - y["h"].min())
+
+
+@pytest.mark.parametrize("make, names", [
+    (lambda: Study("nope", cases=[{}], figures=[Figure("max", "h")], stop_time=1.0,
+                   output_interval=0.1), "model"),
+    (lambda: _study(cases=[]), "cases"),
+    (lambda: _study(figures=[]), "figures"),
+    (lambda: _study(stop_time=-1.0), "stop_time"),
+    (lambda: _study(output_interval=0.5), "output_interval"),
+    (lambda: _study(solver="euler"), "solver"),
+    (lambda: _study(rtol=0.0), "rtol"),
+    (lambda: _study(name="a b"), "name"),
+    (lambda: _study(prepare=lambda c, f: (c, None)), "prepare"),
+    (lambda: Figure("median", "h"), "kind"),
+    (lambda: Figure("max", "h", after=-1.0), "after"),
+    (lambda: Derived("d", lambda t, y, c: 0.0, ("h",)), "function"),
+    (lambda: parse_figure("N_rem"), "figure"),
+    (lambda: grid(b1=[]), "b1"),
+    (lambda: grid(b1="0.01"), "b1"),
+    (lambda: lists(a=[1.0, 2.0], b=[1.0]), "axes"),
+    (lambda: latin_hypercube({"a": (1.0, 0.0)}, n=3, seed=0), "bounds['a']"),
+    (lambda: latin_hypercube({"a": (0.0, 1.0)}, n=0, seed=0), "n"),
+    (lambda: latin_hypercube({"a": (0.0, 1.0)}, n=3, seed=-1), "seed"),
+    (lambda: run_study(_study(), workers=0), "workers"),
+    (lambda: run_study(_study(), workers=65), "workers"),
+    (lambda: run_study(_study(), scheduler="localhost"), "scheduler"),
+])
+def test_bad_arguments_name_the_argument_and_the_allowed_range(make, names):
+    with pytest.raises(ValueError) as e:
+        make()
+    assert str(e.value).startswith(names) and "allowed" in str(e.value), str(e.value)
+
+
+def test_names_are_checked_against_the_fmu(blob):
+    with pytest.raises(ValueError, match=r"cases: unknown 'nope'.*allowed"):
+        run_serial(_study(cases=grid(nope=[1.0])), blob=blob)
+    with pytest.raises(ValueError, match=r"figures: unknown 'x2_out'.*allowed"):
+        run_serial(_study(figures=[Figure("max", "x2_out")]), blob=blob)
+
+
+def test_derived_figure_and_latin_hypercube(blob):
+    cases = latin_hypercube({"omega": (40.0, 80.0), "k_z": (2.0, 6.0)}, n=5, seed=3)
+    assert cases == latin_hypercube({"omega": (40.0, 80.0), "k_z": (2.0, 6.0)}, n=5, seed=3)
+    for name, (lo, hi) in (("omega", (40.0, 80.0)), ("k_z", (2.0, 6.0))):
+        strata = sorted(int((c[name] - lo) / (hi - lo) * 5) for c in cases)
+        assert strata == [0, 1, 2, 3, 4]  # one case per stratum of each axis
+    study = _study(cases=cases[:2], figures=[Derived("stroke", _derived, ("h",))])
+    rows = run_serial(study, blob=blob)
+    # the frame's stroke over 0.2 s at these speeds: h runs through most of +-h_m
+    assert all(r["status"] == "ok" and 0.0 < r["stroke"] <= 2 * 0.029 + 1e-12 for r in rows)
+
+
+def test_cli_sweep_run(blob, tmp_path, capsys):
+    fmu = tmp_path / blob.name
+    fmu.write_bytes(blob.data)
+    code = cli_main(["sweep", "run", "heald_frame_rigid", "--grid", "omega=40,60",
+                     "--figure", "max:N_rem", "--stop", "0.1", "--fmu", str(fmu),
+                     "--workers", "1", "--out-dir", str(tmp_path)])
+    assert code == 0
+    rows = store.read_rows(tmp_path / "heald_frame_rigid.csv")
+    assert [r["omega"] for r in rows] == [40.0, 60.0] and all(r["status"] == "ok" for r in rows)
+    assert "2 cases, 2 run now" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as e:
+        cli_main(["sweep", "run", "heald_frame_rigid", "--grid", "omega=40,abc",
+                  "--figure", "max:N_rem", "--stop", "0.1"])
+    assert e.value.code == 2
