@@ -17,8 +17,6 @@ FMU keeps its history (cubic Hermite between accepted steps by default).
 """
 from __future__ import annotations
 
-import math
-
 import casadi as ca
 
 from loomfmu.checks import check_choice, check_int, check_number

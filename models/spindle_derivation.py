@@ -161,8 +161,9 @@ def _support_quantities(m, sup) -> None:
       "sin t (1 - eps_i0 cos t)^-2.28 dt (16-point Gauss-Legendre)",
       symbol=r"K_{XX}^{(i)}", source=SEED + " (4)", group=SUPPORTS)
     used, other = sup["damper"], "printed" if sup["damper"] == "corrected" else "corrected"
+    power = 4 if used == "corrected" else 3
     Q("C_i", ca.vertcat(*sup[f"C_i_{used}"]), unit="N.s/m" if used == "corrected" else "",
-      description=f"film damping of each layer C^(i) = 9.36 eta r_i^{4 if used == 'corrected' else 3}"
+      description=f"film damping of each layer C^(i) = 9.36 eta r_i^{power}"
       " l / (c^3 sum r) int_0^{pi/2} sin t cos t (1 - eps_i0 cos t)^-1.28 dt, the "
       f"{used} form (build option damper); " + defect_note("S3"),
       symbol=r"C_{XX}^{(i)}", source=SEED + f" (5), {used} (S3)", group=SUPPORTS)
