@@ -39,6 +39,20 @@ def _poly_model() -> Model:
     m.eq(m.der(z), ud)
     m.output("y", x + u, unit="", description="x + u")
     m.output("s", ca.sin(p), unit="", description="sin(phi)")
+    m.output("late", ud, unit="", description="u, tau ago")
+    return m
+
+
+def _switch_model() -> Model:
+    """x' = q, the mode q switching from 0 to 1 where the input crosses 1."""
+    m = Model("switch_in", description="a mode switched by the input", stop_time=1.0,
+              step_size=0.1)
+    u = m.input("u", 0.0, unit="", description="input", min=-100.0, max=100.0)
+    x = m.state("x", 0.0, unit="", description="time spent with u >= 1")
+    q = m.mode("mode_q", 0, (0, 1), description="1 where u >= 1")
+    m.event("cross", u - 1.0, description="u crosses 1")
+    m.mode_rule(q, ca.if_else(q == 1, u - 1.0, 1.0 - u), events=["cross"])
+    m.eq(m.der(x), q)
     return m
 
 
@@ -73,6 +87,11 @@ def closed_form(t):
 @pytest.fixture(scope="module")
 def poly_fmu(tmp_path_factory):
     return build_fmu(_poly_model(), out_dir=tmp_path_factory.mktemp("poly")).path
+
+
+@pytest.fixture(scope="module")
+def switch_fmu(tmp_path_factory):
+    return build_fmu(_switch_model(), out_dir=tmp_path_factory.mktemp("switch")).path
 
 
 @pytest.fixture(scope="module")
@@ -120,6 +139,28 @@ def test_quadratic_input_is_integrated_not_staircased(poly_fmu, slave_factory, s
     assert abs(ramp["x"] - exact["x"]) > 1e-3  # order 1 misses the curvature
 
 
+@pytest.mark.parametrize("solver", [1, 2])
+def test_events_are_located_on_the_input_polynomial(switch_fmu, slave_factory, solver):
+    """The event u(t) = 1 falls inside a communication step: located on the
+    interpolated input, x(1) = 1 - t*; with the staircase the switch waits
+    for the next communication point."""
+    t_star = (-A + math.sqrt(A * A - 2 * B * (U0 - 1.0))) / B
+    ends = []
+    for derivatives in (True, False):
+        s = slave_factory(switch_fmu, f"d{derivatives}")
+        s.start(u=U0, solver=solver, solver_rtol=1e-10, solver_atol=1e-12)
+        for i in range(4):
+            t = 0.25 * i
+            s.fmu.setReal([s.vr["u"]], [u_exact(t)])
+            if derivatives:
+                s.fmu.setRealInputDerivatives([s.vr["u"], s.vr["u"]], [1, 2], [A + B * t, B])
+            s.fmu.doStep(t, 0.25)
+        ends.append(s.get("x")[0])
+    assert 0.0 < t_star < 0.25
+    assert ends[0] == pytest.approx(1.0 - t_star, abs=1e-8)
+    assert ends[1] == pytest.approx(0.75, abs=1e-8)  # switched at t = 0.25
+
+
 def test_rodas4_uses_the_input_rate_in_df_dt(poly_fmu, slave_factory):
     """At a loose tolerance rodas4 takes long steps; its df/dt must carry
     (df/du) du/dt, or x' = u(t) (no state dependence) loses its order.  With
@@ -155,11 +196,13 @@ def test_output_derivatives_are_exact(poly_fmu, implicit_fmu, slave_factory):
     model (Newton) d(x')/dt = u' / (3 x'^2 + 1)."""
     s = slave_factory(poly_fmu)
     got = _run(s, solver="dopri5", h=0.25)
-    dy, ds = s.fmu.getRealOutputDerivatives([s.vr["y"], s.vr["s"]], [1, 1])
+    dy, ds, dl = s.fmu.getRealOutputDerivatives([s.vr[k] for k in ("y", "s", "late")],
+                                                [1, 1, 1])
     exact = closed_form(1.0)
     assert got["y"] == pytest.approx(exact["y"], rel=1e-9)
     assert dy == pytest.approx(exact["dy"], rel=1e-12)
     assert ds == pytest.approx(exact["ds"], rel=1e-8)
+    assert dl == pytest.approx(A + B * (1.0 - TAU), rel=1e-9)  # the history's slope
     s = slave_factory(implicit_fmu, "implicit")
     s.start(u=2.0)  # x'^3 + x' = 2: x' = 1
     s.fmu.setRealInputDerivatives([s.vr["u"]], [1], [3.0])
