@@ -93,7 +93,7 @@ def test_resume_skips_finished_cases(swept, blob, tmp_path):
     lines = out.read_text().splitlines()
     part = tmp_path / "small.csv"
     part.write_text("\n".join(lines[:5]) + "\n")  # interrupted after 4 finished cases
-    again = run_study(_study(), out=part, workers=1, blob=blob, progress=False)
+    again = run_study(_study(), out=part, workers=1, blob=blob, progress=False, batch=2)
     assert (again.executed, again.skipped) == (5, 4)
     for a, b in zip(again.rows, result.rows):
         assert a["status"] == b["status"]
@@ -102,7 +102,7 @@ def test_resume_skips_finished_cases(swept, blob, tmp_path):
     kept = {r["key"]: r["worker"] for r in store.read_rows(part)}
     first = {r["key"]: r["worker"] for r in store.read_rows(out)}
     assert sum(kept[k] == first[k] for k in list(first)[:4]) == 4
-    done = run_study(_study(), out=part, workers=1, blob=blob, progress=False)
+    done = run_study(_study(), out=part, workers=1, blob=blob, progress=False, batch=4)
     assert (done.executed, done.skipped) == (0, 9)
     # another setting is another study: its keys differ, nothing is resumed
     fp1, fp2 = _study().fingerprint(blob.sha256), _study(rtol=1e-7).fingerprint(blob.sha256)
@@ -148,6 +148,7 @@ def _derived(t, y, case):
     (lambda: run_study(_study(), workers=0), "workers"),
     (lambda: run_study(_study(), workers=65), "workers"),
     (lambda: run_study(_study(), scheduler="localhost"), "scheduler"),
+    (lambda: run_study(_study(), batch=0), "batch"),
 ])
 def test_bad_arguments_name_the_argument_and_the_allowed_range(make, names):
     with pytest.raises(ValueError) as e:

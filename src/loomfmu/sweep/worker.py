@@ -176,5 +176,10 @@ def run_case(blob: FmuBlob, setup: Setup, index: int, key: str, case: dict,
     return row
 
 
+def run_batch(blob: FmuBlob, setup: Setup, items: list, reuse: bool = True) -> list[dict]:
+    """run_case for each (index, key, case) of ``items``, in order."""
+    return [run_case(blob, setup, i, k, c, reuse=reuse) for i, k, c in items]
+
+
 def _worker() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
