@@ -195,6 +195,37 @@ static void null_arrays(int which) {
     follow(c, K0);
 }
 
+/* input and output derivatives: NULL arrays, sizes no array can have, a
+ * value reference that is not an input/output, orders outside 1..2 (1),
+ * non-finite values, one bad entry after a good one (nothing set) */
+static void derivatives(int which) {
+    fmi2Component c = ready("instance");
+    fmi2ValueReference vr[2] = {LF_VR_U0, LF_VR_U0};
+    fmi2Integer order[2] = {1, 1};
+    fmi2Real r[2] = {1.0, 1.0};
+    fmi2Status st;
+    mark();
+    switch (which) {
+    case 0: st = fmi2SetRealInputDerivatives(c, NULL, 1, order, r); break;
+    case 1: st = fmi2SetRealInputDerivatives(c, vr, 1, NULL, r); break;
+    case 2: st = fmi2SetRealInputDerivatives(c, vr, 1, order, NULL); break;
+    case 3: st = fmi2SetRealInputDerivatives(c, vr, SIZE_MAX, order, r); break;
+    case 4: vr[0] = LF_VR_X0; st = fmi2SetRealInputDerivatives(c, vr, 1, order, r); break;
+    case 5: order[0] = 0; st = fmi2SetRealInputDerivatives(c, vr, 1, order, r); break;
+    case 6: order[0] = 3; st = fmi2SetRealInputDerivatives(c, vr, 1, order, r); break;
+    case 7: r[0] = NAN; st = fmi2SetRealInputDerivatives(c, vr, 1, order, r); break;
+    case 8: r[1] = INFINITY; st = fmi2SetRealInputDerivatives(c, vr, 2, order, r); break;
+    case 9: vr[0] = LF_VR_Y0; st = fmi2GetRealOutputDerivatives(c, NULL, 1, order, r); break;
+    case 10: vr[0] = LF_VR_Y0; st = fmi2GetRealOutputDerivatives(c, vr, 1, NULL, r); break;
+    case 11: vr[0] = LF_VR_Y0; st = fmi2GetRealOutputDerivatives(c, vr, 1, order, NULL); break;
+    case 12: vr[0] = LF_VR_Y0; st = fmi2GetRealOutputDerivatives(c, vr, SIZE_MAX, order, r); break;
+    case 13: order[0] = 2; vr[0] = LF_VR_Y0; st = fmi2GetRealOutputDerivatives(c, vr, 1, order, r); break;
+    default: st = fmi2GetRealOutputDerivatives(c, vr, 1, order, r); break; /* an input */
+    }
+    refused(st, 1);
+    follow(c, K0);
+}
+
 /* nvr far beyond the 2-element arrays: refused before either is read (the
  * sanitizer build catches any read past them) */
 static void huge_nvr(int which) {
@@ -518,6 +549,10 @@ static void field(int which) {
     case 30: reseal = 0; n -= 1; break;                             /* truncated */
     case 31: n += 8; break;                                         /* extended, sealed */
     case 32: reseal = 0; memset(b, 0, 64); n = 64; break;           /* foreign bytes */
+    case 33: put_d(b, VOFF(u_d1), NAN); break;
+    case 34: put_d(b, VOFF(seen_t), INFINITY); break;
+    case 35: put_i(b, VOFF(wants_terminate), 3); break;
+    case 36: put_i(b, VOFF(solver_index), 9); break;
     /* modes */
     case 40: put_d(b, VOFF(q), 99.0); break;
     /* delays */
@@ -636,6 +671,21 @@ static const Case cases[] = {
     {"free_instance_twice", after_free, 0, 0, 0}, {"do_step_after_free", after_free, 1, 0, 0},
     {"get_real_after_free", after_free, 2, 0, 0}, {"freed_address_reused", after_free, 3, 1, 0},
     {"null_instance", null_instance, 0, 0, 0},
+    {"input_derivatives_null_vr", derivatives, 0, 0, 3},
+    {"input_derivatives_null_order", derivatives, 1, 0, 3},
+    {"input_derivatives_null_value", derivatives, 2, 0, 3},
+    {"input_derivatives_nvr_max", derivatives, 3, 0, 3},
+    {"input_derivatives_not_input", derivatives, 4, 0, 3},
+    {"input_derivatives_order_0", derivatives, 5, 0, 3},
+    {"input_derivatives_order_3", derivatives, 6, 0, 3},
+    {"input_derivatives_nan", derivatives, 7, 0, 3},
+    {"input_derivatives_second_inf", derivatives, 8, 0, 3},
+    {"output_derivatives_null_vr", derivatives, 9, 0, 0},
+    {"output_derivatives_null_order", derivatives, 10, 0, 0},
+    {"output_derivatives_null_value", derivatives, 11, 0, 0},
+    {"output_derivatives_nvr_max", derivatives, 12, 0, 0},
+    {"output_derivatives_order_2", derivatives, 13, 0, 0},
+    {"output_derivatives_of_input", derivatives, 14, 0, 3},
     {"get_status_null", status_null, 0, 0, 0}, {"get_real_status_null", status_null, 1, 0, 0},
     {"get_integer_status_null", status_null, 2, 0, 0},
     {"get_boolean_status_null", status_null, 3, 0, 0},
@@ -684,6 +734,8 @@ static const Case cases[] = {
     {"state_checksum", field, 28, 0, 0}, {"state_not_sealed", field, 29, 0, 0},
     {"state_truncated", field, 30, 0, 0}, {"state_extended", field, 31, 0, 0},
     {"state_foreign_bytes", field, 32, 0, 0},
+    {"state_input_derivative_nan", field, 33, 0, 0}, {"state_seen_time_inf", field, 34, 0, 0},
+    {"state_wants_terminate_3", field, 35, 0, 0}, {"state_solver_index_9", field, 36, 0, 0},
     {"state_mode_99", field, 40, 0, 1},
     {"state_history_count_over", field, 50, 0, 2}, {"state_history_count_negative", field, 51, 0, 2},
     {"state_delay_negative", field, 52, 0, 2}, {"state_delay_1e9", field, 53, 0, 2},
