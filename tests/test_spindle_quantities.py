@@ -373,3 +373,24 @@ def test_every_quantity_is_documented_in_derivation_order(name, full, modal):
     text = " ".join(q.description for q in m.quantities)
     for key, (printed, corrected, _) in DEFECTS.items():
         assert f"print defect {key}: printed {printed}; corrected {corrected}" in text
+
+
+def test_timoshenko_element_is_przemieniecki_and_tends_to_euler():
+    m = load_model("spindle_modal", beam="timoshenko", n_modes=1)
+    v = _point(m, np.random.default_rng(SEED_RNG + 7))
+    l, A, I = (scalar(m, n, v) for n in ("l_e", "A_e", "I_e"))
+    EI = v["E"] * I
+    ph = 12 * EI / (v["kappa"] * v["G_shear"] * A * l**2)
+    assert 1e-4 < ph < 1  # a short element: shear matters
+    Ke = EI / ((1 + ph) * l**3) * np.array(
+        [[12, 6 * l, -12, 6 * l], [6 * l, (4 + ph) * l**2, -6 * l, (2 - ph) * l**2],
+         [-12, -6 * l, 12, -6 * l], [6 * l, (2 - ph) * l**2, -6 * l, (4 + ph) * l**2]])
+    _close(quantity(m, "K_e", v), Ke)
+    assert "Timoshenko" in next(q.description for q in m.quantities if q.name == "K_e")
+    # with a very stiff shear modulus the element is the Euler-Bernoulli one
+    v["G_shear"] = 2e11
+    v["kappa"] = 1.0
+    ph = 12 * EI / (v["G_shear"] * A * l**2)
+    euler = EI / l**3 * np.array([[12, 6 * l, -12, 6 * l], [6 * l, 4 * l**2, -6 * l, 2 * l**2],
+                                  [-12, -6 * l, 12, -6 * l], [6 * l, 2 * l**2, -6 * l, 4 * l**2]])
+    _close(quantity(m, "K_e", v), euler, rtol=2 * ph)
