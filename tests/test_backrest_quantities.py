@@ -238,3 +238,19 @@ def test_the_corrections_matter_B2_cosine_is_the_equilibrium():
         p["r2"] * math.sin(p["theta"]))
     # with the printed preload the lever would carry an unbalanced moment
     assert abs((printed - F0) * p["r2"] * math.sin(p["theta"])) > 10.0
+
+
+def test_regularized_friction_law_is_the_model_equation():
+    model = load_model("backrest_regularized")
+    names = [q.name for q in model.quantities]
+    assert "O1_mode_priority" not in names and "O1_event_indicator" not in names
+    for joint in ("O1", "O2"):
+        torque = _sym(model, f"M{joint[1]}f")
+        ev = _evaluator(model, _q(model, f"{joint}_law") - torque,
+                        ca.vertcat(*model.equations), _q(model, f"{joint}_kinetic_limit"))
+        for point in _points(model, n=4):
+            law, eqs, kin = ev(point)
+            # the model's equation torque = law, written as torque - law = 0
+            assert np.min(np.abs(eqs + law[0])) < 1e-12 * (1 + abs(law[0]))
+            assert abs(law[0] + point[1 + [v.name for v in model.variables].index(
+                f"M{joint[1]}f")]) <= kin[0] * (1 + 1e-12)
