@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import casadi as ca
 
+from loomfmu.rotor import film_integral_C, film_integral_K
+
 SEED = "seed 003"
 ELEMENT = "beam element (element 1, symbolic in the parameters)"
 DISKS = "rigid disks"
@@ -156,6 +158,18 @@ def _support_quantities(m, sup) -> None:
     Q("eps_i0", ca.vertcat(*sup["eps"]), description="relative eccentricity of each film "
       "layer, eps_i0 = 1 - ((n-1) c - delta0)/c r_i / sum_{j<n} r_j",
       symbol=r"\varepsilon_{i0}", source=SEED + " after (5)", group=SUPPORTS)
+    Q("J_K", ca.vertcat(*[film_integral_K(e) for e in sup["eps"]]), description="the "
+      "integral of (4) for each layer, int_0^{pi/2} cos^2 t sin t (1 - eps_i0 cos t)^-2.28 dt, "
+      "by 16-point Gauss-Legendre", symbol=r"J_K^{(i)}", source=SEED + " (4)",
+      group=SUPPORTS)
+    Q("J_C", ca.vertcat(*[film_integral_C(e) for e in sup["eps"]]), description="the "
+      "integral of (5) for each layer, int_0^{pi/2} sin t cos t (1 - eps_i0 cos t)^-1.28 dt, "
+      "by 16-point Gauss-Legendre", symbol=r"J_C^{(i)}", source=SEED + " (5)",
+      group=SUPPORTS)
+    Q("k_i1", ca.vertcat(*sup["K_i1"]), description="film stiffness of each layer per unit "
+      "spin speed, K^(i)/Omega, in N/m per rad/s (the layers in series give K_XX = Omega / "
+      "sum 1/k_i1, which stays 0 at rest)", symbol=r"k_{\Omega}^{(i)}",
+      source=SEED + " (4), divided by the speed", group=SUPPORTS)
     Q("K_i", sup["Omega"] * ca.vertcat(*sup["K_i1"]), unit="N/m", description="film stiffness of "
       "each layer K^(i) = 11.9808 eta x0 Omega r_i^5 l / (c^4 (sum r)^2) int_0^{pi/2} cos^2 t "
       "sin t (1 - eps_i0 cos t)^-2.28 dt (16-point Gauss-Legendre)",

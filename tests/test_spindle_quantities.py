@@ -334,6 +334,9 @@ def test_film_layers_are_formulas_1_to_5(full):
     Ci = 9.36 * eta * r**4 * l / (c**3 * s) * np.array(IC)
     _close(quantity(full, "r_i", v).ravel(), r, rtol=1e-14)
     _close(quantity(full, "eps_i0", v).ravel(), eps, rtol=1e-12)
+    _close(quantity(full, "J_K", v).ravel(), IK, rtol=1e-9)
+    _close(quantity(full, "J_C", v).ravel(), IC, rtol=1e-9)
+    _close(quantity(full, "k_i1", v).ravel() * W, Ki, rtol=1e-9)
     _close(quantity(full, "K_i", v).ravel(), Ki, rtol=1e-9)
     _close(quantity(full, "C_i", v).ravel(), Ci, rtol=1e-9)
     _close(quantity(full, "C_i_printed", v).ravel(), Ci / r, rtol=1e-9)  # r^3: defect S3
