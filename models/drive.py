@@ -14,6 +14,11 @@ U_z = n_min / K is the set point (r = r_min gives n_min statically, defect
 D10 of the spec).  The cam turns with the spindles, so its angle depends on
 the realised speed: the delayed signal depends on the state phi and the
 FMU keeps its history (cubic Hermite between accepted steps by default).
+
+The derivation (speed law, cam design, cam series, delay equation, history)
+is kept as named quantities by models/drive_derivation.py, with the print
+defects D6, D8-D13 (printed form, corrected form, reason; DEFECTS there)
+next to the quantities they affect (``loomfmu inspect drive``).
 """
 from __future__ import annotations
 

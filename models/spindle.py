@@ -17,7 +17,9 @@ and bobbin values are calibrated (``python -m loomfmu.rotor calibrate``).
 Print defects (docs/spindle.md, S1-S5): the rotary-inertia matrix's
 (4,2) entry is -l^2 (printed l^2); (2), (3) read K_xy = K_yx = 0; (5) has
 r_i^4 (printed r_i^3, unit Pa s; ``damper="printed"`` keeps it); (20) gives
-q, not q'.
+q, not q'.  Printed form, corrected form and reason of each are written
+once, in models/spindle_derivation.py (DEFECTS), and shown next to the
+derivation's quantities they affect (``loomfmu inspect spindle``).
 
 The equations are written in first-order form, der(q) = v and der(v) = a,
 where a solves M a = F - (C + Omega G) v - K q by a banded symbolic LDL^T
