@@ -37,10 +37,12 @@ _SCALAR = "a scalar (1x1) CasADi SX expression or a finite number"
 
 def reserved_names() -> tuple[str, ...]:
     """Variable names every FMU already uses: the solver settings (codegen's
-    SETTINGS), the ``solver`` and ``delay_interpolation`` enumerations, and
-    ``time`` (the first column of FMPy's result)."""
-    from .codegen import SETTINGS  # codegen imports this module: import at call time
-    return ("solver", *(s.name for s in SETTINGS), "delay_interpolation", "time")
+    SETTINGS), the ``solver`` and ``delay_interpolation`` enumerations, the
+    ``solver_index`` Integer, and ``time`` (the first column of FMPy's result)."""
+    from .codegen import SETTINGS  # both import this module: import at call time
+    from .fmi2_xml import SOLVER_INDEX
+    return ("solver", SOLVER_INDEX, *(s.name for s in SETTINGS), "delay_interpolation",
+            "time")
 
 
 def as_sx(what: str, expr, *, column: bool = False) -> ca.SX:
