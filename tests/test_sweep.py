@@ -104,6 +104,10 @@ def test_resume_skips_finished_cases(swept, blob, tmp_path):
     assert sum(kept[k] == first[k] for k in list(first)[:4]) == 4
     done = run_study(_study(), out=part, workers=1, blob=blob, progress=False, batch=4)
     assert (done.executed, done.skipped) == (0, 9)
+    # a rebuild of the same model resumes (the FMU's members are hashed, not the zip)
+    rebuilt = build_fmu(load_model("heald_frame_rigid"), out_dir=tmp_path / "re",
+                        validate=False).path
+    assert fmu_blob(_study(), rebuilt).sha256 == blob.sha256
     # another setting is another study: its keys differ, nothing is resumed
     fp1, fp2 = _study().fingerprint(blob.sha256), _study(rtol=1e-7).fingerprint(blob.sha256)
     assert fp1 != fp2

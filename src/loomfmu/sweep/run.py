@@ -63,7 +63,24 @@ def fmu_blob(study: Study, fmu: Path | str | None = None) -> FmuBlob:
             raise ValueError(f"fmu = {fmu!r:.80}; allowed: None or the path of an "
                              "existing .fmu file")
         data, name = Path(fmu).read_bytes(), Path(fmu).name
-    return FmuBlob(data, hashlib.sha256(data).hexdigest(), name)
+    return FmuBlob(data, content_sha256(data), name)
+
+
+def content_sha256(data: bytes) -> str:
+    """SHA-256 over an FMU's members (names and contents, not the zip's
+    timestamps): a rebuild of the same model and runtime gives the same
+    value, so a study resumes across builds; any changed byte inside (the
+    equations, the runtime, the binary) gives another."""
+    import io
+    import zipfile
+    h = hashlib.sha256()
+    try:
+        with zipfile.ZipFile(io.BytesIO(data)) as z:
+            for name in sorted(z.namelist()):
+                h.update(name.encode() + b"\0" + hashlib.sha256(z.read(name)).digest())
+    except zipfile.BadZipFile:
+        raise ValueError("fmu: not a zip file; allowed: an .fmu file") from None
+    return h.hexdigest()
 
 
 def _check_fmu(study: Study, blob: FmuBlob) -> None:
