@@ -221,8 +221,12 @@ def _compare_quantities(model, written) -> tuple[int, int, list[str]]:
                     entries = m.T if isinstance(m, sympy.MatrixBase) else [m]  # column-major
                     got += [np.broadcast_to(np.asarray(_numeric(x, env, memo), dtype=float),
                                             env["shape"]) for x in entries]
-                if q.expr.numel() == 1:
-                    env[sym] = got_p[-1]
+                n = q.expr.numel()
+                if n == 1 or max(q.expr.shape) <= readable.ENTRY_VOCABULARY:
+                    shape = q.expr.shape
+                    for k, x in enumerate(got_p[-n:]):  # column-major entries
+                        env[readable.entry_symbol(sym, k % shape[0], k // shape[0], shape)
+                            if n > 1 else sym] = x
         finite = np.isfinite(want)
         tol = RTOL * np.maximum(np.abs(want), 1e-300) + 1e-15
         for label, got in (("printed", np.array(got_p)), ("sympy", np.array(got_d))):

@@ -23,8 +23,11 @@ from .inspection import evaluate
 
 #: a matrix quantity with both dimensions up to this prints entry by entry
 SMALL = 8
-#: a small matrix whose plain print is longer than this prints one entry per line
-LONG_MATRIX = 400
+#: a small matrix prints as a matrix when its rows are at most this wide (characters
+#: of SymPy's plain print of the widest entry of each column, added up)
+MATRIX_WIDTH = 150
+#: a small matrix whose plain print is longer than this shows as a picture too
+HUGE_MATRIX = 12_000
 #: the picture's width and height in pixels, at most
 PICTURE_PX = 480
 #: colour stops from the smallest to the largest magnitude (viridis-like)
@@ -62,8 +65,8 @@ def _quantity_blocks(model, q, sym, shown) -> list:
     n1, n2 = q.expr.shape
     if (n1, n2) == (1, 1):
         return blocks + [Equations([(sympy.Eq(sym, shown, evaluate=False), "")])]
-    if max(n1, n2) <= SMALL:
-        if len(str(shown)) <= LONG_MATRIX:
+    if max(n1, n2) <= SMALL and len(str(shown)) <= HUGE_MATRIX:
+        if _fits(shown):
             return blocks + [Equations([(Def(sym, shown), "")])]
         lines = [(sympy.Eq(readable.entry_symbol(sym, i, j, (n1, n2)), shown[i, j],
                            evaluate=False), "")
@@ -71,6 +74,12 @@ def _quantity_blocks(model, q, sym, shown) -> list:
         return blocks + [f"{n1} \u00d7 {n2}, the non-zero entries one per line:",
                          Equations(lines)]
     return blocks + [_picture(model, q)]
+
+
+def _fits(m: sympy.MatrixBase) -> bool:
+    """Whether matrix ``m`` reads well as a matrix (else one entry per line)."""
+    widths = [max(len(str(m[i, j])) for i in range(m.rows)) for j in range(m.cols)]
+    return sum(widths) + 3 * m.cols <= MATRIX_WIDTH
 
 
 def _values(model, q) -> np.ndarray | None:

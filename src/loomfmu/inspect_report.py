@@ -233,23 +233,62 @@ def report(model, fmt: str = "html") -> str:
     return RENDERERS[fmt](*document(model))
 
 
+#: where ``loomfmu inspect --all`` writes (the reports kept in the repository)
+ALL_OUT = Path("docs/inspect")
+#: the formats ``--all`` writes unless --format says otherwise
+ALL_FORMATS = ("html", "md")
+
+
+def write_reports(names, formats, out_dir: Path) -> list[Path]:
+    """Write ``out_dir/<model>.<format>`` for every model name and format
+    (each model declared and its document built once); returns the paths."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name in names:
+        doc = document(load_model(name))
+        for fmt in formats:
+            path = out_dir / f"{name}.{fmt}"
+            path.write_text(RENDERERS[fmt](*doc), encoding="utf-8")
+            paths.append(path)
+    return paths
+
+
 def main(argv=None, prog: str = "loomfmu inspect") -> int:
-    ap = argparse.ArgumentParser(prog=prog, description="A model's equations as a machine "
-                                 "designer reads them: HTML with MathML, Markdown with "
-                                 "LaTeX, or LaTeX.")
-    ap.add_argument("model", metavar="MODEL", choices=sorted(MODELS),
-                    help=f"one of {', '.join(sorted(MODELS))}")
-    ap.add_argument("--format", choices=FORMATS, default="html",
-                    help="html (MathML), md (Markdown with LaTeX) or tex (default: html)")
+    ap = argparse.ArgumentParser(prog=prog, description="A model's derivation and equations "
+                                 "as a machine designer reads them: HTML with MathML, "
+                                 "Markdown with LaTeX, or LaTeX.")
+    ap.add_argument("model", metavar="MODEL", nargs="?", choices=sorted(MODELS),
+                    help=f"one of {', '.join(sorted(MODELS))} (or --all)")
+    ap.add_argument("--all", action="store_true",
+                    help=f"every model: OUT/<model>.<format> (default OUT: {ALL_OUT}, "
+                         f"formats: {' and '.join(ALL_FORMATS)})")
+    ap.add_argument("--format", choices=FORMATS, action="append", default=None,
+                    help="html (MathML), md (Markdown with LaTeX) or tex; repeatable "
+                         "(default: html; with --all: html and md)")
     ap.add_argument("--out", type=Path, default=None,
                     help="file to write (default: MODEL.FORMAT in the working directory; "
-                         "'-' prints to standard output)")
+                         "'-' prints to standard output); a directory with --all or "
+                         "several formats")
     args = ap.parse_args(argv)
-    text = report(load_model(args.model), args.format)
+    if args.all == (args.model is not None):
+        ap.error("give either MODEL or --all")
+    formats = list(dict.fromkeys(args.format or (ALL_FORMATS if args.all else ["html"])))
+    if args.all or len(formats) > 1:
+        if str(args.out) == "-":
+            ap.error("--out - prints one report: give one MODEL and one --format")
+        out_dir = args.out or (ALL_OUT if args.all else Path("."))
+        if out_dir.exists() and not out_dir.is_dir():
+            ap.error(f"--out {out_dir}: a file; with --all or several formats it is a "
+                     "directory")
+        names = sorted(MODELS) if args.all else [args.model]
+        for path in write_reports(names, formats, out_dir):
+            print(f"written: {path}")
+        return 0
+    text = report(load_model(args.model), formats[0])
     if str(args.out) == "-":
         sys.stdout.write(text)
         return 0
-    path = args.out or Path(f"{args.model}.{args.format}")
+    path = args.out or Path(f"{args.model}.{formats[0]}")
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text, encoding="utf-8")
     print(f"written: {path}")

@@ -7,7 +7,7 @@ rebuilds it in SymPy, one instruction at a time (:mod:`.convert`, the op
 table :data:`OPS`), names shared subexpressions once (:mod:`.listing`), prints
 the model's variable names as a machine designer writes them (:mod:`.names`)
 and prints LaTeX and MathML (:mod:`.printing`); the derivation's named
-quantities, matrices included, go through :mod:`.quantities`.
+quantities, matrices included, go through :mod:`.quantity_forms`.
 
 Symbols keep the model's own names (``sympy.Symbol.name`` is the variable's
 name, e.g. ``"der(phi)"`` or ``"n3.vax"``) and print the way a machine
@@ -34,11 +34,11 @@ from .listing import (Listing, _lift, delays, equations, events, listing, mode_r
                       outputs)
 from .names import Shared, Var, latex_name
 from .printing import latex, mathml, mathml_body, mathml_line, to_latex
-from .quantities import (QuantitySymbol, entry_symbol, quantities, quantities_written,
-                         quantity, symbol_mathml)
+from .quantity_forms import (ENTRY_VOCABULARY, QuantitySymbol, entry_symbol, entry_symbols,
+                             quantities, quantities_written, quantity, symbol_mathml)
 
 __all__ = ["OPS", "Var", "Shared", "Listing", "QuantitySymbol", "latex_name", "to_sympy",
            "to_sympy_matrix", "symbols", "equations", "outputs", "events", "mode_rules",
            "delays", "listing", "quantities", "quantity", "quantities_written",
-           "entry_symbol", "symbol_mathml", "latex", "mathml", "mathml_line",
+           "entry_symbol", "entry_symbols", "symbol_mathml", "latex", "mathml", "mathml_line",
            "mathml_body", "to_latex"]

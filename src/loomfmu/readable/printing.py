@@ -54,6 +54,14 @@ class _MathML(MathMLPresentationPrinter):
             el.appendChild(c)
         return el
 
+    def _print_MatrixBase(self, m):
+        """Entries in display style (SymPy's mtable inherits the script style:
+        fractions came out at two thirds of the text's size)."""
+        el = super()._print_MatrixBase(m)
+        for table in el.getElementsByTagName("mtable"):
+            table.setAttribute("displaystyle", "true")
+        return el
+
     def _print_Piecewise(self, expr):
         cond = _indicator_cond(expr)
         if cond is not None:

@@ -14,11 +14,19 @@ import re
 from xml.dom import minidom
 from xml.sax.saxutils import escape
 
+import numpy as np
 import sympy
 from sympy.printing.pretty.pretty_symbology import greek_unicode
 
 from .convert import symbols, to_sympy_matrix
 from .names import _mathml_name, latex_name
+
+#: a matrix quantity up to this size lends its entries' symbols to later quantities
+ENTRY_VOCABULARY = 8
+#: ... those entries with at least this many operations
+ENTRY_MIN_OPS = 3
+#: ... and fewer nodes than this (an entry thousands of nodes long is no word to read by)
+ENTRY_MAX_NODES = 400
 
 _GREEK_CMDS = {n: greek_unicode[n] for n in greek_unicode
                if n.isalpha() and n.lower() != "lamda"}
@@ -279,10 +287,15 @@ class _Vocabulary:
         return e
 
     def _sum(self, e):
-        terms = set(e.args)
-        for want, value in self.sums:
+        for want, value in self.sums:  # some terms of e make an earlier quantity, or minus it
+            if not isinstance(e, sympy.Add):
+                break
+            terms = set(e.args)
+            negated = {-t for t in want}
             if want < terms:
-                return sympy.Add(value, *(terms - want))
+                e = sympy.Add(value, *(terms - want))
+            elif negated < terms:
+                e = sympy.Add(-value, *(terms - negated))
         return e
 
 
@@ -315,5 +328,35 @@ def quantities_written(model, *, min_ops: int = 1) -> list[tuple[object, Quantit
         sym = QuantitySymbol(q.name, q.symbol)
         shown = vocab.write(form, {}) if vocab.exact else form
         out.append((q, sym, shown))
-        vocab.learn(shown, sym)
+        if not isinstance(shown, sympy.MatrixBase):
+            vocab.learn(shown, sym)
+        elif max(shown.shape) <= ENTRY_VOCABULARY:  # R_1 = (R_11, R_12): |R_1| from them
+            for (i, j), entry in np.ndenumerate(np.array(shown, dtype=object)):
+                if _nodes(entry, ENTRY_MAX_NODES) < ENTRY_MAX_NODES and \
+                        sympy.count_ops(entry) >= ENTRY_MIN_OPS:
+                    vocab.learn(entry, entry_symbol(sym, i, j, shown.shape))
+    return out
+
+
+def _nodes(e, limit: int) -> int:
+    """The number of nodes of ``e`` (as a tree), counted up to ``limit``."""
+    n = 0
+    for _ in sympy.preorder_traversal(e):
+        n += 1
+        if n >= limit:
+            break
+    return n
+
+
+def entry_symbols(written) -> list[tuple[QuantitySymbol, object]]:
+    """Every symbol the written forms of :func:`quantities_written` may use,
+    in order, with the (written) expression it stands for: the scalar
+    quantities and the entries of the small matrices."""
+    out = []
+    for q, sym, shown in written:
+        if not isinstance(shown, sympy.MatrixBase):
+            out.append((sym, shown))
+        elif max(shown.shape) <= ENTRY_VOCABULARY:
+            out += [(entry_symbol(sym, i, j, shown.shape), e)
+                    for (i, j), e in np.ndenumerate(np.array(shown, dtype=object))]
     return out
