@@ -412,3 +412,30 @@ def test_scene_command_takes_the_extrapolation_and_the_order(bench, capsys):
     assert main(["run", "two_mass", "--order", "disp,force", "--stop", "0.01"]) == 2
     assert "--order disp,force: applies to --master gauss-seidel only" in \
         capsys.readouterr().err
+
+
+def test_output_derivatives_that_fail_fall_back_to_the_samples(bench, tmp_path):
+    """FMUs that declare more output derivatives than they give (ours saying 2
+    where the runtime gives order 1): the master notes it and extrapolates
+    those connections from their samples, which is the exact map of the
+    samples' polynomial."""
+    scene, fmus, p = bench
+    liars = {}
+    for name in ("force", "disp"):
+        liars[name] = tmp_path / f"{name}_liar.fmu"
+        with zipfile.ZipFile(fmus[name]) as src, zipfile.ZipFile(liars[name], "w") as dst:
+            for item in src.infolist():
+                data = src.read(item.filename)
+                if item.filename == "modelDescription.xml":
+                    text = data.decode()
+                    assert 'maxOutputDerivativeOrder="1"' in text
+                    data = text.replace('maxOutputDerivativeOrder="1"',
+                                        'maxOutputDerivativeOrder="2"').encode()
+                dst.writestr(item, data)
+    res = run(scene, master="gauss-seidel", extrapolation=2, stop=0.1, step=1e-3,
+              fmus=liars, master_options={"output_derivatives": True})
+    assert len(res.notes) == 3 and all("output derivatives unavailable" in n
+                                       for n in res.notes), res.notes
+    assert "disp.x2_out -> force.x2_in" in " ".join(res.notes)
+    ref = tm.extrapolated_trajectory(p, 1e-3, 100, Z0, "gauss-seidel:force-first", 2)
+    assert np.abs(states(res) - ref).max() < 1e-9 * np.abs(ref).max()

@@ -96,6 +96,8 @@ def _run(args, prog: str) -> int:
         comp, var = name.split(".", 1)
         unit = s.components[comp].interface.variables[var].unit
         print(f"  {name} = {last[name]:.9g}" + (f" {unit}" if unit else ""))
+    for note in res.notes:
+        print(f"  note: {note}")
     for comp, lines in res.log.items():
         if lines:
             print(f"  {comp} logged {len(lines)} line(s), the last: {lines[-1]}")

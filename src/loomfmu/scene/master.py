@@ -79,6 +79,9 @@ class Master:
         self.history = History(n)
         self._coef = [[0.0] * (extrapolation + 1) for _ in range(n)]
         self._t0 = [0.0] * n         # where each input's polynomial is expanded
+        self._no_derivatives: set[int] = set()
+        #: what the master changed on its own while running (e.g. a fallback)
+        self.notes: list[str] = []
 
     def _check_interpolation(self) -> None:
         k = self.extrapolation
@@ -111,19 +114,35 @@ class Master:
             if not k:
                 self._coef[i], self._t0[i] = [y], t
                 continue
-            if self.output_derivatives:
-                self.history.pending[i] = (ts, y)
-                fmu, vr = system.instances[c.src].fmu, system.instances[c.src].vr[c.src_var]
-                d = [y] + [c.gain * system.call(c.src, "fmi2GetRealOutputDerivatives", ts,
-                                                lambda m=m: fmu.getRealOutputDerivatives(
-                                                    [vr], [m])[0]) for m in range(1, k + 1)]
-                coef = shift(d, t - ts)
-            else:
+            coef = self._from_derivatives(i, ts, y, t) if self.output_derivatives else None
+            if coef is None:
                 coef = self.history.coefficients(i, ts, y, t, k)
             if coef[0] != y:
                 system.set_inputs([i], [float(coef[0])], t)
             system.set_input_derivatives(i, [float(x) for x in coef[1:]], t)
             self._coef[i], self._t0[i] = list(coef), t
+
+    def _from_derivatives(self, i: int, ts: float, y: float, t: float):
+        """Taylor coefficients at t from the source's output derivatives at ts,
+        or None where fmi2GetRealOutputDerivatives fails (that connection then
+        uses its samples from here on; the reason is kept in ``notes``)."""
+        system, c = self.system, self.system.connections[i]
+        if i in self._no_derivatives:
+            return None
+        inst = system.instances[c.src]
+        fmu, vr = inst.fmu, inst.vr[c.src_var]
+        try:
+            d = [y] + [c.gain * system.call(c.src, "fmi2GetRealOutputDerivatives", ts,
+                                            lambda m=m: fmu.getRealOutputDerivatives(
+                                                [vr], [m])[0])
+                       for m in range(1, self.extrapolation + 1)]
+        except FMUError as exc:
+            self._no_derivatives.add(i)
+            self.notes.append(f"{c}: output derivatives unavailable ({exc}); its "
+                              f"extrapolation uses the last values from t = {ts:.9g} s on")
+            return None
+        self.history.pending[i] = (ts, y)
+        return shift(d, t - ts)
 
     def _end_value(self, i: int, t_end: float) -> float:
         """Connection ``i``'s input at ``t_end`` (its polynomial)."""

@@ -37,6 +37,7 @@ class Result:
     h: np.ndarray = field(default_factory=lambda: np.zeros(0))
     log: dict[str, list[str]] = field(default_factory=dict)   # each FMU's log lines
     loop_iterations: int = 0     # output reads spent iterating algebraic loops
+    notes: list[str] = field(default_factory=list)   # the master's fallbacks, if any
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.data[name]
@@ -139,4 +140,4 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
     for j, n in enumerate(names[1:]):
         data[n] = values[:, j]
     return Result(data, m.name, m.n_accepted, m.n_rejected, np.array(hs), logs,
-                  loop_iterations)
+                  loop_iterations, list(m.notes))
