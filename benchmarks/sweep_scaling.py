@@ -37,9 +37,10 @@ def measure(name: str) -> dict:
     n = len(study.cases)
     out = {"study": name, "model": study.model, "cases": n, "build_s": build_s,
            "load_before": os.getloadavg()[0]}
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     plain = run_serial(study, blob=blob, reuse=False)
     out["plain_loop_s"] = time.perf_counter() - t
+    out["plain_loop_cpu_s"] = time.process_time() - c
     t = time.perf_counter()
     reused = run_serial(study, blob=blob, reuse=True)
     out["reuse_loop_s"] = time.perf_counter() - t
@@ -51,6 +52,8 @@ def measure(name: str) -> dict:
                             progress=False)
         out[f"dask{workers}_s"] = res.wall_s
         out[f"dask{workers}_startup_s"] = res.startup_s
+        out[f"dask{workers}_cpu_s"] = res.worker_cpu_s + res.client_cpu_s
+        out[f"dask{workers}_worker_cpu_s"] = res.worker_cpu_s
         out[f"dask{workers}_identical"] = _figures(study, res.rows) == ref
     batch = max(1, n // 32)  # about 16 tasks per worker of 2
     with tempfile.TemporaryDirectory() as tmp:
@@ -61,6 +64,7 @@ def measure(name: str) -> dict:
     out["load_after"] = os.getloadavg()[0]
     out["overhead_per_case_ms"] = 1e3 * (out["dask1_s"] - out["dask1_startup_s"]
                                          - out["plain_loop_s"]) / n
+    out["cpu_overhead_per_case_ms"] = 1e3 * (out["dask1_cpu_s"] - out["plain_loop_cpu_s"]) / n
     out["speedup_2_vs_1"] = ((out["dask1_s"] - out["dask1_startup_s"])
                              / (out["dask2_s"] - out["dask2_startup_s"]))
     out["ok_cases"] = sum(r["status"] == "ok" for r in plain)
@@ -69,9 +73,10 @@ def measure(name: str) -> dict:
 
 def markdown(results: list[dict]) -> str:
     lines = ["| study | cases | plain loop | reuse loop | dask 1 worker (startup) | "
-             "dask 2 workers (startup) | 2 vs 1 (no startup) | overhead / case | "
-             "2 workers, batches (startup) | identical | load avg |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "dask 2 workers (startup) | 2 vs 1 (no startup) | overhead / case: wall, CPU | "
+             "2 workers, batches (startup) | CPU: plain loop, dask 1 worker | identical | "
+             "load avg |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in results:
         same = all(r[k] for k in ("reuse_identical", "dask1_identical", "dask2_identical",
                                   "dask2_batch_identical"))
@@ -79,8 +84,10 @@ def markdown(results: list[dict]) -> str:
             f"| {r['study']} | {r['cases']} | {r['plain_loop_s']:.1f} s | "
             f"{r['reuse_loop_s']:.1f} s | {r['dask1_s']:.1f} s ({r['dask1_startup_s']:.1f}) | "
             f"{r['dask2_s']:.1f} s ({r['dask2_startup_s']:.1f}) | {r['speedup_2_vs_1']:.2f}x | "
-            f"{r['overhead_per_case_ms']:.1f} ms | {r['dask2_batch_s']:.1f} s "
+            f"{r['overhead_per_case_ms']:.1f} ms, {r['cpu_overhead_per_case_ms']:.1f} ms | "
+            f"{r['dask2_batch_s']:.1f} s "
             f"({r['dask2_batch_startup_s']:.1f}), {r['batch']} cases a task | "
+            f"{r['plain_loop_cpu_s']:.1f} s, {r['dask1_cpu_s']:.1f} s | "
             f"{'bit for bit' if same else 'NO'} | "
             f"{r['load_before']:.1f} -> {r['load_after']:.1f} |")
     return "\n".join(lines) + "\n"

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import os
 import logging
 import tempfile
 import time
@@ -33,7 +34,9 @@ class StudyResult:
     """rows: every case's row, by index; executed: cases run by this call;
     skipped: cases found finished in ``out``; wall_s: this call's wall time;
     workers: local worker processes (-1: a given scheduler's); startup_s:
-    of wall_s, starting the cluster and shipping the FMU."""
+    of wall_s, starting the cluster and shipping the FMU; worker_cpu_s,
+    client_cpu_s: CPU seconds the workers and this process (client and, for
+    a LocalCluster, the scheduler) spent from the first task to the last."""
     rows: list
     executed: int
     skipped: int
@@ -41,6 +44,8 @@ class StudyResult:
     workers: int
     out: Path | None
     startup_s: float = 0.0
+    worker_cpu_s: float = 0.0
+    client_cpu_s: float = 0.0
 
     @property
     def failed(self) -> list[dict]:
@@ -150,11 +155,11 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
     t0 = time.perf_counter()
     rows = dict(done)
     appender = store.Appender(Path(out), cols) if out is not None else None
-    startup = [0.0]
+    stats = {"startup_s": 0.0, "worker_cpu_s": 0.0, "client_cpu_s": 0.0}
     try:
         if pending:
             rows.update(_dask_run(study, blob, pending, workers, scheduler, progress,
-                                  appender, startup, batch))
+                                  appender, stats, batch))
     finally:
         if appender is not None:
             appender.close()
@@ -163,7 +168,7 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
         store.write_rows(Path(out), cols, ordered)
     return StudyResult(ordered, len(pending), len(done), time.perf_counter() - t0,
                        workers if scheduler is None else -1, None if out is None else Path(out),
-                       startup[0])
+                       **stats)
 
 
 def _finished(out, keys: list[str], cols: list[str], resume: bool) -> dict[str, dict]:
@@ -187,7 +192,7 @@ def _finished(out, keys: list[str], cols: list[str], resume: bool) -> dict[str, 
 
 
 def _dask_run(study, blob, pending, workers, scheduler, progress, appender,
-              startup: list, batch: int) -> dict:
+              stats: dict, batch: int) -> dict:
     from dask.distributed import Client, LocalCluster, as_completed
 
     from ..progress import Progress
@@ -204,7 +209,8 @@ def _dask_run(study, blob, pending, workers, scheduler, progress, appender,
         setup = study.setup()
         remote_blob = client.scatter(blob, broadcast=True)
         client.run(_warm_up, sorted(_modules(study)))  # imports counted as startup
-        startup[0] = time.perf_counter() - t0
+        stats["startup_s"] = time.perf_counter() - t0
+        cpu0, own0 = client.run(_cpu_seconds), time.process_time()
         chunks = [pending[j:j + batch] for j in range(0, len(pending), batch)]
         futures = [client.submit(run_batch, remote_blob, setup, chunk,
                                  key=f"{study.name}-{chunk[0][0]}-{chunk[0][1]}", pure=False)
@@ -221,6 +227,9 @@ def _dask_run(study, blob, pending, workers, scheduler, progress, appender,
         finally:
             if bar is not None:
                 bar.close()
+        cpu1 = client.run(_cpu_seconds)
+        stats["client_cpu_s"] = time.process_time() - own0
+        stats["worker_cpu_s"] = sum(cpu1[w] - cpu0.get(w, 0.0) for w in cpu1)
     finally:
         client.close()
         if cluster is not None:
@@ -241,3 +250,9 @@ def _warm_up(modules: list[str]) -> None:
     import importlib
     for m in modules:
         importlib.import_module(m)
+
+
+def _cpu_seconds() -> float:
+    """CPU seconds (user + system) of this worker process so far."""
+    t = os.times()
+    return t.user + t.system
