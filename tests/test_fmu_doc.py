@@ -175,3 +175,21 @@ def test_same_declaration_same_description_and_page(heald_frame_rigid_fmu, tmp_p
     assert again.guid == heald_frame_rigid_fmu.guid
     for member in ("modelDescription.xml", DOC_MEMBER):
         assert first[member] == second[member], member
+
+
+def test_readable_page_shows_the_derivation():
+    """With readable=True (what loomfmu build writes) the page carries the
+    Derivation of inspect's report: every named quantity under its group
+    heading, one level below the section (no link, no script)."""
+    model = load_model("heald_frame_planar")
+    assert model.quantities, "the planar heald frame keeps its derivation's quantities"
+    page = html_for(model, readable=True)
+    assert "<h2>Derivation and equations</h2>" in page and "<h3>Derivation</h3>" in page
+    groups = {q.group for q in model.quantities}
+    for g in groups:
+        assert f"<h4>{html.escape(g)}</h4>" in page, g
+    for q in model.quantities:
+        assert f"<code>{html.escape(q.name)}</code>" in page, q.name
+    assert "<script" not in page.lower() and not re.search(r'\b(src|href)="(?!#)', page)
+    plain = html_for(model)
+    assert "<h2>Equations</h2>" in plain and "Derivation" not in plain

@@ -25,6 +25,7 @@ import sympy
 
 from loomfmu import MODELS, load_model
 from loomfmu import readable
+from loomfmu.readable.listing import _lift
 
 RTOL = 1e-9
 N_POINTS = 4
@@ -417,7 +418,7 @@ def test_long_lines_are_broken_into_named_parts():
     x = [readable.Var(f"x{k}") for k in range(40)]
     deep = sympy.sqrt(sum(xk * sympy.sin(xk) ** 2 for xk in x)) / (1 + sympy.Mul(*x))
     defs: list = []
-    short = readable._lift(deep, 120, defs, (sympy.Symbol(f"t{k}") for k in range(99)))
+    short = _lift(deep, 120, defs, (sympy.Symbol(f"t{k}") for k in range(99)))
     assert len(str(deep)) > 700 and defs and len(str(short)) <= 120
     back = short
     for _ in defs:  # undo the naming: each pass resolves one level
@@ -426,14 +427,14 @@ def test_long_lines_are_broken_into_named_parts():
     lst = _listing("spindle")
     for a, b in lst.shared + lst.equations + lst.outputs:
         e = sympy.Eq(a, b, evaluate=False)
-        assert len(str(e)) <= 240 or inspect_report._rows(e), str(e)[:200]
+        assert len(str(e)) <= 240 or inspect_doc._rows(e), str(e)[:200]
 
 
 # -- loomfmu inspect ------------------------------------------------------------
 
 from html.parser import HTMLParser  # noqa: E402
 
-from loomfmu import inspect_report  # noqa: E402
+from loomfmu import inspect_doc, inspect_report  # noqa: E402
 from loomfmu.ode import dae_form  # noqa: E402
 
 
@@ -519,12 +520,72 @@ def test_long_equations_break_without_changing_them():
     the broken MathML and LaTeX are well-formed."""
     lst = readable.listing(load_model("drive"))
     lines = [sympy.Eq(a, b, evaluate=False) for a, b in lst.shared + lst.outputs]
-    broken = [(e, inspect_report._rows(e)) for e in lines]
+    broken = [(e, inspect_doc._rows(e)) for e in lines]
     broken = [(e, rows) for e, rows in broken if rows]
     assert broken, "no line of the drive was long enough to break"
     for e, rows in broken:
         terms = [t for row in rows for t in row]
         assert len(terms) == len(e.rhs.args) and sympy.Add(*terms) == e.rhs
-        xml.dom.minidom.parseString(inspect_report._mathml_display(e))
-        tex = inspect_report._latex_display(e)
+        xml.dom.minidom.parseString(inspect_doc._mathml_display(e))
+        tex = inspect_doc._latex_display(e)
         assert tex.count(r"\\") == len(rows) - 1 and tex.startswith(r"\begin{aligned}")
+
+
+# -- the Derivation section -------------------------------------------------------
+
+import shutil  # noqa: E402
+import subprocess  # noqa: E402
+
+
+def test_derivation_section_in_every_format():
+    model = _springs()
+    title, sections = inspect_report.document(model)
+    titles = [s.title for s in sections]
+    assert titles.index("Derivation") == titles.index("Variables") + 1
+    der = sections[titles.index("Derivation")]
+    groups = [b.title for b in der.blocks if isinstance(b, inspect_report.Section)]
+    assert groups == ["1. springs", "2. energy", "3. big"]
+    page = inspect_report.render_html(title, sections)
+    body = page.split("<h2>Derivation</h2>", 1)[1].split("<h2>Equations</h2>", 1)[0]
+    for q in model.quantities:
+        assert f"<code>{q.name}</code>" in body, q.name
+    assert body.index("<code>c1</code>") < body.index("<code>k</code>") < body.index(
+        "<code>T</code>") < body.index("<code>Kbig</code>")
+    # the 2x2 K as a matrix (display style), V written with the series stiffness k
+    assert '<mtable displaystyle="true">' in body
+    v_line = body.split("<code>V</code>", 1)[1].split("</div>", 1)[0]
+    assert "<mi mathvariant=\"normal\">s</mi>" in v_line  # k_s, not 1/(1/k1 + 1/k2)
+    # the 12x12 numeric matrix as a picture: 23 coloured cells, facts in the caption
+    svg = body.split("<svg", 1)[1].split("</svg>", 1)[0]
+    assert svg.count("<rect") == 1 + 23 + 3  # frame, non-zeros, legend decades 1e-1..1e1
+    assert "Kbig: 12 \u00d7 12, 23 non-zeros; not symmetric (symmetric pattern)" not in body
+    assert "Kbig: 12 \u00d7 12, 23 non-zeros; not symmetric;" in body
+    assert "from 0.5 to 12 N/m" in body
+    md = inspect_report.render_md(title, sections)
+    assert r"k_{\mathrm{s}}" in md and "## Derivation" in md and "### 3. big" in md
+    pic = md.split("### 3. big", 1)[1].split("```", 2)[1].strip().splitlines()
+    assert len(pic) == 12 and all(len(line) == 12 for line in pic)
+    assert pic[0] == "10" + "\u00b7" * 10 and pic[11][-1] == "2"  # 1 -> 1e0, 0.5 -> 1e-1, 12 -> 1e1
+    tex = inspect_report.render_tex(title, sections)
+    assert r"\subsection*{3. big}" in tex
+
+
+def _pdflatex(tex: str, tmp_path) -> subprocess.CompletedProcess:
+    src = tmp_path / "r.tex"
+    src.write_text(tex)
+    return subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "r.tex"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
+
+
+@pytest.mark.skipif(shutil.which("pdflatex") is None,
+                    reason="pdflatex is not installed (apt-get install texlive-latex-extra)")
+@pytest.mark.parametrize("name", ["backrest"])
+def test_tex_report_compiles(name, tmp_path):
+    """The LaTeX report compiles (backrest: vectors, matrices, their entries'
+    symbols, cases); a broken one (a double subscript) is caught."""
+    tex = inspect_report.report(load_model(name), "tex")
+    run = _pdflatex(tex, tmp_path)
+    assert run.returncode == 0, run.stdout[-2000:]
+    assert (tmp_path / "r.pdf").stat().st_size > 10_000
+    broken = tex.replace(r"\end{document}", r"$x_1_2$ \end{document}")
+    assert _pdflatex(broken, tmp_path).returncode != 0

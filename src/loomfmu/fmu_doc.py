@@ -148,7 +148,8 @@ def html_for(model: Model, verification: dict | None = None, *,
         ("experiment", "Default experiment", _experiment(md)),
         ("ports", "Ports", _ports(model)),
         ("variables", "Variables", _variables(model, md)),
-        ("equations", "Equations", _readable_equations(model) if readable
+        ("equations", "Derivation and equations" if readable and model.quantities
+         else "Equations", _readable_equations(model) if readable
          else _equations(model, csrc)),
     ]
     nav = "".join(f'<a href="#{a}">{t}</a>' for a, t, _ in sections)
@@ -395,8 +396,9 @@ def _equations(model: Model, csrc: str) -> str:
 
 
 def _readable_equations(model: Model) -> str:
-    """The derivation part of ``loomfmu inspect``'s report: the equations in
-    MathML, how the runtime solves them, events, delays and constraints."""
+    """The derivation part of ``loomfmu inspect``'s report: the named
+    quantities of the derivation, the equations in MathML, how the runtime
+    solves them, events, delays and constraints."""
     from .inspect_report import html_fragment
     return ("<p>Printed from the declaration by <code>loomfmu.readable</code> "
             "(the printed form evaluates as the generated code, tested); the whole "

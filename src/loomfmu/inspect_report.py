@@ -25,11 +25,13 @@ import sympy
 from . import readable
 from .codegen import generate_sources
 from .inspect_derivation import derivation
-from .inspect_doc import (RENDERERS, Code, Equations, Math, Pre, Section, Table,  # noqa: F401
-                          _html_blocks, _latex_display, _mathml_display, _rows, _scoped_css,
-                          render_html, render_md, render_tex)
+from .inspect_doc import (RENDERERS, Code, Equations, Math, Pre, Section, Table,
+                          _html_blocks, _scoped_css, render_html, render_md, render_tex)
 from .ode import DaeForm, dae_form
 from .registry import MODELS, load_model
+
+__all__ = ["FORMATS", "document", "report", "write_reports", "html_fragment", "main",
+           "render_html", "render_md", "render_tex", "Section", "Equations"]
 
 FORMATS = tuple(RENDERERS)
 KIND_TITLES = {"parameter": "Parameters", "state": "States", "input": "Inputs",
@@ -215,15 +217,19 @@ DERIVATION_SECTIONS = ("Derivation", "Equations", "How the runtime solves the mo
 
 
 def html_fragment(model, *, level: int = 3) -> str:
-    """The equations, how the runtime solves them, events, delays and
-    constraints of ``model`` as an HTML fragment (MathML, its own scoped
-    style, no script) for embedding in another page, headings from <h{level}>."""
+    """The derivation (named quantities), equations, how the runtime solves
+    them, events, delays and constraints of ``model`` as an HTML fragment
+    (MathML, its own scoped style, no script) for embedding in another page,
+    headings from <h{level}> (a section's groups one level below)."""
     _, sections = document(model)
-    kept = [Section(s.title, s.blocks, level) for s in sections
-            if s.title in DERIVATION_SECTIONS]
+    kept = [_relevel(s, level) for s in sections if s.title in DERIVATION_SECTIONS]
     return (f'<div class="lf-derivation"><style>{_scoped_css(".lf-derivation")}</style>'
             + "\n".join(_html_blocks(kept)) + "</div>")
 
+
+def _relevel(s: Section, level: int) -> Section:
+    return Section(s.title, [_relevel(b, min(level + 1, 6)) if isinstance(b, Section) else b
+                             for b in s.blocks], level)
 
 
 def report(model, fmt: str = "html") -> str:

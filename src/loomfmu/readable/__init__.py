@@ -30,14 +30,13 @@ The front door::
 :func:`to_sympy` converts any SX expression (e.g. an event indicator).
 """
 from .convert import OPS, symbols, to_sympy, to_sympy_matrix
-from .listing import (Listing, _lift, delays, equations, events, listing, mode_rules,
-                      outputs)
+from .listing import Listing, delays, equations, events, listing, mode_rules, outputs
 from .names import Shared, Var, latex_name
 from .printing import latex, mathml, mathml_body, mathml_line, to_latex
 from .quantity_forms import (ENTRY_VOCABULARY, QuantitySymbol, entry_symbol, entry_symbols,
                              quantities, quantities_written, quantity, symbol_mathml)
 
-__all__ = ["OPS", "Var", "Shared", "Listing", "QuantitySymbol", "latex_name", "to_sympy",
+__all__ = ["OPS", "ENTRY_VOCABULARY", "Var", "Shared", "Listing", "QuantitySymbol", "latex_name", "to_sympy",
            "to_sympy_matrix", "symbols", "equations", "outputs", "events", "mode_rules",
            "delays", "listing", "quantities", "quantity", "quantities_written",
            "entry_symbol", "entry_symbols", "symbol_mathml", "latex", "mathml", "mathml_line",
