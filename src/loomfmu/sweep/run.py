@@ -27,6 +27,11 @@ from .worker import FmuBlob, run_batch, run_case
 
 #: most local worker processes
 MAX_WORKERS = 64
+#: dask settings of the embedded LocalCluster: the workers' statistical profiler
+#: (a sample every 10 ms) and GIL monitor (every 1 ms) cost CPU in proportion to
+#: the wall time and tell nothing about FMU cases
+QUIET_WORKERS = {"distributed.worker.profile.enabled": False,
+                 "distributed.admin.system-monitor.gil.enabled": False}
 
 
 @dataclasses.dataclass
@@ -193,14 +198,16 @@ def _finished(out, keys: list[str], cols: list[str], resume: bool) -> dict[str, 
 
 def _dask_run(study, blob, pending, workers, scheduler, progress, appender,
               stats: dict, batch: int) -> dict:
+    import dask
     from dask.distributed import Client, LocalCluster, as_completed
 
     from ..progress import Progress
     t0 = time.perf_counter()
     cluster = None
     if scheduler is None:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
+        with dask.config.set(QUIET_WORKERS):  # passed on to the workers by their nannies
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=logging.ERROR)
         client = Client(cluster)
     else:
         client = Client(scheduler)
