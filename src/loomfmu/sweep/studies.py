@@ -24,6 +24,16 @@ import math
 
 import numpy as np
 
+# imported here, not in the functions: a worker's warm-up imports this module
+# and with it everything its cases need (see loomfmu.sweep.run)
+from ..checks import check_array, check_choice
+from ..drive.cam import tracking_error
+from ..drive.law import law_constants
+from ..drive.params import DriveParams
+from ..drive.tracking import M_HARMONICS, cam_values
+from ..heald.hinge import KINETOSTATIC_PARAMETERS, hinge_load_kinetostatic
+from ..heald.presets import MAKERS, preset_names, preset_values
+from ..registry import load_model
 from .figures import Derived, Figure
 from .space import grid
 from .study import Study
@@ -42,7 +52,6 @@ MAP_CYCLES = 2
 
 @functools.lru_cache(maxsize=None)
 def _model(name: str):
-    from ..registry import load_model
     return load_model(name)
 
 
@@ -51,7 +60,6 @@ def prepare_design(case: dict, fixed: dict) -> tuple[dict, float]:
     k_z, section b1, d1; two frame cycles. ValueError (the case is invalid,
     not run) when the wall is not thinner than half the width or a
     constraint of the model fails."""
-    from ..heald.presets import preset_values
     values = preset_values(f"STB-{int(case['width_cm'])} {fixed['maker']}")
     values.update(k_z=case["k_z"], b1=case["b1"], d1=case["d1"])
     if not 2 * values["d1"] < values["b1"]:
@@ -66,8 +74,6 @@ def prepare_design(case: dict, fixed: dict) -> tuple[dict, float]:
 def design_map(widths_cm=MAP_WIDTHS_CM, k_z=MAP_K_Z, d1=MAP_D1, b1=MAP_B1, *,
                maker: str = MAP_MAKER, rtol: float = 1e-8) -> Study:
     """The design map's study (see the module)."""
-    from ..checks import check_choice
-    from ..heald.presets import MAKERS
     check_choice("maker", maker, MAKERS)
     return Study("heald_frame", cases=grid(width_cm=list(widths_cm), k_z=list(k_z),
                                            d1=list(d1), b1=list(b1)),
@@ -112,7 +118,6 @@ GRID_T = (0.5, 1.0, 2.0, 4.0)
 
 
 def _drive_params(case: dict):
-    from ..drive.params import DriveParams
     return dataclasses.replace(DriveParams(), tau=float(case["tau"]), T=float(case["T"]))
 
 
@@ -120,8 +125,6 @@ def prepare_drive(case: dict, fixed: dict) -> tuple[dict, float]:
     """Cam table of m = fixed['m'] harmonics designed for (tau, T),
     compensated or not, in the drive FMU's ``fixed['harmonics']`` slots; the
     run ends two law periods after the transient (30 T + tau)."""
-    from ..drive.law import law_constants
-    from ..drive.tracking import cam_values
     p = _drive_params(case)
     values = cam_values(p, fixed["m"], bool(case["compensate"]), fixed["harmonics"])
     return values, 30 * p.T + p.tau + 2 * law_constants(p).P
@@ -129,22 +132,17 @@ def prepare_drive(case: dict, fixed: dict) -> tuple[dict, float]:
 
 def drive_error_law(t, y, case) -> float:
     """max |n - n0| (rpm) after the transient, at equal cam angle."""
-    from ..drive.cam import tracking_error
     return tracking_error(t, y["n_out"] / 60.0, _drive_params(case), None, phi=y["phi_out"])
 
 
 def drive_error_series(t, y, case) -> float:
     """max |n - n0's m-term series| (rpm): what a truncated cam can reach."""
-    from ..drive.cam import tracking_error
-    from ..drive.tracking import M_HARMONICS
     return tracking_error(t, y["n_out"] / 60.0, _drive_params(case), M_HARMONICS,
                           phi=y["phi_out"])
 
 
 def drive_grid(taus=GRID_TAU, time_constants=GRID_T, *, rtol: float = 1e-8) -> Study:
     """The drive tracking grid's study (see the module)."""
-    from ..checks import check_array
-    from ..drive.tracking import M_HARMONICS
     taus = check_array("taus", taus, lo=1e-6, hi=5.0, unit="s")
     time_constants = check_array("time_constants", time_constants, lo=1e-6, hi=100.0,
                                  unit="s")
@@ -167,7 +165,6 @@ HINGE_OMEGA = (40.0, 60.0, 80.0)
 def prepare_hinge(case: dict, fixed: dict) -> tuple[dict, float]:
     """Preset number ``preset`` (index into preset_names()) on the rigid
     frame at main-shaft speed ``omega`` (rad/s); one frame cycle."""
-    from ..heald.presets import preset_names, preset_values
     names = preset_names()
     i = case["preset"]
     if not isinstance(i, int) or not 0 <= i < len(names):
@@ -179,7 +176,6 @@ def prepare_hinge(case: dict, fixed: dict) -> tuple[dict, float]:
 
 def hinge(omegas=HINGE_OMEGA) -> Study:
     """Hinge loads of every preset at each speed (see the module)."""
-    from ..heald.presets import preset_names
     return Study("heald_frame_rigid",
                  cases=grid(preset=list(range(len(preset_names()))), omega=list(omegas)),
                  figures=[Figure("max", "N_rem"), Figure("min", "N_rem")],
@@ -191,8 +187,6 @@ def hinge_closed_form(rows: list[dict], samples: int = 200_001) -> float:
     """Largest difference, relative to the load's range, between each case's
     max/min N_rem and seed 002's kinetostatic closed form
     (loomfmu.heald.hinge.hinge_load_kinetostatic) over one frame cycle."""
-    from ..heald.hinge import KINETOSTATIC_PARAMETERS, hinge_load_kinetostatic
-    from ..heald.presets import preset_names, preset_values
     starts = {v.name: v.start for v in _model("heald_frame_rigid").of_kind("parameter")}
     names = preset_names()
     phi = np.linspace(0.0, 4 * math.pi, samples)
