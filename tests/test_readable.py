@@ -589,3 +589,57 @@ def test_tex_report_compiles(name, tmp_path):
     assert (tmp_path / "r.pdf").stat().st_size > 10_000
     broken = tex.replace(r"\end{document}", r"$x_1_2$ \end{document}")
     assert _pdflatex(broken, tmp_path).returncode != 0
+
+
+# -- loomfmu inspect --all and the reports kept in docs/inspect --------------------
+
+from pathlib import Path  # noqa: E402
+
+DOCS = Path(__file__).resolve().parents[1] / "docs" / "inspect"
+#: models whose reports are quick to rebuild (the others take up to a minute of
+#: CPU each: regenerate all with `loomfmu inspect --all`)
+QUICK = ["heald_frame_rigid", "loom_shaft", "two_mass_force"]
+
+
+def test_write_reports_and_the_all_option(tmp_path, capsys):
+    paths = inspect_report.write_reports(["two_mass_force", "loom_shaft"], ["html", "md"],
+                                         tmp_path / "r")
+    assert sorted(p.name for p in paths) == ["loom_shaft.html", "loom_shaft.md",
+                                             "two_mass_force.html", "two_mass_force.md"]
+    assert (tmp_path / "r" / "loom_shaft.md").read_text().startswith("# loom_shaft")
+    out = tmp_path / "two"
+    assert inspect_report.main(["two_mass_force", "--format", "md", "--format", "tex",
+                                "--out", str(out)]) == 0
+    assert {p.name for p in out.iterdir()} == {"two_mass_force.md", "two_mass_force.tex"}
+    assert "written:" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["--all", "backrest"], "either MODEL or --all"),
+    (["--all", "--out", "-"], "prints one report"),
+    (["backrest", "--format", "md", "--format", "html", "--out", "-"], "prints one report"),
+])
+def test_inspect_all_usage_errors(argv, says, capsys):
+    with pytest.raises(SystemExit) as exc:
+        inspect_report.main(argv)
+    assert exc.value.code == 2 and says in capsys.readouterr().err
+
+
+def test_inspect_all_out_must_be_a_directory(tmp_path, capsys):
+    f = tmp_path / "file"
+    f.write_text("x")
+    with pytest.raises(SystemExit) as exc:
+        inspect_report.main(["--all", "--out", str(f)])
+    assert exc.value.code == 2 and "a file" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", QUICK)
+def test_reports_in_docs_are_current(name, tmp_path):
+    """docs/inspect holds every model's report; the quick ones are rebuilt
+    here and must be identical (regenerate: loomfmu inspect --all)."""
+    assert {f"{n}.{fmt}" for n in MODELS for fmt in inspect_report.ALL_FORMATS} <= \
+        {p.name for p in DOCS.iterdir()}, "run: loomfmu inspect --all"
+    for path in inspect_report.write_reports([name], inspect_report.ALL_FORMATS, tmp_path):
+        kept = DOCS / path.name
+        assert kept.read_text(encoding="utf-8") == path.read_text(encoding="utf-8"), \
+            f"{kept} is out of date: run loomfmu inspect --all"

@@ -220,11 +220,14 @@ def quantities(model) -> list[tuple[object, sympy.Expr | sympy.Matrix]]:
 
 
 def entry_symbol(sym: QuantitySymbol, i: int, j: int, shape) -> QuantitySymbol:
-    """The symbol of one entry of a matrix quantity: ``{{}C}_{12}`` (column: ``{{}v}_{2}``)."""
+    """The symbol of one entry of a matrix quantity: ``{{}C}_{12}`` (column:
+    ``{{}v}_{2}``), ``(r_{O})_{2}`` when the symbol has a subscript of its own."""
     idx = f"{i + 1}" if shape[1] == 1 else f"{i + 1}{j + 1}" if max(shape) < 10 else \
         f"{i + 1},{j + 1}"
     base = (sym._symbol_latex or latex_name(sym.name)).split("=")[0].strip()
-    # {{}...}: two atoms, else TeX unpacks a group of one accent (\vec r_1) and the
+    if "_" in base and base[:1] not in "([":  # (r_{O_2})_1, not r_{O_2 1}
+        return QuantitySymbol(f"{sym.name}[{i},{j}]", f"({base})_{{{idx}}}")
+    # {{}...}: two atoms, else TeX unpacks a group of one accent (\vec r) and the
     # index becomes a double subscript
     return QuantitySymbol(f"{sym.name}[{i},{j}]", f"{{{{}}{base}}}_{{{idx}}}")
 
