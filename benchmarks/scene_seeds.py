@@ -1,7 +1,7 @@
 """The seed scenes (issue 13 items 3 and 4): what they show, and where the
 masters fail on them.
 
-    .venv/bin/python benchmarks/scene_seeds.py [--out-dir docs] [--quick] [--part all|spinning|loom]
+    .venv/bin/python benchmarks/scene_seeds.py [--out-dir docs] [--quick] [--part all|spinning|loom|fidelity] [--charts-only]
 
 Spinning position (loomfmu.scene.spinning): the drive with its layer cam
 feeding the full FE spindle over the second layer cycle (the first carries
@@ -15,7 +15,8 @@ Stability and error (docs/scenes/<scene>_stability.png): each scene run by
 Jacobi and Gauss-Seidel (input extrapolation order 0-2) and by libcosim's
 fixed-step engine on the exported SSP, over a sweep of communication steps;
 the error is the largest difference from a fine-step run of the same scene
-(Gauss-Seidel, order 0), each output scaled by its largest magnitude in that
+(Gauss-Seidel, extrapolation order 2; its own error, against the same run
+at twice its step, is in the json), each output scaled by its largest magnitude in that
 run; the growth is the largest magnitude of the run over the reference's.
 A run fails when an FMU refuses a step (Error/Discard), a value is not
 finite, or it grows past GROWTH_FAIL.  CPU seconds (time.process_time: the
@@ -39,6 +40,8 @@ from loomfmu.scene import loom as loom_scene
 from loomfmu.scene import spinning
 from loomfmu.scene.fmus import build_fmus
 
+#: the reference run: Gauss-Seidel with quadratic input extrapolation at a fine step
+REFERENCE_ORDER = 2
 #: a run whose largest magnitude exceeds the reference's by this factor has failed
 GROWTH_FAIL = 2.0
 #: the error a user would accept (the verdict's step is the largest below it)
@@ -60,6 +63,8 @@ STUDIES = {
     "spinning": {
         "outputs": ("drive.n_out", "spindle.r_top", "spindle.F_upper", "spindle.F_lower",
                     "spindle.x_top"),
+        # the vibration's amplitude and the forces (not its phase: x_top)
+        "amplitudes": ("drive.n_out", "spindle.r_top", "spindle.F_upper", "spindle.F_lower"),
         "horizon": 3.0, "steps": (2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2, 2e-2, 5e-2, 1e-1),
         "reference": 5e-5, "quick_steps": (1e-3, 1e-2, 1e-1),
     },
@@ -111,9 +116,14 @@ def sweep(name: str, scene, fmus, tmp: Path, quick: bool) -> dict:
     steps = st["quick_steps"] if quick else st["steps"]
     print(f"{name}: reference run, h = {st['reference']:g} s", file=sys.stderr)
     ref, ref_cpu = timed(scene, fmus, master="gauss-seidel", step=st["reference"],
-                         stop=horizon)
+                         stop=horizon, extrapolation=REFERENCE_ORDER)
+    # the reference's own error: against the same run at twice its step
+    coarse, _ = timed(scene, fmus, master="gauss-seidel", step=2 * st["reference"],
+                      stop=horizon, extrapolation=REFERENCE_ORDER)
+    ref_err = error_of(coarse.data, ref.data, outputs)[0]
     out = {"horizon": horizon, "outputs": list(outputs), "reference_step": st["reference"],
-           "reference_cpu_s": ref_cpu, "runs": []}
+           "reference": f"gauss-seidel, extrapolation order {REFERENCE_ORDER}",
+           "reference_vs_twice_its_step": ref_err, "reference_cpu_s": ref_cpu, "runs": []}
     for label, (master, order, _, _) in ALGORITHMS.items():
         for h in steps:
             row = {"algorithm": label, "h": h}
@@ -196,14 +206,16 @@ def libcosim_sweep(scene, fmus, tmp, steps, horizon, outputs, ref) -> list[dict]
     return rows
 
 
-def verdict(study: dict) -> list[dict]:
-    """Per algorithm: the largest step with error <= ERROR_OK, its CPU cost
-    per simulated second, and the smallest step where it fails (or is off
-    by more than 10 %)."""
+def verdict(study: dict, outputs=None) -> list[dict]:
+    """Per algorithm: the largest step with error <= ERROR_OK (over
+    ``outputs``, default all), its CPU cost per simulated second, and the
+    smallest step where it fails (or is off by more than 10 %)."""
     rows = []
     labels = list(ALGORITHMS) + [LIBCOSIM]
     for label in labels:
-        runs = sorted((r for r in study["runs"] if r["algorithm"] == label),
+        runs = sorted((dict(r, error=max(r["per_output"][o] for o in outputs))
+                       if outputs and r["status"] == "ok" else r
+                       for r in study["runs"] if r["algorithm"] == label),
                       key=lambda r: r["h"])
         good = [r for r in runs if r["status"] == "ok" and r["error"] <= ERROR_OK]
         bad = [r for r in runs if r["status"] != "ok"]
@@ -257,7 +269,8 @@ def chart_stability(name: str, study: dict, path: Path) -> None:
             title="stability: growth (fails above the red line)")
     ax3.set(xlabel="communication step H (s)", ylabel="CPU s per simulated s",
             title="cost")
-    ax1.legend(fontsize=7)
+    handles, labels = ax1.get_legend_handles_labels()
+    ax3.legend(handles, labels, fontsize=7, loc="upper right")   # the emptiest corner
     for ax in (ax1, ax2, ax3):
         ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
@@ -334,70 +347,173 @@ def chart_spinning(layer: dict, path: Path) -> dict:
     return figures
 
 
+#: loom speeds of the shedding chart (picks/min): the scene's default, and a
+#: slow loom where the backrest sticks
+SHED_SPEEDS = (240.0, 60.0)
+#: loom speeds of the regime sweep (picks/min)
+REGIME_SPEEDS = (30.0, 45.0, 60.0, 90.0, 120.0, 150.0, 180.0, 210.0, 240.0, 270.0, 300.0)
+#: the shedding runs: Gauss-Seidel, order 2, 1 ms (the verdict's choice, error 1.4e-5)
+SHED_RUN = {"master": "gauss-seidel", "extrapolation": 2, "step": 1e-3}
+#: a joint is stuck when its rate is below this (rad/s; the FMU sets it to 0)
+STUCK = 1e-9
+
+
+def omega_of(ppm: float) -> float:
+    return ppm / 60.0 * 2 * math.pi
+
+
+def stuck_phases(t, w, after: float) -> tuple[float, int]:
+    """(share of the time after ``after`` the rate is zero, number of stick phases)."""
+    st = np.abs(np.asarray(w))[np.asarray(t) > after] < STUCK
+    return float(st.mean()), int(np.count_nonzero(np.diff(st.astype(int)) == 1) + st[0])
+
+
 def loom_shedding(quick: bool, fmu_dir: Path) -> dict:
-    stop = 2.0 if not quick else 0.5
-    out = {"stop": stop, "variants": {}}
-    for tension in loom_scene.TENSIONS:
-        s = loom_scene.scene(tension=tension, stop_time=stop, step=1e-3)
-        fmus = build_fmus(s, fmu_dir)
-        print(f"loom, tension {tension}", file=sys.stderr)
-        res, cpu = timed(s, fmus, master="gauss-seidel", step=1e-3, stop=stop)
-        out["variants"][tension] = {"cpu_s": cpu, "log": {k: v[-3:] for k, v in
-                                                          res.log.items()},
-                                    "data": {n: res.data[n].tolist()
-                                             for n in res.data.dtype.names}}
+    """Both tension variants at each of SHED_SPEEDS over 8 picks (2 when quick)."""
+    picks = 8 if not quick else 2
+    out = {"picks": picks, "run": SHED_RUN, "speeds": {}}
+    for ppm in SHED_SPEEDS:
+        stop = picks * 60.0 / ppm
+        out["speeds"][str(ppm)] = {}
+        for tension in loom_scene.TENSIONS:
+            s = loom_scene.scene(tension=tension, omega=omega_of(ppm), stop_time=stop)
+            fmus = build_fmus(s, fmu_dir)
+            print(f"loom, {ppm:g} picks/min, tension {tension}", file=sys.stderr)
+            res, cpu = timed(s, fmus, stop=stop, **SHED_RUN)
+            out["speeds"][str(ppm)][tension] = {
+                "cpu_s": cpu, "data": {n: res.data[n].tolist() for n in res.data.dtype.names}}
     return out
 
 
-def chart_loom(shed: dict, path: Path) -> dict:
+def loom_regimes(quick: bool, fmu_dir: Path) -> list[dict]:
+    """The returned-tension scene at each of REGIME_SPEEDS over 6 picks: how
+    much of the time each backrest joint sticks (after the first 2 picks),
+    and where the warp goes slack (the FMU ends the step: fmi2Discard)."""
+    rows = []
+    for ppm in (REGIME_SPEEDS if not quick else (60.0, 240.0)):
+        stop = 6 * 60.0 / ppm
+        s = loom_scene.scene(omega=omega_of(ppm), stop_time=stop)
+        fmus = build_fmus(s, fmu_dir)
+        row = {"picks_per_min": ppm}
+        try:
+            res, cpu = timed(s, fmus, stop=stop, **SHED_RUN)
+            d = res.data
+            for joint, var in (("O1", "back.omega1_out"), ("O2", "back.omega2_out")):
+                row[f"stuck_share_{joint}"], row[f"stick_phases_{joint}"] = stuck_phases(
+                    d["time"], d[var], 2 * 60.0 / ppm)
+            row.update(status="ok", S2a_min=float(d["back.S2a"].min()),
+                       S2a_max=float(d["back.S2a"].max()),
+                       x2_max_mm=float(np.abs(d["frame_a.x2_out"]).max() * 1e3), cpu_s=cpu)
+        except Exception as exc:
+            row.update(status="failed", message=str(exc)[:400])
+        print(f"loom regime {ppm:g} picks/min: {row['status']}", file=sys.stderr)
+        rows.append(row)
+    return rows
+
+
+def chart_loom(shed: dict, regimes: list[dict], path: Path) -> dict:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(4, 1, figsize=(10, 10), sharex=True)
+    fig, axes = plt.subplots(5, 2, figsize=(14, 13))
     figures = {}
-    for tension, colour in (("returned", "C0"), ("prescribed", "C3")):
-        d = {k: np.array(v) for k, v in shed["variants"][tension]["data"].items()}
-        t = d["time"]
-        axes[0].plot(t, d["frame_a.T"] + d["frame_b.T"], color=colour,
-                     label=f"tension {tension}: on the frames")
-        if tension == "prescribed":
-            axes[0].plot(t, d["back.S2a"] + d["back.S2b"], color="k", lw=0.6, ls="--",
-                         label="the backrest's, with the frames' prescribed tension")
-        axes[1].plot(t, d["back.omega1_out"], color=colour, lw=0.8)
-        axes[2].plot(t, d["back.omega2_out"], color=colour, lw=0.8)
-        axes[3].plot(t, d["frame_a.x2_out"] * 1e3, color=colour, lw=0.8)
-        stuck1 = float(np.mean(np.abs(d["back.omega1_out"]) < 1e-6))
-        stuck2 = float(np.mean(np.abs(d["back.omega2_out"]) < 1e-6))
-        figures[tension] = {
-            "S2_total_N_range": [float((d["back.S2a"] + d["back.S2b"]).min()),
-                                 float((d["back.S2a"] + d["back.S2b"]).max())],
-            "frame_tension_N_range": [float(d["frame_a.T"].min()),
-                                      float(d["frame_a.T"].max())]
-            if "frame_a.T" in d else None,
-            "x2_mm_range": [float(d["frame_a.x2_out"].min() * 1e3),
-                            float(d["frame_a.x2_out"].max() * 1e3)],
-            "share_stuck_O1": stuck1, "share_stuck_O2": stuck2,
-            "cpu_s": shed["variants"][tension]["cpu_s"],
-        }
-    axes[0].set(ylabel="warp tension through\nboth frames (N)",
-                title="loom: backrest under shedding, two frames in opposition")
-    axes[1].set(ylabel="lever rate (rad/s)\n(0: stuck)")
-    axes[2].set(ylabel="roller rate rel. lever\n(rad/s; 0: stuck)")
-    axes[3].set(ylabel="frame A top slat, out of\nplane x2 (mm)", xlabel="time (s)")
-    axes[0].legend()
-    for ax in axes:
-        ax.grid(True, alpha=0.3)
+    for col, ppm in enumerate(SHED_SPEEDS):
+        ax = axes[:, col]
+        figures[str(ppm)] = {}
+        for tension, colour in (("returned", "C0"), ("prescribed", "C3")):
+            d = {k: np.array(v) for k, v in shed["speeds"][str(ppm)][tension]["data"].items()}
+            t = d["time"]
+            ax[0].plot(t, d["frame_a.T"] + d["frame_b.T"], color=colour,
+                       label=f"tension {tension}: on the frames")
+            if tension == "prescribed":
+                ax[0].plot(t, d["back.S2a"] + d["back.S2b"], color="k", lw=0.6, ls="--",
+                           label="the backrest's, frames on the prescribed tension")
+            ax[1].plot(t, d["back.omega1_out"], color=colour, lw=0.8)
+            ax[2].plot(t, d["back.omega2_out"], color=colour, lw=0.8)
+            ax[3].plot(t, d["frame_a.x2_out"] * 1e3, color=colour, lw=0.8)
+            after = 2 * 60.0 / ppm
+            figures[str(ppm)][tension] = {
+                "frame_tension_total_N_range": [float((d["frame_a.T"] + d["frame_b.T"]).min()),
+                                                float((d["frame_a.T"] + d["frame_b.T"]).max())],
+                "x2_mm_range": [float(d["frame_a.x2_out"].min() * 1e3),
+                                float(d["frame_a.x2_out"].max() * 1e3)],
+                "stuck_O1": stuck_phases(t, d["back.omega1_out"], after),
+                "stuck_O2": stuck_phases(t, d["back.omega2_out"], after),
+                "cpu_s": shed["speeds"][str(ppm)][tension]["cpu_s"],
+            }
+        ax[0].set(ylabel="warp tension through\nboth frames (N)",
+                  title=f"{ppm:g} picks/min" + (" (the scene's default)" if ppm == 240 else ""))
+        top = ax[0].get_ylim()[1]
+        ax[0].set_ylim(top=top + 0.45 * (top - ax[0].get_ylim()[0]))
+        ax[0].legend(fontsize=7, loc="upper left", ncol=2)
+        ax[1].set(ylabel="backrest lever rate\n(rad/s; 0: stuck)")
+        ax[2].set(ylabel="roller rate rel. lever\n(rad/s; 0: stuck)")
+        ax[3].set(ylabel="frame A top slat,\nout of plane x2 (mm)", xlabel="time (s)")
+        for a in ax[:4]:
+            a.grid(True, alpha=0.3)
+    # the regime sweep across the bottom
+    gs = axes[4, 0].get_gridspec()
+    for a in axes[4, :]:
+        a.remove()
+    ax = fig.add_subplot(gs[4, :])
+    ok = [r for r in regimes if r["status"] == "ok"]
+    ax.plot([r["picks_per_min"] for r in ok], [r["stuck_share_O1"] for r in ok], "o-",
+            label="lever pivot O1")
+    ax.plot([r["picks_per_min"] for r in ok], [r["stuck_share_O2"] for r in ok], "s-",
+            label="roller pivot O2")
+    bad = [r for r in regimes if r["status"] != "ok"]
+    if bad:
+        ax.plot([r["picks_per_min"] for r in bad], [0.0] * len(bad), "rX", ms=12,
+                label="warp slack: the FMU ends the run (fmi2Discard)")
+    ax.set(xlabel="loom speed (picks/min)", ylabel="share of the time stuck",
+           title="backrest regime against loom speed (tension returned; after 2 picks, "
+                 "over 4)")
+    ax.legend(fontsize=8)
+    ax.grid(True, alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=100)
     plt.close(fig)
+    figures["regimes"] = regimes
     return figures
+
+
+#: the spindle fidelities compared in the spinning scene: (label, model, options)
+FIDELITY_LEVELS = (("spindle_modal, 4 modes (default)", "spindle_modal", {}),
+                   ("spindle_modal, 8 modes", "spindle_modal", {"n_modes": 8}),
+                   ("spindle_modal, 12 modes", "spindle_modal", {"n_modes": 12}),
+                   ("spindle (full FE)", "spindle", {}))
+
+
+def spinning_fidelity(fmu_dir: Path, quick: bool) -> dict:
+    """Each spindle fidelity in the spinning scene at a constant 16 000 rpm
+    (started on its periodic solution): CPU seconds per simulated second and
+    the orbit of the blade's top and the bearing forces, against the full
+    model's."""
+    stop = 0.5 if not quick else 0.05
+    rows = []
+    for label, model, opts in FIDELITY_LEVELS:
+        s = spinning.scene(fidelity=model, spindle_options=opts, n_const=16000.0,
+                           stop_time=stop, step=1e-3)
+        fmus = build_fmus(s, fmu_dir)
+        print(f"fidelity: {label}", file=sys.stderr)
+        res, cpu = timed(s, fmus, master="gauss-seidel", step=1e-3, stop=stop)
+        rows.append({"label": label, "model": model, "options": opts,
+                     "cpu_per_sim_s": cpu / stop,
+                     **{k: float(res[f"spindle.{k}"][-1]) for k in
+                        ("r_top", "F_upper", "F_lower")}})
+    full = rows[-1]
+    for r in rows:
+        r["vs_full"] = {k: r[k] / full[k] - 1 for k in ("r_top", "F_upper", "F_lower")}
+    return {"n_rpm": 16000.0, "stop": stop, "rows": rows}
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out-dir", type=Path, default=Path("docs"))
     ap.add_argument("--quick", action="store_true", help="coarse sweep, short runs")
-    ap.add_argument("--part", choices=("all", "spinning", "loom"), default="all")
+    ap.add_argument("--part", choices=("all", "spinning", "loom", "fidelity"), default="all")
+    ap.add_argument("--charts-only", action="store_true", help="keep the stability sweep "
+                    "of the json already written; redo the verdict and the charts")
     ap.add_argument("--fmu-dir", type=Path, default=None, help="FMU cache (default: a "
                     "temporary folder)")
     args = ap.parse_args(argv)
@@ -408,23 +524,37 @@ def main(argv=None) -> int:
         tmp = Path(tmp_)
         fmu_dir = args.fmu_dir or tmp / "fmus"
         fmu_dir.mkdir(parents=True, exist_ok=True)
+        if args.part in ("all", "fidelity"):
+            fid = spinning_fidelity(fmu_dir, args.quick)
+            (out / "spinning_fidelity.json").write_text(json.dumps(fid, indent=1) + "\n")
         for name in ("spinning", "loom"):
             if args.part not in ("all", name):
                 continue
             t0 = time.perf_counter()
-            scene = spinning_study_scene() if name == "spinning" else loom_study_scene()
-            fmus = build_fmus(scene, fmu_dir)
-            study = sweep(name, scene, fmus, tmp, args.quick)
+            saved = out / f"{name}_study.json"
+            if args.charts_only and saved.is_file():   # the sweep as last written
+                study = json.loads(saved.read_text())
+                sweep_s = study.get("sweep_wall_s", study.get("wall_s"))
+            else:
+                scene = spinning_study_scene() if name == "spinning" else loom_study_scene()
+                fmus = build_fmus(scene, fmu_dir)
+                study = sweep(name, scene, fmus, tmp, args.quick)
+                sweep_s = time.perf_counter() - t0
             study["verdict"] = verdict(study)
+            if "amplitudes" in STUDIES[name]:
+                study["verdict_amplitudes"] = verdict(study, STUDIES[name]["amplitudes"])
             chart_stability(name, study, out / f"{name}_stability.png")
+            t1 = time.perf_counter()
             if name == "spinning":
                 shown = chart_spinning(spinning_layer(tmp, args.quick, fmu_dir),
                                        out / "spinning_layer.png")
             else:
                 shown = chart_loom(loom_shedding(args.quick, fmu_dir),
-                                   out / "loom_shedding.png")
+                                   loom_regimes(args.quick, fmu_dir), out / "loom_shedding.png")
             study["chart"] = shown
-            study["wall_s"] = time.perf_counter() - t0
+            study["sweep_wall_s"] = sweep_s
+            study["chart_wall_s"] = time.perf_counter() - t1
+            study["wall_s"] = study["sweep_wall_s"] + study["chart_wall_s"]
             study["quick"] = args.quick
             (out / f"{name}_study.json").write_text(json.dumps(study, indent=1) + "\n")
             print(f"{name}: {study['wall_s']:.0f} s wall; wrote {out}/{name}_*",
