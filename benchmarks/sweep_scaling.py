@@ -10,7 +10,9 @@ the extracted FMU given), what a script without loomfmu.sweep would do.
 Wall times include everything the caller waits for; ``startup_s`` is the
 part that starts the cluster and ships the FMU. The machine's load average
 is recorded next to them: on a shared machine the times are only as good
-as the cores left free.
+as the cores left free. "CPU split 2 vs 1" is the 1-worker run's worker CPU
+over the busiest worker's CPU with 2 workers: how far the work divides,
+whatever else the machine runs (2.0: evenly).
 """
 from __future__ import annotations
 
@@ -54,6 +56,7 @@ def measure(name: str) -> dict:
         out[f"dask{workers}_startup_s"] = res.startup_s
         out[f"dask{workers}_cpu_s"] = res.worker_cpu_s + res.client_cpu_s
         out[f"dask{workers}_worker_cpu_s"] = res.worker_cpu_s
+        out[f"dask{workers}_busiest_worker_cpu_s"] = res.busiest_worker_cpu_s
         out[f"dask{workers}_identical"] = _figures(study, res.rows) == ref
     batch = max(1, n // 32)  # about 16 tasks per worker of 2
     with tempfile.TemporaryDirectory() as tmp:
@@ -65,6 +68,7 @@ def measure(name: str) -> dict:
     out["overhead_per_case_ms"] = 1e3 * (out["dask1_s"] - out["dask1_startup_s"]
                                          - out["plain_loop_s"]) / n
     out["cpu_overhead_per_case_ms"] = 1e3 * (out["dask1_cpu_s"] - out["plain_loop_cpu_s"]) / n
+    out["cpu_split_2_vs_1"] = out["dask1_worker_cpu_s"] / out["dask2_busiest_worker_cpu_s"]
     out["speedup_2_vs_1"] = ((out["dask1_s"] - out["dask1_startup_s"])
                              / (out["dask2_s"] - out["dask2_startup_s"]))
     out["ok_cases"] = sum(r["status"] == "ok" for r in plain)
@@ -74,9 +78,9 @@ def measure(name: str) -> dict:
 def markdown(results: list[dict]) -> str:
     lines = ["| study | cases | plain loop | reuse loop | dask 1 worker (startup) | "
              "dask 2 workers (startup) | 2 vs 1 (no startup) | overhead / case: wall, CPU | "
-             "2 workers, batches (startup) | CPU: plain loop, dask 1 worker | identical | "
-             "load avg |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "2 workers, batches (startup) | CPU: plain loop, dask 1 worker | "
+             "CPU split 2 vs 1 | identical | load avg |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in results:
         same = all(r[k] for k in ("reuse_identical", "dask1_identical", "dask2_identical",
                                   "dask2_batch_identical"))
@@ -88,6 +92,7 @@ def markdown(results: list[dict]) -> str:
             f"{r['dask2_batch_s']:.1f} s "
             f"({r['dask2_batch_startup_s']:.1f}), {r['batch']} cases a task | "
             f"{r['plain_loop_cpu_s']:.1f} s, {r['dask1_cpu_s']:.1f} s | "
+            f"{r['cpu_split_2_vs_1']:.2f}x | "
             f"{'bit for bit' if same else 'NO'} | "
             f"{r['load_before']:.1f} -> {r['load_after']:.1f} |")
     return "\n".join(lines) + "\n"

@@ -41,7 +41,9 @@ class StudyResult:
     workers: local worker processes (-1: a given scheduler's); startup_s:
     of wall_s, starting the cluster and shipping the FMU; worker_cpu_s,
     client_cpu_s: CPU seconds the workers and this process (client and, for
-    a LocalCluster, the scheduler) spent from the first task to the last."""
+    a LocalCluster, the scheduler) spent from the first task to the last;
+    busiest_worker_cpu_s: the most any one worker spent (how evenly the work
+    was split, whatever else the machine runs)."""
     rows: list
     executed: int
     skipped: int
@@ -51,6 +53,7 @@ class StudyResult:
     startup_s: float = 0.0
     worker_cpu_s: float = 0.0
     client_cpu_s: float = 0.0
+    busiest_worker_cpu_s: float = 0.0
 
     @property
     def failed(self) -> list[dict]:
@@ -160,7 +163,8 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
     t0 = time.perf_counter()
     rows = dict(done)
     appender = store.Appender(Path(out), cols) if out is not None else None
-    stats = {"startup_s": 0.0, "worker_cpu_s": 0.0, "client_cpu_s": 0.0}
+    stats = {"startup_s": 0.0, "worker_cpu_s": 0.0, "client_cpu_s": 0.0,
+             "busiest_worker_cpu_s": 0.0}
     try:
         if pending:
             rows.update(_dask_run(study, blob, pending, workers, scheduler, progress,
@@ -236,7 +240,8 @@ def _dask_run(study, blob, pending, workers, scheduler, progress, appender,
                 bar.close()
         cpu1 = client.run(_cpu_seconds)
         stats["client_cpu_s"] = time.process_time() - own0
-        stats["worker_cpu_s"] = sum(cpu1[w] - cpu0.get(w, 0.0) for w in cpu1)
+        spent = [cpu1[w] - cpu0.get(w, 0.0) for w in cpu1]
+        stats["worker_cpu_s"], stats["busiest_worker_cpu_s"] = sum(spent), max(spent)
     finally:
         client.close()
         if cluster is not None:
