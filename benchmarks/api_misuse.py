@@ -601,8 +601,8 @@ def cases() -> list[Case]:
     add("m.event('e', x) twice", "e",
         lambda fx: (lambda m: [m.event("e", m.var("x").sym) for _ in range(2)])(fx.small()))
     add("m.event('a b', x)", "name", lambda fx: _declare(fx, "event", "a b", "x"))
-    add("m.port('p', 'shaft', speed=3)", "speed",
-        lambda fx: _declare(fx, "port", "p", "shaft", speed=3))
+    add("m.port('p', 'flange', speed=3)", "speed",
+        lambda fx: _declare(fx, "port", "p", "flange", speed=3))
     # build_fmu
     add("build_fmu(out_dir=<an existing file>)", "out_dir",
         lambda fx: _build(fx, out_dir=_a_file(fx.tmp)))

@@ -112,9 +112,9 @@ class _Dae:
         self.hist = f("hist", [dae.g], ["g"])
         self.w = np.zeros(self.nw)
         self.d = np.zeros(dae.d.numel())
+        self.ufun: dict = {}  # input index -> function of time (input_functions)
         self.tau = np.asarray(f("tau", [dae.tau], ["tau"])(*self.args(0.0, np.zeros(dae.nx)))
                               ).ravel() if dae.d.numel() else np.zeros(0)
-        self.ufun: dict = {}  # input index -> function of time (input_functions)
         self.segments: list = []  # (t_a, t_b, dense output, inputs) of solved intervals
         self.t_seg = 0.0  # start of the segment being integrated
         self.g0 = None
