@@ -643,3 +643,28 @@ def test_reports_in_docs_are_current(name, tmp_path):
         kept = DOCS / path.name
         assert kept.read_text(encoding="utf-8") == path.read_text(encoding="utf-8"), \
             f"{kept} is out of date: run loomfmu inspect --all"
+
+
+def test_picture_shows_round_off_apart():
+    """Entries below 1e-12 of the largest (a projection's round-off) are
+    grey and kept out of the colour scale; a symbolic large matrix is
+    coloured at the parameters' defaults."""
+    from loomfmu import Model
+    from loomfmu.inspect_derivation import TINY_COLOUR, derivation
+    m = Model("pic", description="pictures")
+    k = m.parameter("k", 1e3, description="a stiffness", min=1.0, source="assumption: test")
+    x = m.state("x", 0.0, description="x")
+    a = np.eye(10)
+    a[0, 9] = 1e-15
+    m.quantity("A", a, description="identity and round-off")
+    m.quantity("S", k * ca.DM.eye(10), unit="N/m", description="symbolic")
+    m.eq(m.der(x), -k * x)
+    sec = derivation(m)
+    pics = [b for g in sec.blocks if isinstance(g, inspect_report.Section) for b in g.blocks
+            if isinstance(b, inspect_doc.Picture)]
+    assert len(pics) == 2
+    a_pic, s_pic = pics
+    assert a_pic.text.splitlines()[0] == "0" + "\u00b7" * 8 + "~"
+    assert "1 entries below 1e-12 times the largest (round-off)" in a_pic.caption
+    assert a_pic.svg.count(TINY_COLOUR) == 1 and "from 1 to 1 at" in a_pic.caption
+    assert "from 1e+03 to 1e+03 N/m" in s_pic.caption and "symmetric" in s_pic.caption

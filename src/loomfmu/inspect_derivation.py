@@ -31,6 +31,11 @@ HUGE_MATRIX = 12_000
 #: the picture's width and height in pixels, at most
 PICTURE_PX = 480
 #: colour stops from the smallest to the largest magnitude (viridis-like)
+#: the legend's width in pixels, at least
+LEGEND_PX = 160
+#: a value below this times the matrix's largest is shown as round-off, in grey
+ROUNDOFF = 1e-12
+TINY_COLOUR = "#cfcfcf"
 PALETTE = ((68, 1, 84), (59, 82, 139), (33, 145, 140), (94, 201, 98), (253, 231, 37))
 
 
@@ -105,10 +110,13 @@ def _picture(model, q) -> Picture:
     n1, n2 = expr.shape
     nonzero = np.array([[not expr[i, j].is_zero() for j in range(n2)] for i in range(n1)])
     vals = _values(model, q)
+    tiny = np.zeros_like(nonzero)
     if vals is not None:
         nonzero &= vals != 0
-    nnz = int(nonzero.sum())
-    mags = np.abs(vals[nonzero]) if vals is not None and nnz else np.array([])
+        if nonzero.any():
+            tiny = nonzero & (np.abs(vals) < ROUNDOFF * np.abs(vals).max())
+    shown = nonzero & ~tiny
+    mags = np.abs(vals[shown]) if vals is not None and shown.any() else np.array([])
     lo = math.floor(math.log10(mags.min())) if mags.size else 0
     hi = math.floor(math.log10(mags.max())) if mags.size else 0
     cell = max(1, min(24, PICTURE_PX // max(n1, n2)))
@@ -116,44 +124,52 @@ def _picture(model, q) -> Picture:
     for i in range(n1):
         row = []
         for j in range(n2):
-            if not nonzero[i, j]:
-                row.append("\u00b7")
-                continue
-            if vals is None:
-                colour, dec, tip = "#444444", 0, f"({i + 1},{j + 1})"
-            else:
-                dec = math.floor(math.log10(abs(vals[i, j])))
-                colour = _colour((dec - lo) / (hi - lo) if hi > lo else 1.0)
-                tip = f"({i + 1},{j + 1}) = {vals[i, j]:.4g}"
-            row.append(str(min(dec - lo, 9)) if vals is not None else "\u25a0")
-            rects.append(f'<rect x="{j * cell}" y="{i * cell}" width="{cell}" '
-                         f'height="{cell}" fill="{colour}"><title>{html.escape(tip)}'
-                         "</title></rect>")
+            mark, colour, tip = _cell(vals, i, j, nonzero, tiny, lo, hi)
+            row.append(mark)
+            if colour:
+                rects.append(f'<rect x="{j * cell}" y="{i * cell}" width="{cell}" '
+                             f'height="{cell}" fill="{colour}"><title>{html.escape(tip)}'
+                             "</title></rect>")
         text.append("".join(row))
     w, h = n2 * cell, n1 * cell
-    legend = _legend(lo, hi, w, h) if vals is not None and mags.size else ""
-    svg = (f'<svg xmlns="http://www.w3.org/2000/svg" width="{w + 2}" height="{h + 40}" '
-           f'viewBox="-1 -1 {w + 2} {h + 40}" role="img" aria-label="{html.escape(q.name)}: '
+    width = max(w, LEGEND_PX) + 2
+    legend = _legend(lo, hi, max(w, LEGEND_PX), h) if mags.size else ""
+    svg = (f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{h + 40}" '
+           f'viewBox="-1 -1 {width} {h + 40}" role="img" aria-label="{html.escape(q.name)}: '
            f'non-zero pattern"><rect x="-0.5" y="-0.5" width="{w + 1}" height="{h + 1}" '
            f'fill="#fff" stroke="#999"/>{"".join(rects)}{legend}</svg>')
-    return Picture(svg, "\n".join(text), _facts(q, vals, nonzero, lo, hi))
+    return Picture(svg, "\n".join(text), _facts(q, vals, nonzero, tiny, lo, hi))
+
+
+def _cell(vals, i, j, nonzero, tiny, lo, hi) -> tuple[str, str, str]:
+    """(text mark, SVG colour or "" for none, tooltip) of entry (i, j)."""
+    where = f"({i + 1},{j + 1})"
+    if not nonzero[i, j]:
+        return "\u00b7", "", ""
+    if vals is None:
+        return "\u25a0", "#444444", where
+    tip = f"{where} = {vals[i, j]:.4g}"
+    if tiny[i, j]:
+        return "~", TINY_COLOUR, tip
+    dec = math.floor(math.log10(abs(vals[i, j])))
+    return str(min(dec - lo, 9)), _colour((dec - lo) / (hi - lo) if hi > lo else 1.0), tip
 
 
 def _legend(lo: int, hi: int, w: int, h: int) -> str:
     steps = max(hi - lo, 0) + 1
-    bw = max(w, 160) / steps
+    bw = w / steps
     out = []
     for k in range(steps):
         colour = _colour(k / (steps - 1) if steps > 1 else 1.0)
         out.append(f'<rect x="{k * bw:.1f}" y="{h + 6}" width="{bw:.1f}" height="10" '
                    f'fill="{colour}"/>')
     out.append(f'<text x="0" y="{h + 30}" font-size="11">1e{lo}</text>')
-    out.append(f'<text x="{max(w, 160)}" y="{h + 30}" font-size="11" '
+    out.append(f'<text x="{w}" y="{h + 30}" font-size="11" '
                f'text-anchor="end">1e{hi}</text>')
     return "".join(out)
 
 
-def _facts(q, vals, nonzero, lo: int, hi: int) -> str:
+def _facts(q, vals, nonzero, tiny, lo: int, hi: int) -> str:
     n1, n2 = nonzero.shape
     facts = [f"{q.name}: {n1} \u00d7 {n2}, {int(nonzero.sum())} non-zeros"]
     if n1 == n2:
@@ -165,11 +181,15 @@ def _facts(q, vals, nonzero, lo: int, hi: int) -> str:
                          "not symmetric" + (" (symmetric pattern)" if sym_struct else ""))
         else:
             facts.append("symmetric pattern" if sym_struct else "unsymmetric pattern")
-    if vals is not None and nonzero.any():
-        mags = np.abs(vals[nonzero])
+    shown = nonzero & ~tiny
+    if vals is not None and shown.any():
+        mags = np.abs(vals[shown])
         facts.append(f"|entries| from {mags.min():.3g} to {mags.max():.3g}"
                      + (f" {q.unit}" if q.unit else "") + " at the default parameters; "
                      f"colour (text: digit k) = decade 1e{lo}+k, up to 1e{hi}")
+    if tiny.any():
+        facts.append(f"{int(tiny.sum())} entries below {ROUNDOFF:g} times the largest "
+                     "(round-off) in grey (text: ~)")
     elif vals is None:
         facts.append("values depend on variables without a start value: pattern only")
     return "; ".join(facts) + "."
