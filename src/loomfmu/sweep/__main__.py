@@ -145,8 +145,12 @@ def main(argv=None, prog: str = "loomfmu sweep") -> int:
     else:
         study = studies.STUDIES[args.cmd]()
     out = args.out_dir / f"{study.name}.csv"
-    res = run_study(study, out=out, workers=args.workers, scheduler=args.scheduler,
-                    fmu=args.fmu, resume=not args.fresh, batch=args.batch)
+    try:
+        res = run_study(study, out=out, workers=args.workers, scheduler=args.scheduler,
+                        fmu=args.fmu, resume=not args.fresh, batch=args.batch)
+    except ImportError as exc:  # dask.distributed missing: say how to get it
+        print(f"{prog}: error: {exc}", file=sys.stderr)
+        return 2
     written = [out]
     if args.cmd == "design-map":
         summary = studies.smallest_b1(res.rows, gap)

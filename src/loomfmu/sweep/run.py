@@ -154,6 +154,7 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
                          "such as tcp://host:8786")
     if out is not None and not isinstance(out, (str, Path)):
         raise ValueError(f"out = {out!r:.60}; allowed: None or a .csv path")
+    _need_distributed()
     blob = blob or fmu_blob(study, fmu)
     _check_fmu(study, blob)
     keys = _keys(study, blob)
@@ -178,6 +179,13 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
     return StudyResult(ordered, len(pending), len(done), time.perf_counter() - t0,
                        workers if scheduler is None else -1, None if out is None else Path(out),
                        **stats)
+
+
+def _need_distributed() -> None:
+    import importlib.util
+    if importlib.util.find_spec("distributed") is None:
+        raise ImportError("loomfmu.sweep runs on dask.distributed, which is not installed: "
+                          "pip install 'loomfmu[distributed]'")
 
 
 def _finished(out, keys: list[str], cols: list[str], resume: bool) -> dict[str, dict]:

@@ -8,7 +8,6 @@ bits. A Parquet copy is written next to it when pyarrow is installed.
 from __future__ import annotations
 
 import csv
-import math
 import os
 from pathlib import Path
 
@@ -102,7 +101,3 @@ def _parquet(path: Path, cols: list[str], rows: list[dict]) -> None:
         return
     data = {c: [r.get(c) for r in sorted(rows, key=lambda r: r["index"])] for c in cols}
     pq.write_table(pa.table(data), path)
-
-
-def is_nan(x) -> bool:
-    return isinstance(x, float) and math.isnan(x)
