@@ -150,10 +150,29 @@ class Var(sympy.Symbol):
     way the equations are written (see :func:`latex_name`)."""
 
     def _latex(self, printer):
+        if _is_long_word(self.name):  # "fill m_y", not "fillm_y"
+            return r"{\,%s\,}" % latex_name(self.name)
         return latex_name(self.name)
 
     def _mathml_presentation(self, printer):
-        return _mathml_name(self.name, printer.dom)
+        el = _mathml_name(self.name, printer.dom)
+        if not _is_long_word(self.name):
+            return el
+        row = printer.dom.createElement("mrow")
+        for child in ("mspace", el, "mspace"):
+            if child == "mspace":
+                child = printer.dom.createElement("mspace")
+                child.setAttribute("width", "0.17em")
+            row.appendChild(child)
+        return row
+
+
+def _is_long_word(name: str) -> bool:
+    """Whether the name's base prints as a word of several Latin letters
+    (``fill``, ``letoff``): it gets a thin space either side, so that a
+    product of names reads as one."""
+    base = _parse(name).base
+    return len(base) > 1 and base.isalpha() and not _is_word(base)
 
 
 class Shared(sympy.Symbol):
