@@ -162,7 +162,7 @@ class Var(sympy.Symbol):
         for child in ("mspace", el, "mspace"):
             if child == "mspace":
                 child = printer.dom.createElement("mspace")
-                child.setAttribute("width", "0.17em")
+                child.setAttribute("width", "0.25em")
             row.appendChild(child)
         return row
 
