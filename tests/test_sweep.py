@@ -193,3 +193,34 @@ def test_cli_sweep_run(blob, tmp_path, capsys):
         cli_main(["sweep", "run", "heald_frame_rigid", "--grid", "omega=40,abc",
                   "--figure", "max:N_rem", "--stop", "0.1"])
     assert e.value.code == 2
+
+
+def _nan_figure(t, y, case):
+    return float("nan") if case["omega"] > 50 else 1.0
+
+
+def test_a_nan_figure_is_a_failed_case_not_ok(blob):
+    study = _study(cases=grid(omega=[40.0, 60.0]), figures=[Derived("odd", _nan_figure, ("h",))])
+    rows = run_serial(study, blob=blob)
+    assert [r["status"] for r in rows] == ["ok", "failed"]
+    assert rows[1]["message"] == "figure: odd = nan at stop time 0.2 s"
+
+
+def test_smallest_b1_interpolates_between_grid_points():
+    # max |x2| = c b1^-3 exactly: log-log interpolation gives the exact crossing
+    rows = [{"status": "ok", "width_cm": 180, "k_z": 5.0, "d1": 0.0014, "b1": b,
+             "max_abs_x2_out": 1e-9 * b ** -3} for b in (0.005, 0.01, 0.02, 0.04)]
+    rows.append({**rows[0], "status": "error", "b1": 0.03, "max_abs_x2_out": float("nan")})
+    (got,) = studies.smallest_b1(rows, gap=0.004)
+    assert got["b1_min"] == pytest.approx((1e-9 / 0.004) ** (1 / 3), rel=1e-12)
+    (edge,) = studies.smallest_b1(rows[:1], gap=1.0)
+    assert edge["b1_min"] is None and "already" in edge["note"]
+    (none,) = studies.smallest_b1(rows, gap=1e-12)
+    assert none["b1_min"] is None and "no b1" in none["note"]
+
+
+def test_sweep_help():
+    with pytest.raises(SystemExit) as e:
+        cli_main(["sweep", "--help"])
+    assert e.value.code == 0
+

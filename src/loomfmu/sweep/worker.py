@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import atexit
 import dataclasses
+import math
 import os
 import shutil
 import socket
@@ -169,7 +170,9 @@ def run_case(blob: FmuBlob, setup: Setup, index: int, key: str, case: dict,
         y = {n: np.asarray(res[n]) for n in setup.outputs}
         try:
             for fig in setup.figures:
-                row[fig.name] = fig(t, y, case)
+                row[fig.name] = value = fig(t, y, case)
+                if not math.isfinite(value):  # never "ok" with NaN
+                    raise ValueError(f"{fig.name} = {value} at stop time {t[-1]:g} s")
         except (ValueError, ArithmeticError) as exc:
             row.update(status="failed", message=f"figure: {exc}")
     row.update(wall_s=time.perf_counter() - t0, worker=_worker())
