@@ -456,7 +456,10 @@ def test_inspect_report_in_every_format(name, tmp_path):
     page = inspect_report.render_html(title, sections)
     tags = _Tags()
     tags.feed(page)
-    assert "script" not in tags.tags and "link" not in tags.tags and not tags.urls
+    assert "script" not in tags.tags and "link" not in tags.tags
+    assert all(u.startswith("#lf-") for u in tags.urls)  # in-page links only
+    for u in tags.urls:
+        assert f' id="{u[1:]}"' in page, u
     maths = page.count("<math ")
     lst = readable.listing(model)
     assert maths >= sum(map(len, (lst.shared, lst.equations, lst.outputs, lst.events)))
@@ -546,7 +549,9 @@ def test_derivation_section_in_every_format():
     groups = [b.title for b in der.blocks if isinstance(b, inspect_report.Section)]
     assert groups == ["1. springs", "2. energy", "3. big"]
     page = inspect_report.render_html(title, sections)
-    body = page.split("<h2>Derivation</h2>", 1)[1].split("<h2>Equations</h2>", 1)[0]
+    body = page.split('<h2 id="lf-derivation">Derivation</h2>', 1)[1]
+    body = body.split('<h2 id="lf-equations">Equations</h2>', 1)[0]
+    assert '<a href="#lf-derivation">Derivation</a>' in page
     for q in model.quantities:
         assert f"<code>{q.name}</code>" in body, q.name
     assert body.index("<code>c1</code>") < body.index("<code>k</code>") < body.index(

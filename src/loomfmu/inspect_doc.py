@@ -165,7 +165,7 @@ padding:.2rem 0}
 .eq math{flex:1;text-align:left}.tag{color:#777;padding-left:1rem}
 pre{font-size:.8rem;line-height:1;overflow-x:auto}math[display=block]{margin:.2rem 0}
 .qty{margin:1rem 0 .2rem}.qty .unit{color:#555}.qty .src{color:#666;font-size:.9em}
-figure{margin:.5rem 0}figcaption{color:#555;font-size:.9em}math{font-size:1.12em}"""
+nav.toc{margin:.5rem 0 1rem}figure{margin:.5rem 0}figcaption{color:#555;font-size:.9em}math{font-size:1.12em}"""
 
 
 def _html_cell(c) -> str:
@@ -180,8 +180,17 @@ def render_html(title: str, sections: list[Section]) -> str:
     """A standalone HTML page: MathML, inline CSS, no script, no link."""
     out = ['<!DOCTYPE html>', '<html lang="en"><head><meta charset="utf-8">',
            f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>",
-           f"<h1>{html.escape(title)}</h1>"]
+           f"<h1>{html.escape(title)}</h1>",
+           '<nav class="toc">' + " \u00b7 ".join(
+               f'<a href="#{_anchor(s.title)}">{html.escape(s.title)}</a>' for s in sections)
+           + "</nav>"]
     return "\n".join(out + _html_blocks(sections) + ["</body></html>"]) + "\n"
+
+
+def _anchor(title: str) -> str:
+    """The id of a top-level section's heading (prefixed: the fragment lives in
+    other pages too)."""
+    return "lf-" + re.sub(r"[^a-z0-9]+", "-", title.lower()).strip("-")
 
 
 def _scoped_css(scope: str) -> str:
@@ -202,7 +211,8 @@ def _html_blocks(sections: list[Section]) -> list[str]:
     out = []
     for b, is_head in _flat(sections):
         if is_head:
-            out.append(f"<h{b.level}>{html.escape(b.title)}</h{b.level}>")
+            anchor = f' id="{_anchor(b.title)}"' if b.level == 2 else ""
+            out.append(f"<h{b.level}{anchor}>{html.escape(b.title)}</h{b.level}>")
         elif isinstance(b, str):
             out.append(f"<p>{html.escape(b)}</p>")
         elif isinstance(b, Table):

@@ -206,7 +206,9 @@ def document(model) -> tuple[str, list[Section]]:
                 _equations(model, lst),
                 _solving(model, dae), _events(model, lst), _delays(model, lst),
                 _constraints(model), _c_size(model, dae)]
-    return f"{model.name}: equations and solution", [s for s in sections if s]
+    what = "derivation, equations and solution" if model.quantities else \
+        "equations and solution"
+    return f"{model.name}: {what}", [s for s in sections if s]
 
 
 #: the sections of the report that another page (the FMU's documentation)
