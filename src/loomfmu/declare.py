@@ -252,6 +252,10 @@ class Model:
         """:func:`as_sx`, and every symbol in it declared in this model (a
         symbol made elsewhere would be a free variable of the generated code)."""
         sx = as_sx(what, expr, column=column)
+        self._check_symbols(what, sx)
+        return sx
+
+    def _check_symbols(self, what: str, sx: ca.SX) -> None:
         known = {v.name: v.sym for v in self.variables}
         known.update({s.name(): s for s in self._der.values()})
         known.update({d.sym.name(): d.sym for d in self.delays})
@@ -264,7 +268,6 @@ class Model:
                 raise ValueError(f"{what}: symbol {sym.name()!r} is {which} in model "
                                  f"{self.name}; allowed: expressions of this model's "
                                  "variables, der(), delays and time")
-        return sx
 
     @staticmethod
     def _new_name(what: str, name, taken) -> str:
@@ -384,8 +387,11 @@ class Model:
         if sx.numel() == 0:
             raise ValueError(f"quantity {name!r}: an empty expression; allowed: at least "
                              "one element")
-        for k in range(sx.numel()):  # each element: this model's symbols, finite
-            self._expr(f"quantity {name!r}[{k}]", sx[k])
+        self._check_symbols(f"quantity {name!r}", sx)  # this model's symbols
+        for k in range(sx.numel()):  # constant elements finite
+            if sx[k].is_constant() and not math.isfinite(float(sx[k])):
+                raise ValueError(f"quantity {name!r}[{k}] = {float(sx[k])!r}; allowed: "
+                                 "finite numbers")
         self.quantities.append(Quantity(name, sx, unit, description, symbol, source, group))
         return expr
 
