@@ -5,7 +5,7 @@
     loomfmu simulate MODEL|FMU        one run, printed, --csv / --plot
     loomfmu verify FMU                compare an FMU with its scipy reference
     loomfmu docs                      docs/models/<model>.md from the declarations
-    loomfmu inspect MODEL             the model's equations, readable
+    loomfmu inspect MODEL | --all     derivation and equations, readable (docs/inspect)
     loomfmu scene list|run|export     co-simulation scenes and SSP files
     loomfmu heald|drive|rotor|bench   the analyses (each has --help)
 
@@ -34,7 +34,7 @@ ANALYSES = {
     "bench": ("loomfmu.bench.cli", "benchmarks: charts | speed | friction"),
     "docs": ("loomfmu.docs", "docs/models/<model>.md from the declarations"),
     "inspect": ("loomfmu.inspect_report",
-                "a model's equations as HTML (MathML), Markdown or LaTeX"),
+                "a model's derivation and equations as HTML (MathML), Markdown or LaTeX"),
     "scene": ("loomfmu.scene.__main__", "co-simulation scenes: list | run | export"),
     "sweep": ("loomfmu.sweep.__main__", "studies on dask: design-map | drive-grid | hinge | run"),
 }
