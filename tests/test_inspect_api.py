@@ -128,7 +128,8 @@ def test_states_take_their_start_or_a_given_value():
     (lambda: loomfmu.inspect(_spring(), k="stiff"), "k = 'stiff'"),
     (lambda: loomfmu.inspect(_spring()).value("nope"), "name = 'nope'.*allowed: V, a, P, big"),
     (lambda: loomfmu.inspect(_spring()).sympy("nope"), "name = 'nope'"),
-    (lambda: loomfmu.inspect(_spring()).value("P"), r"no value for der\(v\)"),
+    (lambda: loomfmu.inspect(_spring()).value("P"),
+     r"no value for der\(v\).*\*\*\{'der\(v\)': \.\.\.\}"),
     (lambda: loomfmu.inspect(_spring()).value("V", k=1e9), "k = 1000000000.0"),
 ])
 def test_bad_input_is_refused_naming_the_argument(call, match):

@@ -73,10 +73,10 @@ def evaluate(model: Model, expr, values: dict[str, float] | None = None) -> np.n
         else:
             point.append(float(var.start))
     if missing:
+        first = missing[0]
+        how = f"{first}=..." if first.isidentifier() else f"**{{{first!r}: ...}}"
         raise ValueError(f"values: no value for {', '.join(missing)} (no start value); "
-                         "allowed: give each by keyword, e.g. "
-                         f"{missing[0].replace('(', '_').rstrip(')')}=... or "
-                         f"**{{{missing[0]!r}: ...}}")
+                         f"allowed: give each by keyword, e.g. {how}")
     f = ca.Function("evaluate", [ca.vertcat(*syms) if syms else ca.SX(0, 1)],
                     [ca.densify(expr)])
     return np.array(f(point).full(), dtype=float).reshape(expr.shape)
