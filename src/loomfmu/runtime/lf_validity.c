@@ -97,6 +97,9 @@ LfStatus lf_check_validity(LfInstance *c) {
     s->method->dense(s, ta, xs);
     memcpy(&c->r[LF_VR_X0], xs, sizeof(double) * LF_NX);
     lf_solver_reset(s, ta, xs);
+    /* indicators and history of the last valid time (an FMU state taken
+     * here is consistent) */
+    if (LF_NE > 0 && lf_eval_events(c, ta, s->x, c->e_old) != LF_OK) return LF_DISCARD;
     if (lf_hist_push(c, ta, s->x, 0) != LF_OK) return LF_DISCARD;
     return violated(c, bad, v[bad], tb, ta, "the step ends");
 }
