@@ -2,11 +2,13 @@
 
 A model contributes to the FMU only
 
-* ``<id>_casadi.c/.h``: CasADi-generated functions of (t, x, w, u, p, q, d):
+* ``<id>_casadi.c/.h``: CasADi-generated functions of (t, x, w, u, p, q, d,
+  u_rate, d_rate) (ARGUMENTS):
   the closed-form unknowns w = [der(x); z] and their exact Jacobian
   (explicit models), or the residual F and its exact Jacobians (implicit
   models, solved by Newton in the runtime); the outputs, event indicators,
-  mode validity and reinit;
+  mode validity and reinit; the outputs' time derivatives (yder) and the
+  validity conditions of Model.require (vld);
 * ``model_decl.h/.c``: counts, the value-reference table (names, starts,
   ranges, kinds), the solver names and the runtime settings, all written from
   the Python declaration.
@@ -17,7 +19,8 @@ the order of ``ModelVariables`` in the model description::
     settings | parameters | states | inputs | outputs | algebraic locals
 
 The Enumeration ``solver`` has Integer value reference 0, the modes (Integer
-outputs) 1, 2, ...
+outputs) 1, 2, ..., then ``delay_interpolation`` (models with delays) and
+``solver_index`` (the solver as a plain Integer; fmi2_xml.SOLVER_INDEX).
 """
 from __future__ import annotations
 
