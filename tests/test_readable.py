@@ -663,8 +663,13 @@ def test_picture_shows_round_off_apart():
     a[0, 9] = 1e-15
     m.quantity("A", a, description="identity and round-off")
     m.quantity("S", k * ca.DM.eye(10), unit="N/m", description="symbolic")
+    m.quantity("v", k * ca.DM(np.arange(1.0, 11.0)), unit="N", description="a long column")
     m.eq(m.der(x), -k * x)
     sec = derivation(m)
+    tables = [b for g in sec.blocks if isinstance(g, inspect_report.Section) for b in g.blocks
+              if isinstance(b, inspect_report.Table)]
+    assert [r[0] for r in tables[0].rows] == ["1-8", "9-10"]  # the column as values
+    assert tables[0].rows[1][1:4] == ["9000", "10000", ""]
     pics = [b for g in sec.blocks if isinstance(g, inspect_report.Section) for b in g.blocks
             if isinstance(b, inspect_doc.Picture)]
     assert len(pics) == 2

@@ -3,7 +3,8 @@
 with its symbol, definition, unit, description and source.
 
 Scalars and matrices up to :data:`SMALL` x :data:`SMALL` print entry by
-entry (written with the earlier scalar quantities' symbols); larger ones as a
+entry (written with the earlier scalar quantities' symbols); longer columns
+as a table of their values at the parameters' defaults; larger matrices as a
 picture: the non-zero pattern coloured by magnitude at the parameters'
 defaults (inline SVG for HTML, digits for Markdown and LaTeX), with size,
 non-zeros and symmetry.
@@ -18,7 +19,7 @@ import numpy as np
 import sympy
 
 from . import readable
-from .inspect_doc import Code, Def, Equations, Math, Para, Picture, Section
+from .inspect_doc import Code, Def, Equations, Math, Para, Picture, Section, Table
 from .inspection import evaluate
 
 #: a matrix quantity with both dimensions up to this prints entry by entry
@@ -28,6 +29,8 @@ SMALL = 8
 MATRIX_WIDTH = 150
 #: a small matrix whose plain print is longer than this shows as a picture too
 HUGE_MATRIX = 12_000
+#: a long column's values, this many to a table row
+PER_ROW = 8
 #: the picture's width and height in pixels, at most
 PICTURE_PX = 480
 #: colour stops from the smallest to the largest magnitude (viridis-like)
@@ -78,7 +81,19 @@ def _quantity_blocks(model, q, sym, shown) -> list:
                  for j in range(n2) for i in range(n1) if shown[i, j] != 0]
         return blocks + [f"{n1} \u00d7 {n2}, the non-zero entries one per line:",
                          Equations(lines)]
+    if n2 == 1 and (vals := _values(model, q)) is not None:
+        return blocks + _vector_table(q, vals[:, 0])
     return blocks + [_picture(model, q)]
+
+
+def _vector_table(q, vals: np.ndarray) -> list:
+    """A long column's values at the defaults, :data:`PER_ROW` to a row."""
+    n = len(vals)
+    rows = [[f"{k + 1}-{min(k + PER_ROW, n)}"] + [f"{v:.5g}" for v in vals[k:k + PER_ROW]]
+            + [""] * (PER_ROW - len(vals[k:k + PER_ROW])) for k in range(0, n, PER_ROW)]
+    unit = f" ({q.unit})" if q.unit else ""
+    return [f"{q.name}: {n} entries{unit} at the default parameters, {PER_ROW} to a row:",
+            Table(["entries"] + [f"+{k}" for k in range(PER_ROW)], rows)]
 
 
 def _fits(m: sympy.MatrixBase) -> bool:
