@@ -57,6 +57,13 @@ def _plain_log_ticks(axis, ticks) -> None:
     axis.set_minor_formatter(NullFormatter())
 
 
+def _plain_log_labels(axis) -> None:
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+    axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    axis.set_minor_formatter(NullFormatter())
+
+
 def drive_grid_chart(rows: list[dict], path: Path) -> Path:
     """Tracking error against T, a line per tau: compensated and
     uncompensated cam side by side (log scale)."""
@@ -115,3 +122,35 @@ def hinge_chart(rows: list[dict], names: list[str], path: Path) -> Path:
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def trends_chart(rows: list[dict], path: Path) -> Path:
+    """A1 (top) and A2 (bottom of the blade) against each study's x: the
+    FMU's orbit radius (markers) on (15)'s line."""
+    plt = _plt()
+    names = list(dict.fromkeys(r["study"] for r in rows))
+    fig, axes = plt.subplots(1, len(names), figsize=(3.6 * len(names), 3.6), squeeze=False)
+    for ax, name in zip(axes[0], names):
+        rs = sorted((r for r in rows if r["study"] == name and "A1_fmu" in r),
+                    key=lambda r: r["x"])
+        x = [r["x"] for r in rs]
+        for key, label in (("A1", "A1 top"), ("A2", "A2 bottom")):
+            line = ax.plot(x, [r[f"{key}_15"] * 1e6 for r in rs], "-", lw=1,
+                           label=f"{label}, (15)")[0]
+            ax.plot(x, [r[f"{key}_fmu"] * 1e6 for r in rs], "o", ms=4, mfc="none",
+                    color=line.get_color(), label=f"{label}, FMU")
+        ax.set_title(name.replace("_", " "), fontsize=9)
+        ax.set_xlabel("factor" if "support" in name and name != "support_distance"
+                      else ("L_s (m)" if name == "support_distance" else "k_d"))
+        ax.set_yscale("log")
+        _plain_log_labels(ax.yaxis)
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0][0].set_ylabel("orbit radius (um)")
+    axes[0][0].legend(fontsize=7)
+    fig.suptitle("Spindle trends at 16 000 rpm: the full FMU on its periodic orbit against "
+                 "(15)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+

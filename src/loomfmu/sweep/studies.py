@@ -12,6 +12,10 @@ drive_grid   spindle drive (seed 001): tracking error of the spindle speed
              ``loomfmu drive tracking``: loomfmu.drive.tracking).
 hinge        heald frame, rigid (seed 002): the drive hinge's load N_rem
              over all presets and main-shaft speeds, one frame cycle.
+trends       spindle rotor (seed 003): the trend studies of ``loomfmu rotor
+             trends`` on the full spindle FMU, started on the periodic
+             unbalance orbit (loomfmu.spindle_start), orbit radii of the top
+             and the bottom of the blade over two revolutions at 16 000 rpm.
 
 Every ``prepare_*`` and figure function is module level: dask workers
 import them by name.
@@ -34,6 +38,9 @@ from ..drive.tracking import M_HARMONICS, cam_values
 from ..heald.hinge import KINETOSTATIC_PARAMETERS, hinge_load_kinetostatic
 from ..heald.presets import MAKERS, preset_names, preset_values
 from ..registry import load_model
+from ..rotor_study import WORK_RPM, Spindle, amplitude_table
+from ..rotor_trends import STUDIES as ROTOR_STUDIES
+from ..spindle_start import periodic_start
 from .figures import Derived, Figure
 from .space import grid
 from .study import Study
@@ -202,4 +209,67 @@ def hinge_closed_form(rows: list[dict], samples: int = 200_001) -> float:
     return worst
 
 
-STUDIES = {"design-map": design_map, "drive-grid": drive_grid, "hinge": hinge}
+# --- spindle trend studies (seed 003) --------------------------------------
+
+#: the studies of loomfmu.rotor_trends that change run-time parameters (the
+#: spring-turns study changes a build option: not here)
+TRENDS = ("lower_support", "upper_support", "blade_diameter", "support_distance")
+TREND_REVS = 3  # revolutions run; the first is skipped by the figures
+
+
+def prepare_trend(case: dict, fixed: dict) -> tuple[dict, float]:
+    """Trend study TRENDS[case['trend']] at x = case['x'] (its factor or
+    value), applied to the base values in ``fixed`` as loomfmu.rotor_trends
+    does; start on the periodic orbit of (15) at fixed['n_rpm']."""
+    i = case["trend"]
+    if not isinstance(i, int) or not 0 <= i < len(TRENDS):
+        raise ValueError(f"trend = {i!r}; allowed: an integer in [0, {len(TRENDS) - 1}]")
+    opts, over = ROTOR_STUDIES[TRENDS[i]][2](case["x"], fixed["base"])
+    if opts:
+        raise ValueError(f"trend {TRENDS[i]}: changes build options {opts}; allowed: "
+                         "run-time parameters only")
+    n, ecc = fixed["n_rpm"], fixed["ecc"]
+    values = periodic_start("spindle", n_rpm=n, e_b=ecc, e_w=ecc, parameters=over)
+    values.update(over, n_rpm=n, e_b=ecc, e_w=ecc)
+    return values, TREND_REVS * 60.0 / n
+
+
+def trends() -> Study:
+    """The spindle trend studies on the FMU (see the module)."""
+    base = Spindle({})
+    ecc = amplitude_table(base, 0.0)["eccentricity_m"]  # as loomfmu rotor trends
+    cases = [{"trend": i, "x": float(x)} for i, name in enumerate(TRENDS)
+             for x in ROTOR_STUDIES[name][1]]
+    rev = 60.0 / WORK_RPM
+    v = base.values()
+    return Study("spindle", cases=cases,
+                 figures=[Figure("max", "r_top", after=rev), Figure("min", "r_top", after=rev),
+                          Figure("max", "r_footstep", after=rev)],
+                 stop_time=TREND_REVS * rev, output_interval=rev / 200, rtol=1e-8, atol=1e-12,
+                 fixed={"n_rpm": WORK_RPM, "ecc": ecc,
+                        "base": {k: float(v[k]) for k in ("k_f", "a_s", "k_u")}},
+                 prepare=prepare_trend, name="trends")
+
+
+def trends_against_15(rows: list[dict], ecc: float) -> list[dict]:
+    """Each case's FMU radii next to (15)'s A1, A2 (loomfmu.rotor_trends,
+    the same study at the same eccentricity), with the relative differences
+    and the top radius' drift over the recorded revolutions."""
+    from ..rotor_trends import run_study as rotor_study
+    ref = {name: {r["x"]: r for r in rotor_study(name, ecc)["rows"]} for name in TRENDS}
+    out = []
+    for r in rows:
+        name = TRENDS[r["trend"]]
+        a = ref[name].get(r["x"])
+        row = {"study": name, "x": r["x"], "status": r["status"]}
+        if r["status"] == "ok" and a is not None:
+            row.update(A1_fmu=r["max_r_top"], A2_fmu=r["max_r_footstep"], A1_15=a["A1"],
+                       A2_15=a["A2"], dA1=abs(r["max_r_top"] / a["A1"] - 1),
+                       dA2=abs(r["max_r_footstep"] / a["A2"] - 1),
+                       drift=(r["max_r_top"] - r["min_r_top"]) / r["max_r_top"])
+        out.append(row)
+    return out
+
+
+STUDIES = {"design-map": design_map, "drive-grid": drive_grid, "hinge": hinge,
+           "trends": trends}
