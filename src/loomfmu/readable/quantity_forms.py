@@ -38,6 +38,9 @@ _FONTS = {"mathrm", "mathbf", "boldsymbol", "text", "mathit", "operatorname"}
 _TOKEN = re.compile(r"\\[A-Za-z]+|\\.|[A-Za-z]|\d+(?:\.\d+)?|\s+|.")
 
 
+MINUS = "\u2212"  # a hyphen-minus in MathML is a hyphen: short, and lost in a superscript
+
+
 class _Unsupported(ValueError):
     """A symbol outside the LaTeX subset symbol_mathml reads."""
 
@@ -139,7 +142,7 @@ class _Reader:
             return f"<mn>{tok}</mn>"
         if tok in "_^}":
             raise _Unsupported(tok)
-        return f"<mo>{escape(tok)}</mo>"
+        return f"<mo>{escape(MINUS if tok == '-' else tok)}</mo>"
 
     def atom(self) -> str:
         base, sub, sup = self.base(), None, None
