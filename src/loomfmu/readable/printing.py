@@ -97,8 +97,10 @@ def _entity_char(m: re.Match) -> str:
 
 
 def mathml_body(expr) -> str:
-    """The presentation MathML of a SymPy object, without the ``<math>`` element."""
-    return _ENTITY.sub(_entity_char, _MathML().doprint(expr))
+    """The presentation MathML of a SymPy object, without the ``<math>`` element
+    (minus signs as U+2212: SymPy writes the hyphen, which browsers draw short)."""
+    return _ENTITY.sub(_entity_char, _MathML().doprint(expr)).replace("<mo>-</mo>",
+                                                                     "<mo>\u2212</mo>")
 
 
 def mathml_line(expr, *, display: str = "block") -> str:
