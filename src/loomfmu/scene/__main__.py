@@ -1,4 +1,5 @@
-"""loomfmu scene {list, run, export}: co-simulation scenes (docs/scenes.md).
+"""loomfmu scene {list, run, export, fidelity}: co-simulation scenes
+(docs/scenes.md; fidelity: docs/fidelity.md).
 
 Exit codes: 0 done; 1 the run failed (an FMU returned Error/Discard, the
 adaptive step fell below its minimum); 2 a usage error (one line).
@@ -9,6 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from .fidelity import add_parser as add_fidelity_parser
 from .library import SCENES, load_scene
 from .master import MASTERS
 
@@ -54,6 +56,7 @@ def _parser(prog: str) -> argparse.ArgumentParser:
                    help="the .ssp file (default: ./<scene>.ssp)")
     e.add_argument("--fmu-dir", type=Path, default=None,
                    help="folder to build the FMUs into and reuse (default: a temporary one)")
+    add_fidelity_parser(sub)
     return ap
 
 
@@ -113,6 +116,9 @@ def main(argv=None, prog: str = "loomfmu scene") -> int:
             return _list()
         if args.cmd == "run":
             return _run(args, f"{prog} run")
+        if args.cmd == "fidelity":
+            from .fidelity import main as fidelity
+            return fidelity(args)
         from .ssp import export_ssp
         out = args.out if args.out is not None else Path(f"{args.scene}.ssp")
         print(f"wrote {export_ssp(load_scene(args.scene), out, fmu_dir=args.fmu_dir)}")
