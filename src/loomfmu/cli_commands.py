@@ -11,6 +11,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
+from .fidelity import LEVELS
 from .progress import Progress
 from .registry import FIDELITY, MODELS, load_model
 
@@ -87,15 +88,21 @@ def cmd_list(args) -> int:
     rows = {name: {"mechanism": next((m for m, lv in FIDELITY.items() if name in lv), "-"),
                    "options": option_defaults(name)} for name in sorted(MODELS)}
     if args.json:
-        print(json.dumps({"models": rows, "fidelity": FIDELITY}, indent=2, default=str))
+        print(json.dumps({"models": rows, "fidelity": FIDELITY,
+                          "levels": {n: vars(lv) for n, lv in LEVELS.items()}},
+                         indent=2, default=str))
         return 0
     print(f"{'model':<22}{'mechanism':<16}build options (default)")
     for name, row in rows.items():
         opts = ", ".join(f"{k}={v!r}" for k, v in row["options"].items()) or "-"
         print(f"{name:<22}{row['mechanism']:<16}{opts}")
-    print("\nfidelity levels, lowest first:")
+    print("\nfidelity levels, lowest first (docs/fidelity.md):")
     for mech, levels in FIDELITY.items():
         print(f"  {mech:<14}{' < '.join(levels)}")
+        for name in levels:
+            lv = LEVELS[name]
+            print(f"    {name}: leaves out {'; '.join(lv.leaves_out) or 'nothing'}")
+            print(f"      represents {'; '.join(lv.represents)}; suffices: {lv.suffices}")
     return 0
 
 
