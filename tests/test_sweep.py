@@ -104,6 +104,14 @@ def test_resume_skips_finished_cases(swept, blob, tmp_path):
     assert sum(kept[k] == first[k] for k in list(first)[:4]) == 4
     done = run_study(_study(), out=part, workers=1, blob=blob, progress=False, batch=4)
     assert (done.executed, done.skipped) == (0, 9)
+    # a line cut short by a kill is run again; another study's table is not overwritten
+    cut = tmp_path / "cut.csv"
+    cut.write_text("\n".join(lines[:9]) + "\n" + lines[9][:30])
+    assert store.read_rows(cut)[-1]["status"] in (None, "")  # cut in its case values
+    again = run_study(_study(), out=cut, workers=1, blob=blob, progress=False)
+    assert (again.executed, again.skipped) == (1, 8)
+    with pytest.raises(ValueError, match=r"out = .*columns.*allowed: .*--fresh"):
+        run_study(_study(figures=[Figure("max", "h")]), out=cut, blob=blob, progress=False)
     # a rebuild of the same model resumes (the FMU's members are hashed, not the zip)
     rebuilt = build_fmu(load_model("heald_frame_rigid"), out_dir=tmp_path / "re",
                         validate=False).path

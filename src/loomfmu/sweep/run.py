@@ -23,7 +23,7 @@ from pathlib import Path
 from ..checks import check_bool, check_int
 from . import store
 from .study import Study, case_key
-from .worker import FmuBlob, run_batch, run_case
+from .worker import STATUSES, FmuBlob, run_batch, run_case
 
 #: most local worker processes
 MAX_WORKERS = 64
@@ -189,21 +189,30 @@ def _need_distributed() -> None:
 
 
 def _finished(out, keys: list[str], cols: list[str], resume: bool) -> dict[str, dict]:
-    """Rows of ``out`` that belong to this study (by case key)."""
+    """Rows of ``out`` that belong to this study (by case key) and are whole
+    (a line cut short when a study was killed is run again). Rows of other
+    settings (another FMU, experiment or figures) are dropped from the file."""
     if out is None:
         return {}
     path = Path(out)
-    if not resume or (path.exists() and store.header_of(path) != cols):
-        if path.exists():
-            path.unlink()  # another study's table, or a fresh start: begin again
+    if not path.exists():
         return {}
+    if not resume:
+        path.unlink()  # a fresh start
+        return {}
+    header = store.header_of(path)
+    if header is not None and header != cols:
+        raise ValueError(f"out = {str(path)!r}: its columns {header[:6]}... are not this "
+                         f"study's {cols[:6]}...; allowed: this study's table, a new path, "
+                         "or resume=False (--fresh) to replace it")
     index = {k: i for i, k in enumerate(keys)}
+    found = store.read_rows(path)
     rows = {}
-    for r in store.read_rows(path):
-        if r.get("key") in index:
+    for r in found:
+        if r.get("key") in index and r.get("status") in STATUSES and None not in r.values():
             r["index"] = index[r["key"]]
             rows[r["key"]] = r
-    if len(rows) < len(store.read_rows(path)):  # rows of other settings: keep only ours
+    if len(rows) < len(found):  # rows of other settings or cut short: keep only ours
         store.write_rows(path, cols, list(rows.values()))
     return rows
 

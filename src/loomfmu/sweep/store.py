@@ -26,7 +26,9 @@ def _text(value) -> str:
     return "" if value is None else str(value)
 
 
-def _value(text: str):
+def _value(text: str | None):
+    if text is None:  # a line cut short
+        return None
     if text in ("True", "False"):
         return text == "True"
     try:
