@@ -225,6 +225,10 @@ class Selection:
         their errors relative to the range are large for any level."""
         out = []
         for o in self.outputs:
+            if all(r.errors[o] == 0.0 for r in self.rows):
+                out.append(f"{o}: every combination gives the reference's values exactly: "
+                           "the output does not depend on the levels tried (e.g. a one-way "
+                           "coupling)")
             y = self.evaluation.reference[o]
             rng, mag = float(np.ptp(y)), float(np.abs(y).max())
             if rng < self.tol * mag:
@@ -246,17 +250,22 @@ class Selection:
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
-        fig, ax = plt.subplots(figsize=(8, 5))
+        fig, ax = plt.subplots(figsize=(8.5, 5.5))
+        nonzero = [r.error for r in self.rows if r.error > 0]
+        floor = min(nonzero + [self.tol]) / 10     # the reference (error 0) drawn here
         for i, r in enumerate(self.rows):
             ok = r.error <= self.tol
-            ax.scatter(r.cpu_s, max(r.error, 1e-16), s=80 if i == self.chosen else 36,
+            y = r.error if r.error > 0 else floor
+            ax.scatter(r.cpu_s, y, s=140 if i == self.chosen else 36,
                        marker="*" if i == self.chosen else "o",
                        color="tab:green" if ok else "tab:red", zorder=3)
-            ax.annotate(r.label().replace(" + ", "\n"), (r.cpu_s, max(r.error, 1e-16)),
-                        fontsize=7, xytext=(4, 4), textcoords="offset points")
-        ax.axhline(self.tol, color="grey", ls="--", label=f"tol {self.tol:g}")
-        ax.set(xscale="log", yscale="log", xlabel="CPU s of the run",
-               ylabel="largest error / output's range",
+            text = ("reference: " if i == len(self.rows) - 1 else "") + _short(r)
+            ax.annotate(text, (r.cpu_s, y), fontsize=7, textcoords="offset points",
+                        xytext=(5, 8 if i % 2 else -12))
+        ax.axhline(self.tol, color="grey", ls="--", label=f"tol {self.tol:g}; star: chosen "
+                   f"(costs within {COST_NOISE:.0%} count as equal, lowest levels win)")
+        ax.set(yscale="log", xlabel=f"CPU s of a {self.evaluation.stop:g} s run",
+               ylabel="largest error / output's range (reference: drawn at the bottom)",
                title=f"{self.evaluation.scene}: {', '.join(self.outputs)}"[:90])
         ax.legend(loc="lower left")
         fig.tight_layout()
@@ -264,6 +273,13 @@ class Selection:
         fig.savefig(path, dpi=110)
         plt.close(fig)
         return path
+
+
+def _short(row: Row) -> str:
+    """A row's levels without the mechanism prefixes (chart labels)."""
+    return " + ".join(v.replace("heald_frame_", "").replace("heald_frame", "spatial")
+                      .replace("backrest_", "").replace("spindle_modal", "modal")
+                      for v in row.levels.values())
 
 
 def _choice(scene: str, slot: str, label: str) -> Choice:
