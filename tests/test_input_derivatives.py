@@ -284,7 +284,9 @@ def test_bad_input_derivative_calls_are_refused(poly_fmu, slave_factory):
     s.fmu.terminate()
     n_log = len(s.log)
     assert call([u], [1], [1.0]) == 3
-    assert "must not be called in the current state" in s.log[n_log][2]
+    # the states by FMI's names, not a bit mask
+    assert ("fmi2SetRealInputDerivatives must not be called in state Terminated; allowed "
+            "in: Instantiated, InitializationMode, StepComplete") in s.log[n_log][2], s.log[n_log]
 
 
 def test_model_description_declares_interpolation(poly_fmu):
@@ -371,6 +373,14 @@ def test_solver_index_chooses_the_solver_as_an_integer(poly_fmu, slave_factory):
     assert alias == rk4 != dopri5
     assert s.fmu.getInteger([s.vr["solver"], s.vr["solver_index"]]) == [3, 3]
     bad = slave_factory(poly_fmu, "bad")
+    for value in (7, 4, -1):  # the variable set and its range are named
+        with pytest.raises(FMICallException):
+            bad.fmu.setInteger([bad.vr["solver_index"]], [value])
+        assert (f"solver_index = {value} is not a solver: allowed 0..3 (0 leaves solver in "
+                "charge, 1 dopri5, 2 rodas4, 3 rk4)") in bad.log[-1][2], bad.log[-1]
     with pytest.raises(FMICallException):
-        bad.fmu.setInteger([bad.vr["solver_index"]], [7])
-    assert "solver = 7 is not a solver" in bad.log[-1][2]
+        bad.fmu.setInteger([bad.vr["solver"]], [0])
+    assert "solver = 0 is not a solver: allowed 1..3 (1 dopri5," in bad.log[-1][2]
+    bad.fmu.setupExperiment(startTime=0.0)
+    bad.fmu.enterInitializationMode()  # nothing refused was set
+    assert bad.fmu.getInteger([bad.vr["solver"], bad.vr["solver_index"]]) == [1, 0]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+import casadi as ca
 import fmpy
 import pytest
 from fmpy.fmi1 import FMICallException
@@ -133,3 +134,88 @@ def test_violated_at_the_start_discards_without_progress(fmus, slave_factory):
     assert s.fmu.getRealStatus(fmi2LastSuccessfulTime) == 0.0
     assert s.fmu.getBooleanStatus(fmi2Terminated)
     assert s.log[-1][2].startswith(f"taut: {MESSAGE}: value -0.1 at t = 0 s")
+
+
+# ---- the located time does not depend on the communication step -----------
+
+W_EVENT = 20.0     # event indicator sin(W_EVENT (t - t_e)): events every pi/20 s
+
+
+def _spring_with_events(name: str) -> Model:
+    """The spring with an event indicator (no mode: the solver restarts at
+    each root), one root t_e placed just after t*, so that the internal step
+    in which the condition fails ends at an event and is redone up to it."""
+    m = _spring(True, name)
+    t_e = m.parameter("t_e", T_STAR + 3e-3, unit="s", description="a root of the indicator",
+                      source="assumption: test oracle")
+    m.event("tick", ca.sin(W_EVENT * (m.t - t_e)), description="a breakpoint")
+    return m
+
+
+DIP_EPS = 1e-3     # condition cos(t) + 1 - DIP_EPS >= 0: fails for 0.089 s around pi
+T_DIP = math.pi - math.acos(1.0 - DIP_EPS)
+
+
+def _dip(name: str) -> Model:
+    """Constant state, so the adaptive solvers' steps grow to solver_h_max
+    (10 s); the condition, driven by time, dips below zero for 0.089 s."""
+    m = Model(name, description="a dip driven by time", stop_time=10.0, step_size=0.01)
+    x = m.state("x", 1.0, unit="m", description="constant")
+    m.eq(m.der(x), 0.0 * x)
+    m.output("x_out", x, unit="m", description="x")
+    m.require("dip", x * ca.cos(m.t) + 1.0 - DIP_EPS, "a dip")
+    return m
+
+
+@pytest.fixture(scope="module")
+def more_fmus(tmp_path_factory):
+    out = tmp_path_factory.mktemp("validity_more")
+    return {"events": build_fmu(_spring_with_events("spring_events"), out_dir=out).path,
+            "dip": build_fmu(_dip("dip"), out_dir=out).path}
+
+
+def _run_to_discard(s, h, t_stop):
+    t = 0.0
+    with pytest.raises(FMICallException) as e:
+        while t < t_stop:
+            s.fmu.doStep(t, min(h, t_stop - t))
+            t += h
+    assert e.value.status == 2  # fmi2Discard
+    return s.fmu.getRealStatus(fmi2LastSuccessfulTime)
+
+
+@pytest.mark.parametrize("solver", [1, 2])
+@pytest.mark.parametrize("offset", [1e-4, 3e-3])
+def test_failure_in_a_step_that_ends_at_an_event(more_fmus, slave_factory, solver, offset):
+    """Issue 13 follow-up: the condition fails at t* inside an internal step
+    that ends at an event (t* + offset).  The time found is t* for every
+    communication step from 1e-4 s to the whole run, never the event's time
+    (it was the event's time, with the condition already negative, when the
+    step ended at the event)."""
+    found = {}
+    for h in (1e-4, 1e-3, 1e-2, 0.1, 2.0):
+        s = slave_factory(more_fmus["events"])
+        s.start(solver=solver, solver_rtol=1e-10, solver_atol=1e-12, t_e=T_STAR + offset)
+        found[h] = _run_to_discard(s, h, 2.0)
+        assert s.fmu.getBooleanStatus(fmi2Terminated)
+        assert s.get("x")[0] >= -0.5, h
+        assert s.log[-1][2].startswith(f"taut: {MESSAGE}: value "), s.log[-1]
+    assert all(abs(t - T_STAR) < 1e-9 for t in found.values()), found
+
+
+@pytest.mark.parametrize("solver", [1, 2, 3])
+def test_a_dip_shorter_than_the_step_is_found(more_fmus, slave_factory, solver):
+    """The state is constant (zero error estimate: steps of up to 10 s), the
+    condition dips below zero for 0.089 s.  Sampling each step at its
+    midpoint and end missed the dip (the FMU ran through to 10 s); scanned
+    like an event indicator (halves again where the quadratic through the
+    samples comes near zero; steps bounded by the condition's curvature) it
+    is found at the same time for every communication step."""
+    found = {}
+    for h in (1e-2, 0.1, 1.0, 10.0):
+        s = slave_factory(more_fmus["dip"])
+        s.start(solver=solver, solver_h_fixed=0.05)
+        found[h] = _run_to_discard(s, h, 10.0)
+        value = float(s.log[-1][2].split("value ")[1].split(" ")[0])
+        assert value < 0 and abs(value) < 1e-9, s.log[-1]
+    assert all(abs(t - T_DIP) < 1e-9 for t in found.values()), found

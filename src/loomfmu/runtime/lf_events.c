@@ -221,17 +221,13 @@ static LfStatus cross_gap(LfInstance *c, int k, double t_left, const double *x_l
  *    bounds a step could alias a whole oscillation, which no sampling
  *    inside it can see.  The bound never shrinks the step below a quarter
  *    of the last one at once. */
-#define LF_EVENT_SCAN_DEPTH 8
-#define LF_EVENT_VERTEX_MARGIN 0.5
-#define LF_EVENT_CURV 0.25
-#define LF_EVENT_GROWTH 2.0
 
 /* Does the quadratic through samples ga, gm, gb of one indicator at the
  * start, middle and end of an interval come closer to zero at its extremum
  * than LF_EVENT_VERTEX_MARGIN times the midpoint's distance from the chord
  * (or cross it)?  *th: where the extremum lies, in units of the interval
  * (0 start, 1 end; may lie outside). */
-static int near_zero_extremum(double ga, double gm, double gb, double *th) {
+int lf_near_zero_extremum(double ga, double gm, double gb, double *th) {
     double a = 2.0 * (ga - 2.0 * gm + gb), b = 4.0 * gm - 3.0 * ga - gb, v;
     double sgn = (ga > 0 || (ga == 0 && gb > 0)) ? 1.0 : -1.0;
     if (a == 0) return 0;
@@ -249,7 +245,7 @@ static int may_hide_roots(double ga, double gm, double gb) {
     double th;
     if (crossed(ga, gb)) return 0;
     if (crossed(ga, gm) || crossed(gm, gb)) return 1;
-    return near_zero_extremum(ga, gm, gb, &th) && th > -0.5 && th < 1.5;
+    return lf_near_zero_extremum(ga, gm, gb, &th) && th > -0.5 && th < 1.5;
 }
 
 static int any_crossed(const double *ga, const double *gb) {
@@ -290,7 +286,7 @@ static LfStatus scan_events(LfInstance *c, double ta, const double *ga, double t
                     out->h_bound = fmin(out->h_bound, LF_EVENT_GROWTH * h);
                 /* an extremum near zero just after the step: the next step
                  * ends short of twice its distance */
-                if (near_zero_extremum(ga[k], gm[k], gb[k], &th) && th > 1.0 && th < 2.0)
+                if (lf_near_zero_extremum(ga[k], gm[k], gb[k], &th) && th > 1.0 && th < 2.0)
                     out->h_bound = fmin(out->h_bound, 2.0 * (th - 1.0) * h);
             }
         }
@@ -325,6 +321,7 @@ static LfStatus scan_events(LfInstance *c, double ta, const double *ga, double t
 static LfStatus handle_events(LfInstance *c, double *h_bound) {
     LfSolver *s = &c->solver;
     double t_left = s->t, t_right = s->t, margin, t_stop, t_end_step, e_end[LF_DIM(LF_NE)];
+    double t_ok, x_ok[LF_DIM(LF_NX)], q_ok[LF_DIM(LF_NQ)];
     double h_step = s->t - s->t_old;
     int k, first = -1, crossed_gap;
     EventScan scan;
@@ -361,12 +358,22 @@ static LfStatus handle_events(LfInstance *c, double *h_bound) {
     while (s->t < t_stop) {
         st = s->method->step(s, t_stop);
         if (st != LF_OK) return st;
+        /* the validity conditions on the redone steps (a failure before the
+         * event ends the step there) */
+        st = lf_check_validity(c);
+        if (st != LF_OK) return st;
     }
+    /* the last point before the event, where the conditions held */
+    t_ok = s->t;
+    memcpy(x_ok, s->x, sizeof x_ok);
+    memcpy(q_ok, c->q, sizeof q_ok);
     st = cross_gap(c, first, s->t, s->x, t_right - s->t + margin, t_end_step, &crossed_gap);
     if (st != LF_OK) return st;
     if (!crossed_gap) {
         lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: indicator %s touched zero and kept its "
                "sign: no event, solver restarted", s->t, lf_model.event_names[first]);
+        st = lf_validity_restart(c, t_ok, x_ok, q_ok);
+        if (st != LF_OK) return st;
         return lf_hist_push(c, s->t, s->x, 0);
     }
     c->n_events++;
@@ -384,6 +391,8 @@ static LfStatus handle_events(LfInstance *c, double *h_bound) {
     }
     lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: event %s, solver restarted", s->t,
            lf_model.event_names[first]);
+    st = lf_validity_restart(c, t_ok, x_ok, q_ok);
+    if (st != LF_OK) return st;
     return lf_hist_push(c, s->t, s->x, lf_model.event_mode[first] >= 0);
 }
 

@@ -82,13 +82,36 @@ static void fmi2_log_bridge(void *env, const char *instance, LfStatus status,
     cb->logger(cb->componentEnvironment, instance, (fmi2Status)status, category, buf);
 }
 
+/* FMI 2.0's names of the interface states, in the order of LfState's bits */
+static const char *const state_names[] = {"Instantiated", "InitializationMode",
+                                          "StepComplete", "StepFailed", "Terminated",
+                                          "Error"};
+#define N_STATE_NAMES ((int)(sizeof state_names / sizeof state_names[0]))
+
+/* the names of the states in `mask`, comma separated */
+static void state_list(int mask, char *buf, size_t size) {
+    int i;
+    size_t used = 0;
+    buf[0] = '\0';
+    for (i = 0; i < N_STATE_NAMES; i++) {
+        int n;
+        if (!(mask & (1 << i))) continue;
+        n = snprintf(buf + used, size - used, "%s%s", used ? ", " : "", state_names[i]);
+        if (n < 0 || (size_t)n >= size - used) return;
+        used += (size_t)n;
+    }
+}
+
 int lf_fmi2_allowed(fmi2Component c, const char *fn, int mask) {
     LfInstance *inst = lf_fmi2_live(c);
+    char now[64], allowed[160];
     if (!inst) return 0; /* NULL, freed or not an instance: nothing to log through */
     if (inst->state & mask) return 1;
+    state_list((int)inst->state, now, sizeof now);
+    state_list(mask, allowed, sizeof allowed);
     lf_log(inst, LF_ERROR, LF_LOG_ERROR,
-           "%s must not be called in the current state (state mask %d, allowed %d)", fn,
-           (int)inst->state, mask);
+           "t = %.17g: %s must not be called in state %s; allowed in: %s", inst->t, fn,
+           now[0] ? now : "unknown", allowed);
     return 0;
 }
 

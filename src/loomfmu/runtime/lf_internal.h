@@ -35,6 +35,19 @@ LfStatus lf_eval_events(LfInstance *c, double t, const double *x, double *e);
 LfStatus lf_consistent_modes(LfInstance *c, double t, double *x, int touched);
 LfStatus lf_initial_modes(LfInstance *c);
 LfStatus lf_handle_events(LfInstance *c);
+/* Scanning a function of time between samples (event indicators, validity
+ * conditions; lf_events.c explains the rules): halves scanned again down to
+ * LF_EVENT_SCAN_DEPTH levels where the quadratic through three samples
+ * comes near zero; the next step bounded so that the function's second
+ * difference over it stays below LF_EVENT_CURV of its size. */
+#define LF_EVENT_SCAN_DEPTH 8
+#define LF_EVENT_VERTEX_MARGIN 0.5
+#define LF_EVENT_CURV 0.25
+#define LF_EVENT_GROWTH 2.0
+/* Does the quadratic through ga, gm, gb (start, middle, end) come closer to
+ * zero at its extremum than LF_EVENT_VERTEX_MARGIN times the midpoint's
+ * distance from the chord?  *th: where, in units of the interval. */
+int lf_near_zero_extremum(double ga, double gm, double gb, double *th);
 
 /* lf_inputs.c: the inputs (u, du/dt) at time t: the instance's values, or
  * their polynomials; did they change since the solver last started? */
@@ -46,6 +59,11 @@ void lf_inputs_seen(LfInstance *c);
  * LF_DISCARD with the state at the last valid time where one fails. */
 LfStatus lf_check_validity(LfInstance *c);
 LfStatus lf_validity_at_start(LfInstance *c);
+/* after the solver restarted (an event): the conditions at the restart
+ * point; where one fails, the step ends at (t_ok, x_ok) with the modes q_ok
+ * (the last point checked before the restart) */
+LfStatus lf_validity_restart(LfInstance *c, double t_ok, const double *x_ok,
+                             const double *q_ok);
 
 /* lf_newton.c: solve dF/dw v = b at (t, x, w) in place (implicit models). */
 LfStatus lf_solve_dFdw(LfInstance *c, double t, const double *x, const double *w, double *b);

@@ -83,6 +83,7 @@ void lf_reset_values(LfInstance *c) {
     c->outputs_valid = 0;
     c->inputs_changed = 0;
     c->wants_terminate = 0;
+    c->vld_t = NAN;
     lf_inputs_reset(c, 0.0);
     c->n_events = 0;
     c->max_steps = (long)lf_model.real_start[LF_SET_MAX_STEPS];
@@ -273,16 +274,13 @@ LfStatus lf_get_integer(LfInstance *c, unsigned vr, int *value) {
     return LF_ERROR;
 }
 
+static LfStatus set_solver(LfInstance *c, const char *name, int id, int lowest);
+
 LfStatus lf_set_integer(LfInstance *c, unsigned vr, int value) {
-    if (vr == LF_VR_SOLVER) return lf_set_solver(c, value);
+    if (vr == LF_VR_SOLVER) return set_solver(c, "solver", value, 1);
     if (vr == LF_VR_SOLVER_INDEX) {
-        if (value != 0 && lf_set_solver(c, value) != LF_OK) return LF_ERROR;
-        if (value == 0 && !(c->state & (LF_ST_INSTANTIATED | LF_ST_INIT))) {
-            lf_log(c, LF_ERROR, LF_LOG_ERROR,
-                   "solver_index can only be set before fmi2ExitInitializationMode");
-            return LF_ERROR;
-        }
-        c->solver_index = value; /* lf_set_solver set solver_id too: both say the same */
+        if (set_solver(c, "solver_index", value, 0) != LF_OK) return LF_ERROR;
+        c->solver_index = value; /* set_solver set solver_id too: both say the same */
         return LF_OK;
     }
     if (LF_ND > 0 && vr == LF_VR_DINTERP) {
@@ -305,17 +303,34 @@ LfStatus lf_set_integer(LfInstance *c, unsigned vr, int value) {
     return LF_ERROR;
 }
 
-LfStatus lf_set_solver(LfInstance *c, int id) {
-    if (id < 1 || id > (int)lf_n_methods) {
-        lf_log(c, LF_ERROR, LF_LOG_ERROR, "solver = %d is not a solver (expected 1..%d)", id,
-               (int)lf_n_methods);
+LfStatus lf_set_solver(LfInstance *c, int id) { return set_solver(c, "solver", id, 1); }
+
+/* Set variable `name` (solver, or solver_index whose 0 leaves `solver` in
+ * charge: lowest = 0) to id; the log names the variable, its allowed range
+ * and the solvers. */
+static LfStatus set_solver(LfInstance *c, const char *name, int id, int lowest) {
+    if (id < lowest || id > (int)lf_n_methods) {
+        char list[128];
+        size_t used = 0;
+        unsigned i;
+        list[0] = '\0';
+        for (i = 0; i < lf_n_methods && used < sizeof list; i++) {
+            int n = snprintf(list + used, sizeof list - used, "%s%u %s", i ? ", " : "", i + 1,
+                             lf_methods[i]->name);
+            if (n < 0) break;
+            used += (size_t)n;
+        }
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "%s = %d is not a solver: allowed %d..%d (%s%s)", name,
+               id, lowest, (int)lf_n_methods, lowest == 0 ? "0 leaves solver in charge, " : "",
+               list);
         return LF_ERROR;
     }
     if (!(c->state & (LF_ST_INSTANTIATED | LF_ST_INIT))) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR,
-               "solver can only be set before fmi2ExitInitializationMode");
+               "%s can only be set before fmi2ExitInitializationMode", name);
         return LF_ERROR;
     }
+    if (id == 0) return LF_OK;
     c->solver_id = id;
     return LF_OK;
 }

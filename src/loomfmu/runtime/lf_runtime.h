@@ -106,6 +106,9 @@ typedef struct {
     double u_now[LF_DIM(LF_NU)], u_rate[LF_DIM(LF_NU)], u_zero[LF_DIM(LF_NU)];
     double d_rate[LF_DIM(LF_ND)]; /* delayed values' rates (output derivatives) */
     int wants_terminate;          /* fmi2Terminated: a validity condition failed */
+    /* validity conditions at time vld_t (the start of the next step; set at
+     * every step's start and end, not part of the FMU state) */
+    double vld_t, vld_v[LF_DIM(LF_NV)];
 
     LfSolver solver;
     int solver_ready;

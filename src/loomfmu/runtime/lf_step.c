@@ -193,7 +193,8 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
         if (bad >= 0) return refuse_runaway(c, bad);
         if (LF_NE > 0) {
             st = lf_handle_events(c);
-            if (st != LF_OK) return fail_step(c, st, "event handling failed");
+            if (st != LF_OK)
+                return c->wants_terminate ? st : fail_step(c, st, "event handling failed");
         }
         if (LF_NV > 0) {
             st = lf_check_validity(c);

@@ -2,16 +2,27 @@
  * that must stay >= 0 while the model runs (e.g. a warp tension: a warp in
  * compression is outside what the model describes).
  *
- * After every accepted internal step (events handled, before the history
- * takes the step) the conditions are evaluated at the step's midpoint and
- * end on the dense output; where one is negative, the first time any
- * condition fails is located by bisection on the dense output to a few
- * ulps of t.  The step ends there, at the last valid time: the state of
- * that time, the solver restarted there, fmi2Discard, fmi2Terminated true
- * (the model cannot go on from there with these inputs) and one log line
- * "<name>: <message>: value <v> at t = <t> s" in category logStatusDiscard.
- * A condition already violated where a step starts discards that step with
- * no progress. */
+ * Every internal step the solver takes is checked on its dense output, by
+ * the rules of the event indicators (lf_events.c): the conditions at the
+ * step's start (kept from the step before), midpoint and end; where the
+ * quadratic through these samples comes near zero inside the step (a dip
+ * between the samples), the halves again, down to LF_EVENT_SCAN_DEPTH
+ * levels; and the next step bounded so that a condition's second
+ * difference over it stays below LF_EVENT_CURV of its size, so a step
+ * cannot jump over a whole dip.  In the earliest interval where a condition
+ * fails, the first time any condition fails is located by bisection to a
+ * few ulps of t.  A step that ends at an event is redone up to the event
+ * (lf_events.c): the redone steps are checked the same way, and so is the
+ * point where the solver restarts after the event (lf_validity_restart).
+ * Hence the time found does not depend on where the communication points
+ * fall.
+ *
+ * Where a condition fails the step ends at the last valid time: the state
+ * of that time, the solver restarted there, fmi2Discard, fmi2Terminated
+ * true (the model cannot go on from there with these inputs) and one log
+ * line "<name>: <message>: value <v> at t = <t> s" in category
+ * logStatusDiscard.  A condition already violated where a communication
+ * step starts discards that step with no progress. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -20,15 +31,19 @@
 
 #define LF_VALIDITY_BISECTIONS 200
 
+static int first_bad(const double *v) {
+    int k;
+    for (k = 0; k < LF_NV; k++)
+        if (!(v[k] >= 0)) return k;
+    return -1;
+}
+
 /* the conditions at (t, x); *bad: the first violated (or NaN), -1 if none */
 static LfStatus eval_validity(LfInstance *c, double t, const double *x, double *v, int *bad) {
-    int k;
     LfStatus st = lf_solve_w(c, t, x, c->w_tmp);
     if (st != LF_OK) return st;
     if (lf_eval_fn(c, LF_FN_VLD, t, x, c->w_tmp, v, NULL, NULL) != LF_OK) return LF_ERROR;
-    *bad = -1;
-    for (k = 0; k < LF_NV && *bad < 0; k++)
-        if (!(v[k] >= 0)) *bad = k;
+    *bad = first_bad(v);
     return LF_OK;
 }
 
@@ -45,6 +60,21 @@ static LfStatus violated(LfInstance *c, int k, double value, double t_bad, doubl
     return LF_DISCARD;
 }
 
+/* End the step at the last valid time t_ok with state x_ok: the solver
+ * restarted there, its event indicators and history (an FMU state taken
+ * here is consistent), then the log line. */
+static LfStatus end_at(LfInstance *c, double t_ok, const double *x_ok, int k, double value,
+                       double t_bad, const char *where) {
+    LfSolver *s = &c->solver;
+    memcpy(c->x_tmp, x_ok, sizeof(double) * LF_NX);
+    memcpy(&c->r[LF_VR_X0], c->x_tmp, sizeof(double) * LF_NX);
+    lf_solver_reset(s, t_ok, c->x_tmp);
+    c->vld_t = NAN;
+    if (LF_NE > 0 && lf_eval_events(c, t_ok, s->x, c->e_old) != LF_OK) return LF_DISCARD;
+    if (lf_hist_push(c, t_ok, s->x, 0) != LF_OK) return LF_DISCARD;
+    return violated(c, k, value, t_bad, t_ok, where);
+}
+
 LfStatus lf_validity_at_start(LfInstance *c) {
     double v[LF_DIM(LF_NV)];
     int bad;
@@ -52,54 +82,142 @@ LfStatus lf_validity_at_start(LfInstance *c) {
     if (LF_NV == 0) return LF_OK;
     st = eval_validity(c, c->solver.t, c->solver.x, v, &bad);
     if (st != LF_OK) return st;
-    if (bad < 0) return LF_OK;
+    if (bad < 0) {
+        c->vld_t = c->solver.t;
+        memcpy(c->vld_v, v, sizeof v);
+        return LF_OK;
+    }
     return violated(c, bad, v[bad], c->solver.t, c->solver.t,
                     "already violated where the step starts; no progress");
 }
 
+LfStatus lf_validity_restart(LfInstance *c, double t_ok, const double *x_ok,
+                             const double *q_ok) {
+    double v[LF_DIM(LF_NV)];
+    int bad;
+    LfStatus st;
+    if (LF_NV == 0) return LF_OK;
+    st = eval_validity(c, c->solver.t, c->solver.x, v, &bad);
+    if (st != LF_OK) return st;
+    if (bad < 0) {
+        c->vld_t = c->solver.t;
+        memcpy(c->vld_v, v, sizeof v);
+        return LF_OK;
+    }
+    if (LF_NQ > 0) memcpy(c->q, q_ok, sizeof(double) * LF_NQ); /* the modes before */
+    return end_at(c, t_ok, x_ok, bad, v[bad], c->solver.t,
+                  "fails across the event where the solver restarted; the step ends before "
+                  "the event");
+}
+
+typedef struct {
+    double ta, tb;                  /* earliest interval: valid at ta, not at tb */
+    double vb[LF_DIM(LF_NV)];
+    int found;
+    double h_bound;                 /* bound on the next step */
+} VldScan;
+
+/* Could a condition fail between the samples va (valid), vm, vb? */
+static int may_fail(const double *va, const double *vm, const double *vb) {
+    int k;
+    double th;
+    if (first_bad(vm) >= 0 || first_bad(vb) >= 0) return 1;
+    for (k = 0; k < LF_NV; k++)
+        if (lf_near_zero_extremum(va[k], vm[k], vb[k], &th) && th > -0.5 && th < 1.5) return 1;
+    return 0;
+}
+
+/* the bound on the next step from the samples of this one (depth 0) */
+static double step_bound(const double *va, const double *vm, const double *vb, double h) {
+    double bound = INFINITY, th;
+    int k;
+    for (k = 0; k < LF_NV; k++) {
+        double d2 = fabs(va[k] - 2.0 * vm[k] + vb[k]);
+        double size = fmax(fabs(va[k]), fmax(fabs(vm[k]), fabs(vb[k])));
+        if (d2 > 0 && size > 0) bound = fmin(bound, h * sqrt(LF_EVENT_CURV * size / d2));
+        if (fabs(vb[k] - va[k]) > LF_EVENT_CURV * size) bound = fmin(bound, LF_EVENT_GROWTH * h);
+        if (lf_near_zero_extremum(va[k], vm[k], vb[k], &th) && th > 1.0 && th < 2.0)
+            bound = fmin(bound, 2.0 * (th - 1.0) * h);
+    }
+    return bound;
+}
+
+/* Scan (ta, tb] of the accepted step, the conditions valid at ta; stops at
+ * the earliest interval where one fails. */
+static LfStatus scan(LfInstance *c, double ta, const double *va, double tb, const double *vb,
+                     int depth, VldScan *out) {
+    double vm[LF_DIM(LF_NV)], xm[LF_DIM(LF_NX)], tm = 0.5 * (ta + tb);
+    int bad;
+    LfStatus st;
+    if (depth < LF_EVENT_SCAN_DEPTH && tm > ta && tm < tb) {
+        c->solver.method->dense(&c->solver, tm, xm);
+        st = eval_validity(c, tm, xm, vm, &bad);
+        if (st != LF_OK) return st;
+        if (depth == 0) out->h_bound = step_bound(va, vm, vb, tb - ta);
+        if (!may_fail(va, vm, vb)) return LF_OK;
+        st = scan(c, ta, va, tm, vm, depth + 1, out);
+        if (st != LF_OK || out->found || bad >= 0) return st;
+        return scan(c, tm, vm, tb, vb, depth + 1, out);
+    }
+    if (first_bad(vb) >= 0) {
+        out->found = 1;
+        out->ta = ta;
+        out->tb = tb;
+        memcpy(out->vb, vb, sizeof(double) * LF_NV);
+    }
+    return LF_OK;
+}
+
 LfStatus lf_check_validity(LfInstance *c) {
     LfSolver *s = &c->solver;
-    double v[LF_DIM(LF_NV)], xs[LF_DIM(LF_NX)], ta = s->t_old, tb, tm;
+    double va[LF_DIM(LF_NV)], vb[LF_DIM(LF_NV)], xs[LF_DIM(LF_NX)], ta, tb, h = s->t - s->t_old;
     int bad, i;
+    VldScan sc;
     LfStatus st;
     if (LF_NV == 0 || !(s->t > s->t_old)) return LF_OK;
-    /* the first sample (midpoint, end) where a condition fails */
-    tm = 0.5 * (s->t_old + s->t);
-    s->method->dense(s, tm, xs);
-    st = eval_validity(c, tm, xs, v, &bad);
+    if (c->vld_t == s->t_old) {
+        memcpy(va, c->vld_v, sizeof va);
+    } else { /* not kept (cannot happen after a checked step): evaluate */
+        st = eval_validity(c, s->t_old, s->x_old, va, &bad);
+        if (st != LF_OK) return st;
+        if (bad >= 0)
+            return end_at(c, s->t_old, s->x_old, bad, va[bad], s->t_old,
+                          "already violated where the internal step starts");
+    }
+    st = eval_validity(c, s->t, s->x, vb, &bad);
     if (st != LF_OK) return st;
-    if (bad >= 0) {
-        tb = tm;
-    } else {
-        ta = tm;
-        st = eval_validity(c, s->t, s->x, v, &bad);
-        if (st != LF_OK || bad < 0) return st;
-        tb = s->t;
+    sc.found = 0;
+    sc.h_bound = INFINITY;
+    st = scan(c, s->t_old, va, s->t, vb, 0, &sc);
+    if (st != LF_OK) return st;
+    if (!sc.found) {
+        c->vld_t = s->t;
+        memcpy(c->vld_v, vb, sizeof vb);
+        /* the next step resolves the conditions (at most 4 times shorter) */
+        if (s->h > sc.h_bound) s->h = fmax(sc.h_bound, 0.25 * h);
+        return LF_OK;
     }
     /* bisection: ta valid, tb not */
+    ta = sc.ta;
+    tb = sc.tb;
+    memcpy(vb, sc.vb, sizeof vb);
+    bad = first_bad(vb);
     for (i = 0; i < LF_VALIDITY_BISECTIONS &&
                 tb - ta > 4 * LF_EPS * fmax(1.0, fmax(fabs(ta), fabs(tb)));
          i++) {
-        double vm[LF_DIM(LF_NV)];
+        double vm[LF_DIM(LF_NV)], tm = 0.5 * (ta + tb);
         int bm;
-        tm = 0.5 * (ta + tb);
         s->method->dense(s, tm, xs);
         st = eval_validity(c, tm, xs, vm, &bm);
         if (st != LF_OK) return st;
         if (bm >= 0) {
             tb = tm;
             bad = bm;
-            memcpy(v, vm, sizeof v);
+            memcpy(vb, vm, sizeof vb);
         } else {
             ta = tm;
         }
     }
     s->method->dense(s, ta, xs);
-    memcpy(&c->r[LF_VR_X0], xs, sizeof(double) * LF_NX);
-    lf_solver_reset(s, ta, xs);
-    /* indicators and history of the last valid time (an FMU state taken
-     * here is consistent) */
-    if (LF_NE > 0 && lf_eval_events(c, ta, s->x, c->e_old) != LF_OK) return LF_DISCARD;
-    if (lf_hist_push(c, ta, s->x, 0) != LF_OK) return LF_DISCARD;
-    return violated(c, bad, v[bad], tb, ta, "the step ends");
+    return end_at(c, ta, xs, bad, vb[bad], tb, "the step ends");
 }
