@@ -158,3 +158,19 @@ def test_scene_command_runs_and_exports_the_loom(fmu_dir, tmp_path, capsys):
     target = tmp_path / "loom.ssp"
     assert main(["export", "loom", "--out", str(target), "--fmu-dir", str(fmu_dir)]) == 0
     assert target.stat().st_size > 0
+
+
+def test_loom_shaft_speed_fluctuation_against_its_closed_form(fmu_dir):
+    """theta' = w0 (1 + d cos theta) has the closed form
+    tan(theta / 2) = sqrt((1 + d) / (1 - d)) tan(w0 sqrt(1 - d^2) t / 2)."""
+    from loomfmu import build_fmu, load_model
+    from loomfmu.verify import simulate
+    fmu = build_fmu(load_model("loom_shaft"), out_dir=fmu_dir / "shaft", validate=False).path
+    w0, d = 8 * math.pi, 0.05
+    r = simulate(fmu, values={"delta": d}, stop_time=1.0, output_interval=1e-3)
+    phase = w0 * math.sqrt(1 - d * d) * r.t / 2
+    exact = (2 * np.arctan(math.sqrt((1 + d) / (1 - d)) * np.tan(phase))
+             + 2 * math.pi * np.floor(phase / math.pi + 0.5))
+    assert np.abs(r.y["theta_out"] - exact).max() < 1e-9
+    assert np.abs(r.y["omega_out"] - w0 * (1 + d * np.cos(exact))).max() < 1e-8
+    assert r.y["omega_out"].min() == pytest.approx(w0 * (1 - d), rel=1e-4)   # 1 ms samples
