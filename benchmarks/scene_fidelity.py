@@ -17,6 +17,7 @@ import argparse
 import json
 import sys
 import tempfile
+import textwrap
 from pathlib import Path
 
 from loomfmu.scene.fidelity import evaluate
@@ -54,12 +55,46 @@ def study(scene: str, stop: float, fmu_dir: Path, repeats: int, out_dir: Path) -
                             "notes": sel.notes()})
             print(sel.table(), file=sys.stderr)
     whole = ev.select(0.01)
-    whole.chart(out_dir / f"{scene}.png")
+    chart(ev, out_dir / f"{scene}.png")
     doc = whole.to_dict()
     doc["answers"] = answers
     doc["command"] = " ".join(["benchmarks/scene_fidelity.py"] + sys.argv[1:])
     (out_dir / f"{scene}.json").write_text(json.dumps(doc, indent=1, default=str))
     return answers
+
+
+def chart(ev, path: Path) -> Path:
+    """One panel per quantity: each combination's CPU seconds against its
+    largest error over the quantity's outputs; the tolerances as lines."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from loomfmu.scene.fidelity import _short
+    quantities = QUANTITIES[ev.scene]
+    fig, axes = plt.subplots(1, len(quantities), figsize=(4.2 * len(quantities), 4.9),
+                             sharex=True)
+    for ax, (quantity, outs) in zip(axes, quantities.items()):
+        sel = ev.select(TOLS[0], list(outs))
+        floor = min([r.error for r in sel.rows if r.error > 0] + [TOLS[-1]]) / 10
+        for i, r in enumerate(sel.rows):
+            y = r.error if r.error > 0 else floor
+            colour = ("tab:green" if r.error <= TOLS[-1] else
+                      "tab:orange" if r.error <= TOLS[0] else "tab:red")
+            ax.scatter(r.cpu_s, y, color=colour, s=40, zorder=3)
+            ax.annotate(_short(r), (r.cpu_s, y), fontsize=6.5, textcoords="offset points",
+                        xytext=(4, 6 if i % 2 else -10))
+        for tol, ls in zip(TOLS, ("--", ":")):
+            ax.axhline(tol, color="grey", ls=ls, lw=1, label=f"{tol:.1%}")
+        ax.set(yscale="log", title=textwrap.fill(quantity, 34), xlabel=f"CPU s of a {ev.stop:g} s run")
+        ax.legend(loc="lower left", fontsize=7)
+    axes[0].set_ylabel("largest error / output's range\n(error 0, the reference: at the "
+                       "bottom)")
+    fig.suptitle(f"{ev.scene}: cost and error of every level combination (green: within "
+                 "0.1 %, orange: within 1 %, red: neither)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
 def table(answers: list, facts: dict) -> str:
