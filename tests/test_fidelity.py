@@ -137,3 +137,11 @@ def test_bad_level_is_named():
 def test_the_command_refuses_a_bad_tolerance_in_one_line(capsys):
     assert scene_main(["fidelity", "loom", "--outputs", "frame_a.N_rem", "--tol", "2"]) == 2
     assert "tol" in capsys.readouterr().err
+
+
+def test_loomfmu_list_prints_what_each_level_leaves_out(capsys):
+    from loomfmu.cli import main
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    for name, lv in LEVELS.items():
+        assert f"{name}: leaves out {'; '.join(lv.leaves_out) or 'nothing'}" in out
