@@ -152,6 +152,27 @@ def _spring_with_events(name: str) -> Model:
     return m
 
 
+X_SWITCH = 0.2    # the mode switches 0 -> 1 where x falls through 0.2
+T_SWITCH = math.acos(X_SWITCH) / OMEGA
+
+
+def _spring_with_a_mode(name: str) -> Model:
+    """The spring with a mode q (0 above x = 0.2, 1 below) chosen again at
+    the event x = 0.2; the condition 1 - 2 q >= 0 holds before the event and
+    jumps to -1 across it."""
+    m = Model(name, description="mass on a spring with a mode", stop_time=2.0, step_size=0.01)
+    x = m.state("x", 1.0, unit="m", description="position")
+    v = m.state("v", 0.0, unit="m/s", description="velocity")
+    m.eq(m.der(x), v)
+    m.eq(m.der(v), -OMEGA**2 * x)
+    q = m.mode("q", 0, (0, 1), description="0 above x = 0.2, 1 below")
+    m.event("cross", x - X_SWITCH, description="x passes 0.2")
+    m.mode_rule(q, (1 - 2 * q) * (x - X_SWITCH), events=["cross"])
+    m.output("x_out", x, unit="m", description="position")
+    m.require("above", 1 - 2 * q, "below the switch")
+    return m
+
+
 DIP_EPS = 1e-3     # condition cos(t) + 1 - DIP_EPS >= 0: fails for 0.089 s around pi
 T_DIP = math.pi - math.acos(1.0 - DIP_EPS)
 
@@ -171,7 +192,8 @@ def _dip(name: str) -> Model:
 def more_fmus(tmp_path_factory):
     out = tmp_path_factory.mktemp("validity_more")
     return {"events": build_fmu(_spring_with_events("spring_events"), out_dir=out).path,
-            "dip": build_fmu(_dip("dip"), out_dir=out).path}
+            "dip": build_fmu(_dip("dip"), out_dir=out).path,
+            "mode": build_fmu(_spring_with_a_mode("spring_mode"), out_dir=out).path}
 
 
 def _run_to_discard(s, h, t_stop):
@@ -219,3 +241,19 @@ def test_a_dip_shorter_than_the_step_is_found(more_fmus, slave_factory, solver):
         value = float(s.log[-1][2].split("value ")[1].split(" ")[0])
         assert value < 0 and abs(value) < 1e-9, s.log[-1]
     assert all(abs(t - T_DIP) < 1e-9 for t in found.values()), found
+
+
+@pytest.mark.parametrize("solver", [1, 2, 3])
+def test_a_condition_that_fails_across_an_event(more_fmus, slave_factory, solver):
+    """The condition jumps from 1 to -1 where the mode changes at an event:
+    the step ends at the last point before the event, with the mode and
+    state of before (it ended after the event, in the new mode, when the
+    restart point was not checked), for every communication step."""
+    for h in (1e-3, 0.1, 2.0):
+        s = slave_factory(more_fmus["mode"])
+        s.start(solver=solver, solver_rtol=1e-10, solver_atol=1e-12, solver_h_fixed=1e-3)
+        t_last = _run_to_discard(s, h, 2.0)
+        assert abs(t_last - T_SWITCH) < 1e-9, (h, t_last - T_SWITCH)
+        assert s.fmu.getInteger([s.vr["q"]]) == [0], h
+        assert s.get("x")[0] > X_SWITCH - 1e-9, h  # the old side (to the solution error)
+        assert "fails across the event" in s.log[-1][2], s.log[-1]
