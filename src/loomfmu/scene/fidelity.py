@@ -217,6 +217,15 @@ class Selection:
                 f"chosen: {self.best.label()} (CPU {self.best.cpu_s:.3g} s, "
                 f"speed-up {self.speedup():.3g} over the reference)"]
         text += [f"warning: {w}" for w in self.best.warnings]
+        facts = ev.facts
+        text.append(f"ran ({facts['master']} master; the reference's components, the other "
+                    "combinations differ in the levels only):")
+        for name, c in facts["components"].items():
+            set_ = {**c["parameters"], **c["start"]}
+            text.append(f"  {name}: {c['model']} {c['options'] or ''} "
+                        + (", ".join(f"{k} = {v:.6g}" for k, v in set_.items())
+                           or "defaults"))
+        text.append("  inputs: " + "; ".join(facts["inputs"]))
         text += [f"note: {n}" for n in self.notes()]
         return "\n".join(text)
 
