@@ -69,17 +69,21 @@ class Choice:
         return self.model + (f"({opts})" if opts else "")
 
 
-def _loom(choices: dict, stop: float, step: float):
+def _loom(choices: dict, stop: float, step: float, **opts):
     from . import loom
     return loom.scene(frame=choices["frames"].model, backrest=choices["backrest"].model,
-                      stop_time=stop, step=step)
+                      stop_time=stop, step=step, **opts)
 
 
-def _spinning(choices: dict, stop: float, step: float):
+def _spinning(choices: dict, stop: float, step: float, **opts):
     from . import spinning
     sp = choices["spindle"]
     return spinning.scene(fidelity=sp.model, spindle_options=dict(sp.options),
-                          stop_time=stop, step=step)
+                          stop_time=stop, step=step, **opts)
+
+
+#: the scene factory's options the selector passes on (the rest it sets itself)
+SCENE_OPTIONS = {"loom": ("tension", "omega"), "spinning": ("cam", "n_const")}
 
 
 def _spindles() -> list[Choice]:
@@ -327,28 +331,31 @@ def _check_outputs(outputs, allowed) -> list:
     return outputs
 
 
-def scene_outputs(scene_name: str) -> list[str]:
+def scene_outputs(scene_name: str, scene_options: dict | None = None) -> list[str]:
     """The outputs the selector can compare in scene ``scene_name``: every
     output variable of the reference scene's components."""
-    ref = _reference_scene(scene_name, 1.0, 1e-3)
+    ref = _reference_scene(scene_name, 1.0, 1e-3, scene_options or {})
     return sorted(f"{c.name}.{v.name}" for c in ref.components.values()
                   for v in c.interface.variables.values()
                   if v.causality == "output" and v.type == "Real")
 
 
-def _reference_scene(scene_name, stop, step):
+def _reference_scene(scene_name, stop, step, opts):
     factory, slots, *_ = SCENES[scene_name]
-    return factory({k: v[-1] for k, v in slots.items()}, stop, step)
+    return factory({k: v[-1] for k, v in slots.items()}, stop, step, **opts)
 
 
 def evaluate(scene: str, outputs, *, stop_time: float | None = None,
              step: float | None = None, fmu_dir=None, progress: bool = True,
-             master: str = "jacobi", repeats: int = 2) -> Evaluation:
+             master: str = "jacobi", repeats: int = 2,
+             scene_options: dict | None = None) -> Evaluation:
     """Run scene ``scene`` (a name of SCENES) with every level combination
     and measure ``outputs`` ("comp.var", a list or comma-separated) against
     the highest-fidelity run; stop_time, step (s): the run (defaults: the
     selector's for the scene); fmu_dir: FMU cache (default a temporary folder);
-    repeats: runs per combination (1 ... 10), the cost is the least CPU time."""
+    repeats: runs per combination (1 ... 10), the cost is the least CPU time;
+    scene_options: options of the scene factory (SCENE_OPTIONS, e.g. the
+    loom's tension or omega), checked by the factory."""
     import tempfile
     from .fmus import build_fmus
     from .run import run
@@ -363,7 +370,12 @@ def evaluate(scene: str, outputs, *, stop_time: float | None = None,
         raise ValueError(f"master = {master!r:.40}; allowed: jacobi, gauss-seidel")
     if not isinstance(repeats, int) or isinstance(repeats, bool) or not 1 <= repeats <= 10:
         raise ValueError(f"repeats = {repeats!r:.40}; allowed: an integer 1 ... 10")
-    outputs = _check_outputs(outputs, scene_outputs(scene))
+    scene_options = dict(scene_options or {})
+    bad = sorted(set(scene_options) - set(SCENE_OPTIONS[scene]))
+    if bad:
+        raise ValueError(f"scene_options: unknown {bad}; allowed for {scene}: "
+                         f"{', '.join(SCENE_OPTIONS[scene])}")
+    outputs = _check_outputs(outputs, scene_outputs(scene, scene_options))
     combos = [dict(zip(slots, c)) for c in itertools.product(*slots.values())]
     combos = combos[-1:] + combos[:-1]          # the reference first
     tmp = tempfile.TemporaryDirectory() if fmu_dir is None else None
@@ -373,7 +385,7 @@ def evaluate(scene: str, outputs, *, stop_time: float | None = None,
     try:
         for choices in combos:
             label = ", ".join(c.label for c in choices.values())
-            s = factory(choices, stop, step)
+            s = factory(choices, stop, step, **scene_options)
             have = {f"{c}.{v}" for c, v in s.recorded}
             absent = []
             for o in outputs + list(_STICK_OUTPUT.get(scene, ())):
@@ -401,7 +413,7 @@ def evaluate(scene: str, outputs, *, stop_time: float | None = None,
                 if scene in _STICK_OUTPUT:
                     ref_data["_stick"] = np.any([np.abs(res[o]) < STICK_SPEED
                                                  for o in _STICK_OUTPUT[scene]], axis=0)
-                facts = _facts(s, stop, step, master)
+                facts = _facts(s, stop, step, master, scene_options)
             errors = {}
             for o in outputs:
                 rng = float(np.ptp(ref_data[o]))
@@ -424,10 +436,11 @@ def evaluate(scene: str, outputs, *, stop_time: float | None = None,
     return Evaluation(scene, outputs, stop, step, rows, facts, ref_data)
 
 
-def _facts(s, stop, step, master) -> dict:
+def _facts(s, stop, step, master, scene_options) -> dict:
     """What the runs were: length, step, master, each component's model,
     options, parameters and starts set by the scene (the rest at defaults)."""
-    return {"description": s.description, "stop_time_s": stop, "step_s": step,
+    return {"description": s.description, "stop_time_s": stop,
+            "scene_options": scene_options, "step_s": step,
             "master": master,
             "components": {c.name: {"model": c.model, "options": c.options,
                                     "parameters": c.parameters, "start": c.start}
@@ -451,6 +464,9 @@ def add_parser(sub) -> None:
                    help="tolerance relative to each output's range (0 < tol < 1)")
     f.add_argument("--stop-time", type=float, default=None, help="run length in s")
     f.add_argument("--step", type=float, default=None, help="communication step in s")
+    f.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
+                   help="an option of the scene (loom: tension, omega; spinning: cam, "
+                        "n_const); numbers are read as numbers")
     f.add_argument("--repeats", type=int, default=2,
                    help="runs per combination; the cost is the least CPU time (default 2)")
     f.add_argument("--fmu-dir", type=Path, default=None, help="FMU cache folder")
@@ -460,8 +476,18 @@ def add_parser(sub) -> None:
 
 def main(args) -> int:
     import json
+    opts = {}
+    for item in args.option:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise ValueError(f"--option {item!r:.40}; allowed: NAME=VALUE")
+        try:
+            opts[name] = float(value)
+        except ValueError:
+            opts[name] = value
     sel = select(args.scene, args.outputs, args.tol, stop_time=args.stop_time,
-                 step=args.step, fmu_dir=args.fmu_dir, repeats=args.repeats)
+                 step=args.step, fmu_dir=args.fmu_dir, repeats=args.repeats,
+                 scene_options=opts)
     print(sel.table())
     if args.json is not None:
         args.json.write_text(json.dumps(sel.to_dict(), indent=1, default=str))
