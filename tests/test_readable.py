@@ -678,3 +678,25 @@ def test_picture_shows_round_off_apart():
     assert "1 entries below 1e-12 times the largest (round-off)" in a_pic.caption
     assert a_pic.svg.count(TINY_COLOUR) == 1 and "from 1 to 1 at" in a_pic.caption
     assert "from 1e+03 to 1e+03 N/m" in s_pic.caption and "symmetric" in s_pic.caption
+
+
+def test_validity_conditions_are_written_with_the_quantities():
+    """A validity condition (Model.require) prints as its expression >= 0,
+    written with the named quantities (here the tension S = k x as S)."""
+    from loomfmu import Model
+    m = Model("taut", description="a warp that must stay taut")
+    k = m.parameter("k", 1e3, unit="N/m", description="stiffness", min=1.0,
+                    source="assumption: test")
+    x = m.state("x", 0.01, unit="m", description="elongation")
+    S = m.quantity("S", k * x + 2 * k * x**2, unit="N", description="tension", symbol="S")
+    m.require("taut", S, "warp in compression")
+    m.eq(m.der(x), -x)
+    title, sections = inspect_report.document(m)
+    sec = next(s for s in sections if s.title == "Validity conditions")
+    eqs = next(b for b in sec.blocks if isinstance(b, inspect_report.Equations))
+    (ge, tag), = eqs.lines
+    assert tag == "v1" and ge.lhs == readable.QuantitySymbol("S", "S") and ge.rhs == 0
+    md = inspect_report.render_md(title, sections)
+    assert r"S \geq 0 \tag{v1}" in md and "warp in compression" in md
+    frag = inspect_report.html_fragment(m)
+    assert "Validity conditions" in frag

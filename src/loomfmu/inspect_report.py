@@ -182,6 +182,21 @@ def _constraints(model) -> Section | None:
                for c in model.constraints])])
 
 
+def _validity(model) -> Section | None:
+    if not model.validity:
+        return None
+    forms = readable.written_with_quantities(model, [c.expr for c in model.validity])
+    return Section("Validity conditions", [
+        "Checked while the model runs, on every accepted step like an event indicator; "
+        "where one turns negative the step ends there with fmi2Discard and a log line "
+        "(its message, value and time). Each must stay \u2265 0 (written with the "
+        "derivation's quantities):",
+        Equations([(sympy.Ge(f, 0, evaluate=False), f"v{k}")  # tags: no "_" for TeX
+                   for k, f in enumerate(forms, 1)]),
+        Table(["tag", "condition", "message"],
+              [[f"v{k}", Code(c.name), c.message] for k, c in enumerate(model.validity, 1)])])
+
+
 def _c_size(model, dae: DaeForm) -> Section:
     with tempfile.TemporaryDirectory() as tmp:
         files, _ = generate_sources(model, dae, Path(tmp))
@@ -205,7 +220,7 @@ def document(model) -> tuple[str, list[Section]]:
     sections = [about, Section("Variables", _variables(model)), derivation(model),
                 _equations(model, lst),
                 _solving(model, dae), _events(model, lst), _delays(model, lst),
-                _constraints(model), _c_size(model, dae)]
+                _constraints(model), _validity(model), _c_size(model, dae)]
     what = "derivation, equations and solution" if model.quantities else \
         "equations and solution"
     return f"{model.name}: {what}", [s for s in sections if s]
@@ -215,7 +230,7 @@ def document(model) -> tuple[str, list[Section]]:
 #: takes over; it has its own about and variables sections
 DERIVATION_SECTIONS = ("Derivation", "Equations", "How the runtime solves the model",
                        "Event indicators and modes", "Delays",
-                       "Constraints on the parameters")
+                       "Constraints on the parameters", "Validity conditions")
 
 
 def html_fragment(model, *, level: int = 3) -> str:

@@ -34,10 +34,11 @@ from .listing import Listing, delays, equations, events, listing, mode_rules, ou
 from .names import Shared, Var, latex_name
 from .printing import latex, mathml, mathml_body, mathml_line, to_latex
 from .quantity_forms import (ENTRY_VOCABULARY, QuantitySymbol, entry_symbol, entry_symbols,
-                             quantities, quantities_written, quantity, symbol_mathml)
+                             quantities, quantities_written, quantity, symbol_mathml,
+                             written_with_quantities)
 
 __all__ = ["OPS", "ENTRY_VOCABULARY", "Var", "Shared", "Listing", "QuantitySymbol", "latex_name", "to_sympy",
            "to_sympy_matrix", "symbols", "equations", "outputs", "events", "mode_rules",
            "delays", "listing", "quantities", "quantity", "quantities_written",
-           "entry_symbol", "entry_symbols", "symbol_mathml", "latex", "mathml", "mathml_line",
+           "entry_symbol", "entry_symbols", "symbol_mathml", "written_with_quantities", "latex", "mathml", "mathml_line",
            "mathml_body", "to_latex"]

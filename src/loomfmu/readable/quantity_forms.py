@@ -14,6 +14,7 @@ import re
 from xml.dom import minidom
 from xml.sax.saxutils import escape
 
+import casadi as ca
 import numpy as np
 import sympy
 from sympy.printing.pretty.pretty_symbology import greek_unicode
@@ -331,6 +332,21 @@ def quantities_written(model, *, min_ops: int = 1) -> list[tuple[object, Quantit
     a later one, alone or as factors of a product, is replaced by its symbol),
     so that e.g. C = delta^-1 shows in terms of the deltas.  Substituting the
     earlier definitions back gives the quantity (the round-trip test does)."""
+    return _written(model, min_ops)[0]
+
+
+def written_with_quantities(model, exprs, *, min_ops: int = 1) -> list:
+    """CasADi expressions of ``model`` (e.g. its validity conditions) in SymPy,
+    written with the symbols of its named quantities as
+    :func:`quantities_written` writes a later quantity."""
+    if not exprs:
+        return []
+    forms = to_sympy_matrix(ca.vertcat(*[ca.SX(e) for e in exprs]), symbols(model))
+    vocab = _written(model, min_ops)[1]
+    return [vocab.write(f, {}) if vocab.exact else f for f in forms]
+
+
+def _written(model, min_ops: int):
     out, vocab = [], _Vocabulary(min_ops)
     for q, form in quantities(model):
         sym = QuantitySymbol(q.name, q.symbol)
@@ -343,7 +359,7 @@ def quantities_written(model, *, min_ops: int = 1) -> list[tuple[object, Quantit
                 if _nodes(entry, ENTRY_MAX_NODES) < ENTRY_MAX_NODES and \
                         sympy.count_ops(entry) >= ENTRY_MIN_OPS:
                     vocab.learn(entry, entry_symbol(sym, i, j, shown.shape))
-    return out
+    return out, vocab
 
 
 def _nodes(e, limit: int) -> int:
