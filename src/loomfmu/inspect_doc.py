@@ -165,7 +165,8 @@ padding:.2rem 0}
 .eq math{flex:1;text-align:left}.tag{color:#777;padding-left:1rem}
 pre{font-size:.8rem;line-height:1;overflow-x:auto}math[display=block]{margin:.2rem 0}
 .qty{margin:1rem 0 .2rem}.qty .unit{color:#555}.qty .src{color:#666;font-size:.9em}
-nav.toc{margin:.5rem 0 1rem}figure{margin:.5rem 0}figcaption{color:#555;font-size:.9em}math{font-size:1.12em}"""
+nav.toc{margin:.5rem 0 1rem}figure{margin:.5rem 0}figcaption{color:#555;font-size:.9em}
+math{font-size:1.12em}"""
 
 
 def _html_cell(c) -> str:

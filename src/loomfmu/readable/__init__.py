@@ -37,8 +37,9 @@ from .quantity_forms import (ENTRY_VOCABULARY, QuantitySymbol, entry_symbol, ent
                              quantities, quantities_written, quantity, symbol_mathml,
                              written_with_quantities)
 
-__all__ = ["OPS", "ENTRY_VOCABULARY", "Var", "Shared", "Listing", "QuantitySymbol", "latex_name", "to_sympy",
-           "to_sympy_matrix", "symbols", "equations", "outputs", "events", "mode_rules",
-           "delays", "listing", "quantities", "quantity", "quantities_written",
-           "entry_symbol", "entry_symbols", "symbol_mathml", "written_with_quantities", "latex", "mathml", "mathml_line",
-           "mathml_body", "to_latex"]
+__all__ = ["OPS", "ENTRY_VOCABULARY", "Var", "Shared", "Listing", "QuantitySymbol",
+           "latex_name", "to_sympy", "to_sympy_matrix", "symbols", "equations", "outputs",
+           "events", "mode_rules", "delays", "listing", "quantities", "quantity",
+           "quantities_written", "entry_symbol", "entry_symbols", "symbol_mathml",
+           "written_with_quantities", "latex", "mathml", "mathml_line", "mathml_body",
+           "to_latex"]
