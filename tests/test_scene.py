@@ -158,6 +158,44 @@ def test_a_unit_conversion_is_applied_in_the_run(tmp_path):
     assert not any("outside its range" in line for line in res.log["frame"])
 
 
+def test_options_are_checked_before_any_fmu_is_built(tmp_path):
+    s = tm.scene()
+    for kw, match in (({"rtol": 0.0, "adaptive": True}, r"rtol = 0.0; allowed"),
+                      ({"rtol": math.nan}, r"rtol = nan; allowed"),
+                      ({"master": "newton"}, r"master = 'newton'"),
+                      ({"loop_options": {"tol": 1}}, r"loop_options: unknown"),
+                      ({"extrapolation": 0, "master_options": {"output_derivatives": True}},
+                       r"output_derivatives = True with extrapolation = 0")):
+        with raises(match):
+            run(s, fmu_dir=tmp_path, **kw)
+    assert list(tmp_path.iterdir()) == []      # nothing was built
+
+
+def test_the_fmu_cache_is_keyed_by_the_code_not_only_the_variables(monkeypatch):
+    """A model edit that keeps every variable gets a new file name (a stale
+    FMU is not reused)."""
+    import loomfmu.scene.fmus as fmus_mod
+    from loomfmu.declare import Model
+    from loomfmu.scene.declare import Component
+    from loomfmu.scene.interface import interface_of_model
+
+    def model(gain: float) -> Model:
+        m = Model("cache_probe", description="cache test", stop_time=1.0, step_size=1e-2,
+                  h_fixed=1e-3)
+        x = m.state("x", 1.0, description="state")
+        m.eq(m.der(x), -gain * x)
+        m.output("y", x, description="output")
+        return m
+
+    comp = Component("c", interface_of_model(model(1.0)), model="cache_probe")
+    names = []
+    for gain in (1.0, 2.0, 1.0):
+        monkeypatch.setattr(fmus_mod, "declare_model", lambda name, options, g=gain: model(g))
+        names.append(fmus_mod.fmu_file_name(comp))
+    assert names[0] != names[1] and names[0] == names[2]
+    assert names[0].startswith("cache_probe-") and names[0].endswith(".fmu")
+
+
 # -- SSP ----------------------------------------------------------------------------
 def test_ssd_validates_and_carries_connections_values_and_conversions():
     s = loom()
@@ -174,6 +212,32 @@ def test_ssd_validates_and_carries_connections_values_and_conversions():
     broken = text.replace("<ssd:Elements>", "<ssd:Elementz>").replace("</ssd:Elements>",
                                                                        "</ssd:Elementz>")
     assert validate_ssd(broken) and "Elementz" in " ".join(validate_ssd(broken))
+
+
+def test_the_exported_ssp_keeps_state_starts_and_the_solver_on_libcosim(fmu_dir, tmp_path):
+    """A state's start (x1) reaches libcosim (it drops a parameter-set value
+    of a non-input), and the solver Enumeration is written as the
+    solver_index Integer (libcosim cannot set Enumerations); libcosim's run
+    is then our libcosim-like Jacobi (outputs read before inputs change)."""
+    pytest.importorskip("libcosimpy")
+    from loomfmu.scene.libcosim import run_ssp
+    from loomfmu.scene.ssp import export_ssp
+    s = tm.scene(x1_0=0.25, stop_time=0.05, step=1e-3)
+    s.set("force", parameters={"solver": 2})
+    text = ssd_text(s)
+    assert '<ssv:Parameter name="solver_index">' in text
+    assert '<ssv:Parameter name="solver">' not in text
+    assert '<ssv:Parameter name="x1">' in text
+    fmus = build_fmus(s, fmu_dir)
+    ssp = export_ssp(s, tmp_path / "tm.ssp", fmus=fmus)
+    refs = s.recorded_variables()
+    theirs = run_ssp(ssp, refs, step=1e-3, stop=0.05)
+    ours = run(s, fmus=fmus, master_options={"resolve_feedthrough": False})
+    for c, v in refs:
+        a, b = theirs[f"{c}.{v}"], ours[f"{c}.{v}"][1:]
+        assert np.abs(a - b).max() <= 1e-9 * np.abs(b).max(), (c, v)
+    # mass 1 started at x1 = 0.25 (the model's default start is not that)
+    assert theirs["force.x1_out"][0] == pytest.approx(0.25, rel=1e-3)
 
 
 # -- the command ----------------------------------------------------------------------
@@ -201,6 +265,18 @@ def test_scene_command(fmu_dir, tmp_path, capsys):
         assert sorted(z.namelist()) == ["SystemStructure.ssd", "resources/disp.fmu",
                                         "resources/force.fmu"]
     assert main(["export", "two_mass", "--out", str(tmp_path / "x.zip")]) == 2
+    capsys.readouterr()
+    # output paths and options are checked before the run, in one line
+    for argv, said in ((["--csv", "/nonexistent_dir/x.csv"], "folder /nonexistent_dir does "
+                        "not exist"),
+                       (["--csv", str(tmp_path)], "a folder; allowed: a file name"),
+                       (["--fmu-dir", str(csv)], "not a folder"),
+                       (["--output-derivatives"], "output_derivatives = True with "
+                        "extrapolation = 0"),
+                       (["--rtol", "nan", "--adaptive"], "rtol = nan")):
+        assert main(["run", "two_mass", "--stop", "0.01"] + argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and said in err[0], (argv, err)
 
 
 def test_run_arguments_are_checked(fmu_dir):
@@ -220,6 +296,18 @@ def test_run_arguments_are_checked(fmu_dir):
         run(s, fmus=fmus, stop=0.01, step=0.5)
     with raises(r"rtol = 2; allowed: a number in \(0, 1\)"):
         run(s, fmus=fmus, stop=0.01, adaptive=True, rtol=2)
+    # the FMUs given must be the components' and exist
+    with raises(r"fmus\['disp'\] = '.*two_mass_force.*': its variables \(names, value "
+                r"references, causalities\) are not those of component disp"):
+        run(s, fmus={"force": fmus["force"], "disp": fmus["force"]}, stop=0.01)
+    with raises(r"fmus\['disp'\] = '/nonexistent/d.fmu': no such file"):
+        run(s, fmus={"force": fmus["force"], "disp": "/nonexistent/d.fmu"}, stop=0.01)
+    # h_min concerns the adaptive run only; a stop below the scene's step names stop
+    assert len(run(s, fmus=fmus, stop=1e-12, step=1e-12)["time"]) == 2
+    with raises(r"stop = 1e-300 s is shorter than the scene's step 0.001 s"):
+        run(s, fmus=fmus, stop=1e-300)
+    with raises(r"output_derivatives = True with extrapolation = 0"):
+        run(s, fmus=fmus, stop=0.01, master_options={"output_derivatives": True})
     from loomfmu.scene.libcosim import step_ns
     assert step_ns(1e-3) == 1_000_000
     with raises(r"step = 1.15e-09 s is not a whole number of nanoseconds"):

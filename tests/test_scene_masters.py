@@ -157,6 +157,33 @@ def loop_b(cubic: bool = False) -> Model:
     return m
 
 
+def loop_sqrt() -> Model:
+    """y = sqrt(u) - 5 + z: NaN (the FMU refuses the read) for u < 0."""
+    import casadi as ca
+    m = Model("loop_sqrt", description="test loop side b: a square root",
+              stop_time=1.0, step_size=1e-2, h_fixed=1e-3)
+    u = m.input("u", 0.0, description="input")
+    z = m.state("z", 0.0, description="a state that does not move")
+    m.eq(m.der(z), 0.0 * z)
+    m.output("y", ca.sqrt(u) - 5.0 + z, description="output (feedthrough)")
+    return m
+
+
+#: the validity test model's state reaches zero at this time
+T_INVALID = 0.37
+
+
+def invalid_after() -> Model:
+    """x' = -1 from x = T_INVALID, valid while x >= 0."""
+    m = Model("invalid_after", description="test: not valid beyond t = T_INVALID",
+              stop_time=1.0, step_size=1e-2, h_fixed=1e-3)
+    x = m.state("x", T_INVALID, description="time left")
+    m.eq(m.der(x), -1.0 + 0.0 * x)
+    m.require("x_left", x, "no time left: the test model is not valid here")
+    m.output("y", x, description="time left")
+    return m
+
+
 @pytest.fixture(scope="module")
 def loop_fmus(tmp_path_factory):
     path = tmp_path_factory.mktemp("loop_fmus")
@@ -164,6 +191,8 @@ def loop_fmus(tmp_path_factory):
     s.add("a", model=loop_a())
     s.add("b", model=loop_b())
     s.add("b3", model=loop_b(cubic=True))
+    s.add("bs", model=loop_sqrt())
+    s.add("inv", model=invalid_after())
     return build_fmus(s, path)
 
 
@@ -227,6 +256,52 @@ def test_a_loop_that_does_not_converge_is_named(loop_fmus):
         run(s, fmus=loop_fmus, loop_options={"loop_method": "secant"})
     with raises(r"relaxation = 1.5; allowed: a number in \(0, 1\]"):
         run(s, fmus=loop_fmus, loop_options={"relaxation": 1.5})
+
+
+@pytest.mark.parametrize("method", ["newton", "fixed-point"])
+def test_an_output_that_cannot_be_read_names_component_call_time_and_log(loop_fmus, method,
+                                                                          monkeypatch, capsys):
+    """b.y = sqrt(u) - 5 drives a.u = -5 + ..., so b reads u = x + G a.u < 0:
+    the FMU refuses fmi2GetReal (NaN); the error says who, what, when and the
+    FMU's log line, and the command prints it on one line with exit 1."""
+    s, _ = loop_scene(loop_fmus)
+    paths = {"a": loop_fmus["a"], "b": loop_fmus["bs"]}
+    s = Scene("loop_sqrt", stop_time=0.1, step=0.01)
+    for name, path in paths.items():
+        s.add(name, fmu=path)
+    s.connect("a.y", "b.u")
+    s.connect("b.y", "a.u")
+    s.record("a.y", "b.y")
+    with pytest.raises(FMUError, match=r"^b: fmi2GetReal \(y, for b.y -> a.u\) failed at "
+                       r"t = 0 s \(.*status 3.*\); its log: .*y") as exc:
+        run(s, fmus=paths, loop_options={"loop_method": method})
+    assert "NaN" in str(exc.value) or "nan" in str(exc.value)
+    import loomfmu.scene.__main__ as cli
+    monkeypatch.setattr(cli, "load_scene", lambda name: s)
+    assert cli.main(["run", "loop_sqrt", "--stop", "0.05"]) == 1
+    captured = capsys.readouterr()
+    err = captured.err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("loomfmu scene run: run failed: b: "
+                                               "fmi2GetReal (y, for b.y -> a.u)"), err
+    assert "Traceback" not in captured.err
+
+
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_an_adaptive_run_stops_at_once_where_the_model_is_not_valid(loop_fmus, master):
+    """fmi2Discard with fmi2Terminated true is not a rejected step: the run
+    stops at the first failing step with the FMU's message, not after
+    shrinking the step to h_min."""
+    s = Scene("invalid", stop_time=1.0, step=0.1)
+    s.add("inv", fmu=loop_fmus["inv"])
+    s.record("inv.y")
+    with pytest.raises(FMUError, match=r"inv: fmi2DoStep \(h = 0.1 s\) failed at t = 0.3 s "
+                       r".*no time left: the test model is not valid here.*fmi2Terminated"
+                       ) as exc:
+        run(s, master=master, fmus={"inv": loop_fmus["inv"]}, adaptive=True, h_min=1e-6)
+    assert "h_min" not in str(exc.value)
+    # a fixed-step run stops there too
+    with pytest.raises(FMUError, match=r"failed at t = 0.3 s .*not valid here"):
+        run(s, master=master, fmus={"inv": loop_fmus["inv"]})
 
 
 # -- extrapolation: the polynomial ------------------------------------------------

@@ -73,9 +73,27 @@ def _list() -> int:
     return 0
 
 
+def check_output(option: str, path: Path | None) -> None:
+    """ValueError (one line, exit 2) unless ``path`` can be written as a file:
+    its folder exists and it is not a folder itself (checked before the run,
+    not after it)."""
+    if path is None:
+        return
+    if path.is_dir():
+        raise ValueError(f"{option} {path}: a folder; allowed: a file name in an existing "
+                         "folder")
+    if not path.parent.is_dir():
+        raise ValueError(f"{option} {path}: folder {path.parent} does not exist; allowed: "
+                         "a file name in an existing folder")
+
+
 def _run(args, prog: str) -> int:
     from .run import run
     from .system import FMUError
+    check_output("--csv", args.csv)
+    if args.fmu_dir is not None and args.fmu_dir.exists() and not args.fmu_dir.is_dir():
+        raise ValueError(f"--fmu-dir {args.fmu_dir}: not a folder; allowed: a folder (made "
+                         "if missing)")
     s = load_scene(args.scene)
     opts = {}
     if args.order is not None:
@@ -89,7 +107,8 @@ def _run(args, prog: str) -> int:
                   adaptive=args.adaptive, rtol=args.rtol, fmu_dir=args.fmu_dir,
                   progress=True, extrapolation=args.extrapolation, master_options=opts)
     except (FMUError, RuntimeError) as exc:
-        print(f"{prog}: run failed: {exc}", file=sys.stderr)
+        one_line = " ".join(str(exc).split())
+        print(f"{prog}: run failed: {one_line}", file=sys.stderr)
         return 1
     last = res.data[-1]
     print(f"scene {s.name}, master {res.master}, extrapolation {args.extrapolation}: "

@@ -1,5 +1,12 @@
 """The FMU file of each component: a model is built once per model and
-build options into a folder (a cache); an FMU given by path is used as is."""
+build options into a folder (a cache); an FMU given by path is used as is.
+
+The cache key (the hash in the file name) is made of what the generated
+code is made of: the declaration's equations, outputs, events, validity
+conditions and variables (with starts, units), the build options, and the
+text of the C runtime and of the code generator.  A model edit that keeps
+its variables, or a runtime change, gives a new file name: no stale FMU is
+reused."""
 from __future__ import annotations
 
 import hashlib
@@ -11,19 +18,54 @@ from fmpy import read_model_description
 from .declare import Component, Scene, declare_model
 
 
+#: files whose text goes into every FMU (the runtime) or makes its code
+_GENERATOR = ("codegen.py", "fmi2_xml.py", "builder.py", "ode.py")
+
+
+def _generator_text() -> str:
+    pkg = Path(__file__).resolve().parent.parent
+    files = sorted((pkg / "runtime").glob("*.[ch]")) + [pkg / n for n in _GENERATOR]
+    return "\n".join(f"{f.name}:{hashlib.sha1(f.read_bytes()).hexdigest()}"
+                     for f in files if f.is_file())
+
+
 def fmu_file_name(comp: Component) -> str:
-    """``<model>-<hash of the build options>.fmu``: one file per model and
-    options; a declared model's hash is of its equations, outputs, events and
-    variables (what the generated code is made of)."""
-    if comp.declaration is not None:
-        from ..ode import dae_form
-        dae = dae_form(comp.declaration)
-        key = "\n".join(f"{k}={v}" for k, v in sorted(vars(dae).items()) if k != "model")
-        key += "\n" + "\n".join(f"{v.name}:{v.kind}:{v.start}:{v.unit}"
-                                for v in comp.declaration.variables)
-    else:
-        key = json.dumps(comp.options, sort_keys=True, default=repr)
+    """``<model>-<hash>.fmu``: one file per model, options and code (see the
+    module's doc)."""
+    from ..ode import dae_form
+    decl = (comp.declaration if comp.declaration is not None
+            else declare_model(comp.model, comp.options))
+    dae = dae_form(decl)
+    key = "\n".join(f"{k}={v}" for k, v in sorted(vars(dae).items()) if k != "model")
+    key += "\n" + "\n".join(f"{v.name}:{v.kind}:{v.start}:{v.unit}:{getattr(v, 'min', '')}:"
+                            f"{getattr(v, 'max', '')}" for v in decl.variables)
+    key += "\n" + "\n".join(f"{c.name}:{c.expr}:{c.message}"
+                            for what in ("validity", "constraints")
+                            for c in getattr(decl, what, []))
+    key += "\n" + json.dumps(comp.options, sort_keys=True, default=repr)
+    key += "\n" + _generator_text()
     return f"{comp.model}-{hashlib.sha1(key.encode()).hexdigest()[:8]}.fmu"
+
+
+def check_fmus(scene: Scene, fmus) -> None:
+    """ValueError naming ``fmus`` unless it gives, for every component, an
+    existing FMU file with the variables (names, value references,
+    causalities) the component's interface has."""
+    if not isinstance(fmus, dict):
+        raise ValueError(f"fmus = {fmus!r:.60}; allowed: a dict component -> FMU path")
+    missing = sorted(set(scene.components) - set(fmus))
+    if missing:
+        raise ValueError(f"fmus: no FMU for components {missing}; allowed: a dict "
+                         f"with a path for each of {sorted(scene.components)}")
+    for name, comp in scene.components.items():
+        path = Path(fmus[name])
+        if not path.is_file():
+            raise ValueError(f"fmus[{name!r}] = {str(path)!r}: no such file; allowed: the "
+                             f"FMU of component {name} ({comp.source})")
+        if not _matches(path, comp):
+            raise ValueError(f"fmus[{name!r}] = {str(path)!r}: its variables (names, value "
+                             f"references, causalities) are not those of component {name} "
+                             f"({comp.source}); allowed: an FMU built from that model")
 
 
 def _matches(path: Path, comp: Component) -> bool:

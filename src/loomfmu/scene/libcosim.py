@@ -9,9 +9,19 @@ coupling force depends on the position it receives) is therefore read with
 the input of the previous step: libcosim's step is our Jacobi step with the
 feedthrough resolved one step late (:func:`loomfmu.scene.two_mass.cosim_map`
 gives both maps).
+
+libcosim 0.0.6 reads the SSP's parameter sets but skips a value for a
+variable that is not an input or parameter (it logs "Non-input causality for
+variable frame_a:phi" and the FMU keeps its default start): a state's start
+value would be lost.  :func:`run_ssp` therefore also gives every value of the
+SSP's parameter sets to libcosim as an initial value (``real_initial_value``,
+``integer_initial_value``), which libcosim sets before initialization
+whatever the causality.
 """
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +41,26 @@ def step_ns(step: float) -> int:
         raise ValueError(f"step = {step!r} s is not a whole number of nanoseconds; allowed: "
                          "a multiple of 1e-9 s (libcosim counts time in integer nanoseconds)")
     return ns
+
+
+_SSD = "{http://ssp-standard.org/SSP1/SystemStructureDescription}"
+_SSV = "{http://ssp-standard.org/SSP1/SystemStructureParameterValues}"
+
+
+def ssp_values(ssp) -> dict[str, dict[str, tuple[str, float]]]:
+    """Each component's values in the SSP's inline parameter sets:
+    component -> variable -> (``"Real"`` or ``"Integer"``, value)."""
+    with zipfile.ZipFile(ssp) as z:
+        root = ET.fromstring(z.read("SystemStructure.ssd"))
+    values: dict[str, dict[str, tuple[str, float]]] = {}
+    for comp in root.iter(f"{_SSD}Component"):
+        mine = values.setdefault(comp.get("name"), {})
+        for par in comp.iter(f"{_SSV}Parameter"):
+            for typ in ("Real", "Integer"):
+                el = par.find(f"{_SSV}{typ}")
+                if el is not None:
+                    mine[par.get("name")] = (typ, float(el.get("value")))
+    return values
 
 
 def run_ssp(ssp, refs: list[tuple[str, str]], *, step: float, stop: float,
@@ -55,6 +85,19 @@ def run_ssp(ssp, refs: list[tuple[str, str]], *, step: float, stop: float,
     ex = CosimExecution.from_ssp_file(str(ssp), step_size=h_ns)
     obs = CosimObserver.create_last_value()
     ex.add_observer(obs)
+    # the parameter sets' values again as initial values: libcosim drops the
+    # values of states (see the module's doc)
+    for comp, values in ssp_values(ssp).items():
+        i = ex.slave_index_from_instance_name(comp)
+        found = {v.name.decode(): v.reference for v in ex.slave_variables(i)}
+        for var, (typ, value) in values.items():
+            if typ == "Integer":
+                ok = ex.integer_initial_value(i, found[var], int(value))
+            else:
+                ok = ex.real_initial_value(i, found[var], value)
+            if not ok:
+                raise RuntimeError(f"libcosim refused the initial value {comp}.{var} = "
+                                   f"{value!r}")
     index, vrs = {}, []
     for comp, var in refs:
         if comp not in index:

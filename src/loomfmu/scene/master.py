@@ -22,7 +22,9 @@ far (a signal crossing zero is measured against its amplitude, not against
 its value near zero); the step's error is the largest scaled difference.  A
 step with error > 1 is rejected when the master is ``adaptive``: every FMU
 goes back to the step's start through fmi2SetFMUstate and the step is redone
-shorter.
+shorter.  A step an FMU discards with fmi2Terminated true (a validity
+condition failed: the model is not valid beyond) is not redone: the run
+stops at once with the FMU's message (ModelInvalid).
 """
 from __future__ import annotations
 
@@ -30,7 +32,7 @@ import math
 from dataclasses import dataclass
 
 from .extrapolation import ORDERS, History, shift, value
-from .system import FMUError, System
+from .system import FMUError, ModelInvalid, System
 
 
 @dataclass(frozen=True)
@@ -38,6 +40,27 @@ class StepResult:
     accepted: bool
     error: float     # scaled error estimate (<= 1: within the tolerances)
     message: str = ""
+
+
+def check_options(*, rtol=1e-3, atol=1e-6, extrapolation=0, output_derivatives=False
+                  ) -> None:
+    """ValueError naming the first of the master's options that is out of its
+    range (run() checks them before it builds any FMU)."""
+    if not (isinstance(rtol, (int, float)) and not isinstance(rtol, bool) and 0 < rtol < 1):
+        raise ValueError(f"rtol = {rtol!r}; allowed: a number in (0, 1)")
+    if not (isinstance(atol, (int, float)) and not isinstance(atol, bool) and atol > 0
+            and math.isfinite(atol)):
+        raise ValueError(f"atol = {atol!r}; allowed: a finite number > 0")
+    if extrapolation not in ORDERS or isinstance(extrapolation, bool):
+        raise ValueError(f"extrapolation = {extrapolation!r:.40}; allowed: one of "
+                         f"{', '.join(map(str, ORDERS))}")
+    if not isinstance(output_derivatives, bool):
+        raise ValueError(f"output_derivatives = {output_derivatives!r:.40}; allowed: "
+                         "True or False")
+    if output_derivatives and not extrapolation:
+        raise ValueError("output_derivatives = True with extrapolation = 0: the derivatives "
+                         "would not be used; allowed: extrapolation = 1 or 2, or "
+                         "output_derivatives = False")
 
 
 class Master:
@@ -53,16 +76,8 @@ class Master:
     def __init__(self, system: System, *, rtol: float = 1e-3, atol: float = 1e-6,
                  adaptive: bool = False, extrapolation: int = 0,
                  output_derivatives: bool = False):
-        if not (isinstance(rtol, (int, float)) and 0 < rtol < 1):
-            raise ValueError(f"rtol = {rtol!r}; allowed: a number in (0, 1)")
-        if not (isinstance(atol, (int, float)) and atol > 0 and math.isfinite(atol)):
-            raise ValueError(f"atol = {atol!r}; allowed: a finite number > 0")
-        if extrapolation not in ORDERS or isinstance(extrapolation, bool):
-            raise ValueError(f"extrapolation = {extrapolation!r:.40}; allowed: one of "
-                             f"{', '.join(map(str, ORDERS))}")
-        if not isinstance(output_derivatives, bool):
-            raise ValueError(f"output_derivatives = {output_derivatives!r:.40}; allowed: "
-                             "True or False")
+        check_options(rtol=rtol, atol=atol, extrapolation=extrapolation,
+                      output_derivatives=output_derivatives)
         self.system, self.rtol, self.atol, self.adaptive = system, rtol, atol, adaptive
         self.extrapolation, self.output_derivatives = extrapolation, output_derivatives
         if adaptive:
@@ -173,6 +188,10 @@ class Master:
             self._advance(t, h)
             error = self._error(t + h)
             message = ""
+        except ModelInvalid:     # no shorter step helps: stop with the FMU's message
+            if saved is not None:
+                system.free_states(saved)
+            raise
         except FMUError as exc:
             if not self.adaptive:
                 raise

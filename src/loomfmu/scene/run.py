@@ -13,8 +13,8 @@ import numpy as np
 from ..checks import check_number
 from ..progress import Progress
 from .declare import Scene
-from .fmus import build_fmus
-from .master import make_master
+from .fmus import build_fmus, check_fmus
+from .master import MASTERS, check_options, make_master
 from .system import System
 
 #: step-size controller of the adaptive run (error ~ h^(order + 1) for an
@@ -73,30 +73,37 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
     """
     stop = check_number("stop", scene.stop_time if stop is None else stop, lo=0.0,
                         lo_open=True, unit="s")
+    if step is None and scene.step > stop:
+        raise ValueError(f"stop = {stop!r} s is shorter than the scene's step {scene.step!r} "
+                         f"s; allowed: stop >= {scene.step!r} s, or a step <= stop")
     step = check_number("step", scene.step if step is None else step, lo=0.0, lo_open=True,
                         hi=stop, unit="s")
-    h_min = check_number("h_min", h_min, lo=0.0, lo_open=True, hi=step, unit="s")
-    h_max = check_number("h_max", max(stop / 10, step) if h_max is None else h_max, lo=step,
-                         unit="s")
+    if adaptive:
+        h_min = check_number("h_min", h_min, lo=0.0, lo_open=True, hi=step, unit="s")
+        h_max = check_number("h_max", max(stop / 10, step) if h_max is None else h_max,
+                             lo=step, unit="s")
+    # every option checked before any FMU is built
+    if master not in MASTERS:
+        raise ValueError(f"master = {master!r:.40}; allowed: {', '.join(MASTERS)}")
+    opts = dict(master_options or {})
+    twice = sorted(set(opts) & {"rtol", "atol", "adaptive", "extrapolation"})
+    if twice:
+        raise ValueError(f"master_options: {twice} are arguments of run(); "
+                         "allowed: options of the master itself (e.g. order)")
+    check_options(rtol=rtol, atol=atol, extrapolation=extrapolation,
+                  output_derivatives=opts.get("output_derivatives", False))
+    loop_options = dict(loop_options or {})
+    bad = sorted(set(loop_options) - set(LOOP_OPTIONS))
+    if bad:
+        raise ValueError(f"loop_options: unknown {bad}; allowed: {list(LOOP_OPTIONS)}")
+    if fmus is not None:
+        check_fmus(scene, fmus)
     bar = Progress(100, f"scene {scene.name} ({master})") if progress else None
     with tempfile.TemporaryDirectory() as tmp:
         if fmus is None:
             fmus = build_fmus(scene, fmu_dir if fmu_dir is not None else tmp, progress=bar)
-        missing = sorted(set(scene.components) - set(fmus))
-        if missing:
-            raise ValueError(f"fmus: no FMU for components {missing}; allowed: a dict "
-                             f"with a path for each of {sorted(scene.components)}")
-        loop_options = dict(loop_options or {})
-        bad = sorted(set(loop_options) - set(LOOP_OPTIONS))
-        if bad:
-            raise ValueError(f"loop_options: unknown {bad}; allowed: {list(LOOP_OPTIONS)}")
         system = System(scene, fmus, **loop_options)
         try:
-            opts = dict(master_options or {})
-            twice = sorted(set(opts) & {"rtol", "atol", "adaptive", "extrapolation"})
-            if twice:
-                raise ValueError(f"master_options: {twice} are arguments of run(); "
-                                 "allowed: options of the master itself (e.g. order)")
             m = make_master(master, system, rtol=rtol, atol=atol, adaptive=adaptive,
                             extrapolation=extrapolation, **opts)
             refs = scene.recorded_variables()

@@ -8,6 +8,12 @@ parameters that are connected, set or recorded), the parameter and start values 
 ``ssc:LinearTransformation`` where units are converted), the units used
 (``ssd:Units``) and the default experiment.  It is validated against the
 SSP 1.0 schemas that ship with FMPy before it is written.
+
+A scene's ``solver`` setting (an Enumeration) is written as the
+``solver_index`` Integer parameter every loomfmu FMU has (the same number):
+libcosim cannot set Enumerations.  A state's start value is in the parameter
+set too; :func:`loomfmu.scene.libcosim.run_ssp` passes it on as an initial
+value, which libcosim needs for a variable that is not a parameter or input.
 """
 from __future__ import annotations
 
@@ -17,6 +23,7 @@ import xml.etree.ElementTree as ET
 import zipfile
 from pathlib import Path
 
+from ..fmi2_xml import SOLVER_INDEX
 from .declare import Scene
 from .fmus import build_fmus
 
@@ -35,6 +42,16 @@ def _num(v: float) -> str:
     return repr(float(v))
 
 
+def _values(comp) -> dict[str, float]:
+    """The component's parameter and start values as the SSD writes them
+    (the ``solver`` Enumeration as the ``solver_index`` Integer where the FMU
+    has it)."""
+    values = {**comp.parameters, **comp.start}
+    if "solver" in values and SOLVER_INDEX in comp.interface.variables:
+        values[SOLVER_INDEX] = values.pop("solver")
+    return values
+
+
 def ssd_text(scene: Scene, *, step: float | None = None) -> str:
     """The ``SystemStructure.ssd`` of ``scene`` (validated against the schema)."""
     root = ET.Element(_q(SSD, "SystemStructureDescription"),
@@ -48,7 +65,7 @@ def ssd_text(scene: Scene, *, step: float | None = None) -> str:
         iface = comp.interface
         names = ([c.src_var for c in scene.connections if c.src == comp.name]
                  + [c.dst_var for c in scene.connections if c.dst == comp.name]
-                 + list(comp.parameters) + list(comp.start)
+                 + list(_values(comp))
                  + [v for c, v in scene.recorded_variables() if c == comp.name])
         names = list(dict.fromkeys(names))
         el = ET.SubElement(elements, _q(SSD, "Component"), {
@@ -67,7 +84,7 @@ def ssd_text(scene: Scene, *, step: float | None = None) -> str:
                 attrs["unit"] = v.unit
                 used_units[v.unit] = iface.unit(v.unit)
             ET.SubElement(c, _q(SSC, typ), attrs)
-        values = {**comp.parameters, **comp.start}
+        values = _values(comp)
         if values:
             pb = ET.SubElement(ET.SubElement(el, _q(SSD, "ParameterBindings")),
                                _q(SSD, "ParameterBinding"))

@@ -35,6 +35,16 @@ class FMUError(RuntimeError):
     """An FMU call failed; the message names the component, the call and the time."""
 
 
+class ModelInvalid(FMUError):
+    """fmi2DoStep returned Discard with fmi2Terminated true: the FMU says its
+    model is not valid beyond where it stopped (a validity condition failed);
+    a shorter step cannot help."""
+
+
+#: fmi2StatusKind fmi2Terminated (FMI 2.0, 4.2.3)
+FMI2_TERMINATED = 3
+
+
 class Instance:
     """One FMU instance."""
 
@@ -162,12 +172,22 @@ class System:
             log = f"; its log: {inst.log[-1]}" if inst is not None and inst.log else ""
             raise FMUError(f"{name}: {what} failed at t = {t:.9g} s ({exc}){log}") from None
 
+    def _terminated(self, name: str) -> bool:
+        """fmi2GetBooleanStatus(fmi2Terminated) of component ``name`` (False
+        when the FMU cannot say)."""
+        try:
+            return self.instances[name].fmu.getBooleanStatus(FMI2_TERMINATED)
+        except Exception:
+            return False
+
     # -- values -----------------------------------------------------------
     def source_value(self, i: int) -> float:
         """The value connection ``i`` would carry now (converted to the input's unit)."""
         fmu, vr = self._src[i]
         c = self.connections[i]
-        return c.gain * fmu.getReal([vr])[0] + c.bias
+        value = self._call(c.src, f"fmi2GetReal ({c.src_var}, for {c})", self.time[c.src],
+                           lambda: fmu.getReal([vr])[0])
+        return c.gain * value + c.bias
 
     def exchange(self, indices, t: float, *, iterate=None) -> None:
         """Move values along connections ``indices`` in feedthrough order (each
@@ -247,12 +267,24 @@ class System:
                                                        derivatives))
 
     def get(self, refs: list[tuple[str, str]]) -> list[float]:
-        return [self.instances[c].fmu.getReal([self.instances[c].vr[v]])[0] for c, v in refs]
+        """The values of variables ``refs`` (component, variable) now."""
+        out = []
+        for c, v in refs:
+            inst = self.instances[c]
+            out.append(self._call(c, f"fmi2GetReal ({v})", self.time[c],
+                                  lambda: inst.fmu.getReal([inst.vr[v]])[0]))
+        return out
 
     # -- stepping and states --------------------------------------------------
     def do_step(self, name: str, t: float, h: float) -> None:
         inst = self.instances[name]
-        self._call(name, f"fmi2DoStep (h = {h:.6g} s)", t, lambda: inst.fmu.doStep(t, h))
+        try:
+            self._call(name, f"fmi2DoStep (h = {h:.6g} s)", t, lambda: inst.fmu.doStep(t, h))
+        except FMUError as exc:
+            if self._terminated(name):
+                raise ModelInvalid(f"{exc} [fmi2Terminated: the model is not valid beyond "
+                                   "this point; a shorter step cannot help]") from None
+            raise
         self.time[name] = t + h
 
     def get_states(self) -> dict:
