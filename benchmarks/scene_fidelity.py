@@ -85,7 +85,8 @@ def chart(ev, path: Path) -> Path:
                         xytext=(4, 6 if i % 2 else -10))
         for tol, ls in zip(TOLS, ("--", ":")):
             ax.axhline(tol, color="grey", ls=ls, lw=1, label=f"{tol:.1%}")
-        ax.set(yscale="log", title=textwrap.fill(quantity, 34), xlabel=f"CPU s of a {ev.stop:g} s run")
+        ax.set(yscale="log", title=textwrap.fill(quantity, 34),
+               xlabel=f"CPU s of a {ev.stop:g} s run")
         ax.legend(loc="lower left", fontsize=7)
     axes[0].set_ylabel("largest error / output's range\n(error 0, the reference: at the "
                        "bottom)")

@@ -145,8 +145,7 @@ class Evaluation:
         for r in self.rows:
             err = {o: r.errors[o] for o in outputs}
             rows.append(Row(r.levels, r.cpu_s, err, [a for a in r.absent if a in outputs]))
-        ref = rows[-1]
-        passing = [r for r in rows if r.error <= tol]
+        passing = [r for r in rows if r.error <= tol]     # the reference (last) always
         cheapest = min(r.cpu_s for r in passing)
         near = [r for r in passing if r.cpu_s <= cheapest * (1 + COST_NOISE)]
         chosen = min(near, key=lambda r: (self._rank(r), r.cpu_s))
