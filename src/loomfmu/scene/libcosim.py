@@ -91,6 +91,9 @@ def run_ssp(ssp, refs: list[tuple[str, str]], *, step: float, stop: float,
         i = ex.slave_index_from_instance_name(comp)
         found = {v.name.decode(): v.reference for v in ex.slave_variables(i)}
         for var, (typ, value) in values.items():
+            if var not in found:
+                raise ValueError(f"ssp = {str(ssp)!r}: {comp}.{var} is set in the SSP but is "
+                                 "not a variable of the FMU libcosim loaded")
             if typ == "Integer":
                 ok = ex.integer_initial_value(i, found[var], int(value))
             else:

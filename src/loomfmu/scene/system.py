@@ -288,21 +288,22 @@ class System:
         self.time[name] = t + h
 
     def get_states(self) -> dict:
-        states = {n: self._call(n, "fmi2GetFMUstate", float("nan"), i.fmu.getFMUState)
+        states = {n: self._call(n, "fmi2GetFMUstate", self.time[n], i.fmu.getFMUState)
                   for n, i in self.instances.items()}
         self._saved_time = dict(self.time)
         return states
 
     def set_states(self, states: dict, held: list[float]) -> None:
         for n, s in states.items():
-            self._call(n, "fmi2SetFMUstate", float("nan"),
+            self._call(n, "fmi2SetFMUstate", self._saved_time[n],
                        lambda: self.instances[n].fmu.setFMUState(s))
         self.held = list(held)
         self.time = dict(self._saved_time)
 
     def free_states(self, states: dict) -> None:
         for n, s in states.items():
-            self.instances[n].fmu.freeFMUState(s)
+            self._call(n, "fmi2FreeFMUstate", self.time[n],
+                       lambda: self.instances[n].fmu.freeFMUState(s))
 
     def close(self) -> None:
         for inst in self.instances.values():
