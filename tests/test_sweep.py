@@ -143,6 +143,11 @@ def _derived(t, y, case):
     (lambda: _study(figures=[]), "figures"),
     (lambda: _study(stop_time=-1.0), "stop_time"),
     (lambda: _study(output_interval=0.5), "output_interval"),
+    (lambda: _study(stop_time=0.05), "after"),  # final_h from 0.1 s on, past the stop
+    (lambda: Figure("max", "h", label="a b"), "label"),
+    (lambda: _study(figures=[Figure("max", "h"), Figure("max", "h")]), "figures"),
+    (lambda: run_study(_study(), scheduler="tcp://127.0.0.1:1", connect_timeout=0),
+     "connect_timeout"),
     (lambda: _study(solver="euler"), "solver"),
     (lambda: _study(rtol=0.0), "rtol"),
     (lambda: _study(name="a b"), "name"),
@@ -243,3 +248,141 @@ def test_trend_case_starts_on_the_periodic_orbit_with_the_studys_parameter():
     assert any(v != 0.0 for k, v in values.items() if k.endswith(".x"))  # off-centre start
     with pytest.raises(ValueError, match=r"trend = 4; allowed: an integer in \[0, 3\]"):
         studies.prepare_trend({"trend": 4, "x": 1.0}, fixed)
+
+
+def test_figures_differing_in_after_are_named_apart(blob):
+    study = _study(cases=grid(omega=[60.0]), figures=[Figure("mean", "h"),
+                                                      Figure("mean", "h", after=0.15)])
+    assert [f.name for f in study.figures] == ["mean_h_from_0s", "mean_h_from_0p15s"]
+    (row,) = run_serial(study, blob=blob)
+    assert row["status"] == "ok" and row["mean_h_from_0s"] != row["mean_h_from_0p15s"]
+    # each column holds its own figure: the same figures run alone, under their plain name
+    for after, name in ((0.0, "mean_h_from_0s"), (0.15, "mean_h_from_0p15s")):
+        (alone,) = run_serial(_study(cases=grid(omega=[60.0]),
+                                     figures=[Figure("mean", "h", after=after)]), blob=blob)
+        assert alone["mean_h"].hex() == row[name].hex()
+
+
+def test_an_fmu_of_another_model_is_named_as_such(blob, tmp_path):
+    import io
+    import zipfile
+    src, out = zipfile.ZipFile(io.BytesIO(blob.data)), io.BytesIO()
+    with zipfile.ZipFile(out, "w") as z:  # the same FMU, declared as another model
+        for name in src.namelist():
+            data = src.read(name)
+            if name == "modelDescription.xml":
+                data = data.replace(b'modelName="heald_frame_rigid"', b'modelName="backrest"')
+            z.writestr(name, data)
+    other = tmp_path / "backrest.fmu"
+    other.write_bytes(out.getvalue())
+    with pytest.raises(ValueError, match=r"fmu = 'backrest.fmu': a build of model 'backrest', "
+                                         r"not of the study's model 'heald_frame_rigid'"):
+        run_serial(_study(), fmu=other)
+
+
+@pytest.fixture
+def not_dask():
+    """Addresses where no dask scheduler answers: an HTTP server, a server
+    that sends garbage, a closed port (all on this host, free ports)."""
+    import http.server
+    import socket
+    import threading
+    web = http.server.ThreadingHTTPServer(("127.0.0.1", 0), _QuietHandler)
+    junk = socket.create_server(("127.0.0.1", 0))
+
+    def babble():
+        while True:
+            try:
+                conn, _ = junk.accept()
+            except OSError:
+                return
+            conn.sendall(b"\xff" * 64)  # a frame count of 2**64 - 1
+            conn.close()
+    threads = [threading.Thread(target=web.serve_forever, daemon=True),
+               threading.Thread(target=babble, daemon=True)]
+    for t in threads:
+        t.start()
+    with socket.create_server(("127.0.0.1", 0)) as s:
+        closed = s.getsockname()[1]
+    yield {"http": f"tcp://127.0.0.1:{web.server_address[1]}",
+           "garbage": f"tcp://127.0.0.1:{junk.getsockname()[1]}",
+           "closed": f"tcp://127.0.0.1:{closed}"}
+    web.shutdown()
+    web.server_close()
+    junk.close()
+
+
+import http.server as _http  # noqa: E402
+
+
+class _QuietHandler(_http.SimpleHTTPRequestHandler):
+    def log_message(self, *args):
+        pass
+
+
+def _alarm(seconds):
+    import signal
+
+    def fail(*_):
+        raise TimeoutError(f"still waiting after {seconds} s")
+    signal.signal(signal.SIGALRM, fail)
+    signal.alarm(seconds)
+
+
+def test_a_scheduler_address_without_a_dask_scheduler_is_refused_in_bounded_time(
+        not_dask, blob, tmp_path, capsys):
+    import signal
+    import time
+    try:
+        for what, address in not_dask.items():
+            _alarm(30)  # before the fix the HTTP server held the client for ever
+            t0 = time.perf_counter()
+            with pytest.raises(ValueError) as e:
+                run_study(_study(), out=tmp_path / "x.csv", blob=blob, scheduler=address,
+                          connect_timeout=1.5, progress=False)
+            took = time.perf_counter() - t0
+            assert str(e.value).startswith(f"scheduler = '{address}': "), (what, str(e.value))
+            assert "allowed: the address of a running dask scheduler" in str(e.value)
+            assert took < 1.5 + 2.0, (what, took)
+            assert not (tmp_path / "x.csv").exists()  # refused before anything ran
+        _alarm(30)
+        fmu = tmp_path / blob.name
+        fmu.write_bytes(blob.data)
+        code = cli_main(["sweep", "run", "heald_frame_rigid", "--grid", "omega=40",
+                         "--figure", "max:N_rem", "--stop", "0.1", "--fmu", str(fmu),
+                         "--out-dir", str(tmp_path), "--scheduler", not_dask["http"],
+                         "--connect-timeout", "1"])
+    finally:
+        signal.alarm(0)
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert err.startswith(f"loomfmu sweep: error: scheduler = '{not_dask['http']}': no dask "
+                          "scheduler answered within 1 s"), err
+
+
+def test_a_running_scheduler_is_accepted(blob, tmp_path):
+    from dask.distributed import LocalCluster
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
+                      dashboard_address=None) as cluster:
+        res = run_study(_study(cases=grid(omega=[40.0, 60.0])), blob=blob, progress=False,
+                        scheduler=cluster.scheduler_address, connect_timeout=5)
+    assert res.workers == -1 and [r["status"] for r in res.rows] == ["ok", "ok"]
+
+
+def test_cli_out_dir_is_checked_before_running(blob, tmp_path, capsys):
+    fmu = tmp_path / blob.name
+    fmu.write_bytes(blob.data)
+    afile = tmp_path / "afile"
+    afile.write_text("")
+    taken = tmp_path / "taken"
+    (taken / "heald_frame_rigid.csv").mkdir(parents=True)
+    for out_dir, said in ((afile, "an existing file, not a directory"),
+                          (afile / "sub", "cannot be made"),
+                          (taken, "heald_frame_rigid.csv in it is a directory")):
+        code = cli_main(["sweep", "run", "heald_frame_rigid", "--grid", "omega=40",
+                         "--figure", "max:N_rem", "--stop", "0.1", "--fmu", str(fmu),
+                         "--out-dir", str(out_dir)])
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+        assert err.startswith(f"loomfmu sweep: error: --out-dir '{out_dir}': {said}"), err
+        assert "allowed" in err

@@ -13,6 +13,7 @@ cases are skipped) unless --fresh. Exit 1 if a case failed.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -25,6 +26,10 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="a running dask scheduler (tcp://host:8786) instead of the local "
                         "cluster; its workers need loomfmu installed")
+    p.add_argument("--connect-timeout", type=float, default=10.0, metavar="SECONDS",
+                   help="how long to wait for --scheduler to answer (0 < . <= 600; "
+                        "default 10): no answer, a closed port or another service there "
+                        "is an error (exit 2)")
     p.add_argument("--out-dir", type=Path, default=Path("docs/sweep"),
                    help="tables and charts (default: ./docs/sweep)")
     p.add_argument("--fresh", action="store_true",
@@ -137,22 +142,53 @@ def _run_study_from_args(args):
                  name=args.name or args.model)
 
 
+def _study_from_args(args):
+    from . import studies
+    gap = None
+    if args.cmd == "design-map":
+        gap = check_number("--gap", args.gap, lo=0.0, lo_open=True, unit="m")
+        return studies.design_map(), gap
+    if args.cmd == "run":
+        return _run_study_from_args(args), gap
+    return studies.STUDIES[args.cmd](), gap
+
+
+def _run(study, out: Path, args):
+    from .run import run_study
+    return run_study(study, out=out, workers=args.workers, scheduler=args.scheduler,
+                     fmu=args.fmu, resume=not args.fresh, batch=args.batch,
+                     connect_timeout=args.connect_timeout)
+
+
+def _check_out_dir(out_dir: Path, out: Path) -> None:
+    """OUT_DIR is (or can be made) a writable directory and OUT_DIR/<study>.csv
+    is not a directory: checked before any case runs (ValueError, exit 2)."""
+    allowed = "allowed: a directory (existing or to be made) that this user can write"
+    existed = out_dir.exists()
+    if existed and not out_dir.is_dir():
+        raise ValueError(f"--out-dir {str(out_dir)!r:.80}: an existing file, not a "
+                         f"directory; {allowed}")
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"--out-dir {str(out_dir)!r:.80}: cannot be made "
+                         f"({exc.strerror or exc}); {allowed}") from None
+    if existed and not os.access(out_dir, os.W_OK | os.X_OK):
+        raise ValueError(f"--out-dir {str(out_dir)!r:.80}: not writable; {allowed}")
+    if out.is_dir():
+        raise ValueError(f"--out-dir {str(out_dir)!r:.80}: {out.name} in it is a directory; "
+                         "allowed: a directory where that name is free or a results file")
+
+
 def main(argv=None, prog: str = "loomfmu sweep") -> int:
     args = _parser(prog).parse_args(argv)
     from . import charts, studies
-    from .run import run_study
-    if args.cmd == "design-map":
-        gap = check_number("--gap", args.gap, lo=0.0, lo_open=True, unit="m")
-        study = studies.design_map()
-    elif args.cmd == "run":
-        study = _run_study_from_args(args)
-    else:
-        study = studies.STUDIES[args.cmd]()
-    out = args.out_dir / f"{study.name}.csv"
-    try:
-        res = run_study(study, out=out, workers=args.workers, scheduler=args.scheduler,
-                        fmu=args.fmu, resume=not args.fresh, batch=args.batch)
-    except ImportError as exc:  # dask.distributed missing: say how to get it
+    try:  # a refused value, path or scheduler: one line, exit 2
+        study, gap = _study_from_args(args)
+        out = args.out_dir / f"{study.name}.csv"
+        _check_out_dir(args.out_dir, out)
+        res = _run(study, out, args)
+    except (ValueError, ImportError) as exc:  # ImportError: dask.distributed missing
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
     written = [out]

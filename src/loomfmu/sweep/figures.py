@@ -30,20 +30,30 @@ REDUCTIONS = {
 
 @dataclasses.dataclass(frozen=True)
 class Figure:
-    """``kind`` (one of REDUCTIONS) of output ``output`` from ``after`` s on."""
+    """``kind`` (one of REDUCTIONS) of output ``output`` from ``after`` s on;
+    ``label``: its column's name (default KIND_OUTPUT; a Study names two
+    figures that differ only in ``after`` KIND_OUTPUT_from_<after>s)."""
     kind: str
     output: str
     after: float = 0.0
+    label: str = ""
 
     def __post_init__(self):
         check_choice("kind", self.kind, REDUCTIONS)
         if not isinstance(self.output, str) or not self.output:
             raise ValueError(f"output = {self.output!r:.40}; allowed: an output's name")
         check_number("after", self.after, lo=0.0, unit="s")
+        if not isinstance(self.label, str) or (self.label and not self.label.isidentifier()):
+            raise ValueError(f"label = {self.label!r:.40}; allowed: empty or an identifier")
 
     @property
     def name(self) -> str:
-        return f"{self.kind}_{self.output}"
+        return self.label or f"{self.kind}_{self.output}"
+
+    def from_label(self) -> str:
+        """KIND_OUTPUT_from_<after>s (0.05 -> 0p05s): a name that tells
+        figures of one kind and output apart by ``after``."""
+        return f"{self.kind}_{self.output}_from_{format(self.after, 'g').replace('.', 'p')}s"
 
     @property
     def outputs(self) -> tuple[str, ...]:

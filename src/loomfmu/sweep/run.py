@@ -20,8 +20,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from ..checks import check_bool, check_int
+from ..checks import check_bool, check_int, check_number
 from . import store
+from .connect import MAX_CONNECT_TIMEOUT, check_scheduler, refused
 from .study import Study, case_key
 from .worker import STATUSES, FmuBlob, run_batch, run_case
 
@@ -106,6 +107,10 @@ def _check_fmu(study: Study, blob: FmuBlob) -> None:
             md = fmpy.read_model_description(str(path), validate=False)
         except Exception as exc:  # noqa: BLE001 (FMPy raises bare Exceptions)
             raise ValueError(f"fmu = {blob.name!r}: not a readable FMU ({exc})") from None
+    if md.modelName != study.model:
+        raise ValueError(f"fmu = {blob.name!r}: a build of model {md.modelName!r}, not of "
+                         f"the study's model {study.model!r}; allowed: an FMU of "
+                         f"{study.model} (or none: built now)")
     settable = [v.name for v in md.modelVariables if v.start is not None]
     study.check_names(settable, [v.name for v in md.modelVariables])
 
@@ -133,7 +138,8 @@ def run_serial(study: Study, *, fmu=None, blob: FmuBlob | None = None,
 
 def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
               scheduler: str | None = None, fmu=None, blob: FmuBlob | None = None,
-              resume: bool = True, progress: bool = True, batch: int = 1) -> StudyResult:
+              resume: bool = True, progress: bool = True, batch: int = 1,
+              connect_timeout: float = 10.0) -> StudyResult:
     """Run ``study`` on dask.distributed and return every case's row.
 
     out: the results CSV (None: none kept, no resume). workers: local worker
@@ -145,6 +151,9 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
     loomfmu.progress bar over the cases as they complete. batch: cases per
     dask task (1 ... 10000): more than 1 spreads dask's per-task overhead
     (a few ms) over short cases; rows are still kept case by case.
+    connect_timeout: s (0 < . <= 600) to wait for ``scheduler`` to answer;
+    a scheduler that does not (closed port, another service, no answer) is
+    a ValueError naming the address, before the FMU is built.
     """
     workers = check_int("workers", workers, lo=1, hi=MAX_WORKERS)
     batch = check_int("batch", batch, lo=1, hi=10_000)
@@ -152,9 +161,13 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
     if scheduler is not None and (not isinstance(scheduler, str) or "://" not in scheduler):
         raise ValueError(f"scheduler = {scheduler!r:.60}; allowed: None or an address "
                          "such as tcp://host:8786")
+    connect_timeout = check_number("connect_timeout", connect_timeout, lo=0.0,
+                                   hi=MAX_CONNECT_TIMEOUT, lo_open=True, unit="s")
     if out is not None and not isinstance(out, (str, Path)):
         raise ValueError(f"out = {out!r:.60}; allowed: None or a .csv path")
     _need_distributed()
+    if scheduler is not None:
+        check_scheduler(scheduler, connect_timeout)
     blob = blob or fmu_blob(study, fmu)
     _check_fmu(study, blob)
     keys = _keys(study, blob)
@@ -168,8 +181,8 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
              "busiest_worker_cpu_s": 0.0}
     try:
         if pending:
-            rows.update(_dask_run(study, blob, pending, workers, scheduler, progress,
-                                  appender, stats, batch))
+            rows.update(_dask_run(study, blob, pending, (workers, scheduler, connect_timeout),
+                                  progress, appender, stats, batch))
     finally:
         if appender is not None:
             appender.close()
@@ -217,13 +230,14 @@ def _finished(out, keys: list[str], cols: list[str], resume: bool) -> dict[str, 
     return rows
 
 
-def _dask_run(study, blob, pending, workers, scheduler, progress, appender,
+def _dask_run(study, blob, pending, where, progress, appender,
               stats: dict, batch: int) -> dict:
     import dask
     from dask.distributed import Client, LocalCluster, as_completed
 
     from ..progress import Progress
     t0 = time.perf_counter()
+    workers, scheduler, connect_timeout = where
     cluster = None
     if scheduler is None:
         with dask.config.set(QUIET_WORKERS):  # passed on to the workers by their nannies
@@ -231,7 +245,11 @@ def _dask_run(study, blob, pending, workers, scheduler, progress, appender,
                                    dashboard_address=None, silence_logs=logging.ERROR)
         client = Client(cluster)
     else:
-        client = Client(scheduler)
+        try:
+            client = Client(scheduler, timeout=connect_timeout)
+        except Exception as exc:  # noqa: BLE001 (gone since check_scheduler)
+            raise refused(scheduler, f"connecting failed ({type(exc).__name__}: "
+                                     f"{str(exc)[:160]})") from None
     rows = {}
     try:
         setup = study.setup()

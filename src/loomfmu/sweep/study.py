@@ -61,11 +61,9 @@ class Study:
         if not isinstance(self.figures, (list, tuple)) or not self.figures or not all(
                 isinstance(f, (Figure, Derived)) for f in self.figures):
             raise ValueError("figures: allowed: a non-empty list of Figure or Derived")
-        names = [f.name for f in self.figures]
-        if len(set(names)) != len(names):
-            raise ValueError(f"figures: names {names} repeat; allowed: distinct figures")
         self.stop_time = check_number("stop_time", self.stop_time, lo=0.0, lo_open=True,
                                       unit="s")
+        self.figures = _named(list(self.figures), self.stop_time)
         self.output_interval = check_number("output_interval", self.output_interval,
                                             lo=0.0, hi=self.stop_time, lo_open=True,
                                             unit="s")
@@ -124,7 +122,7 @@ class Study:
         a changed setting gives new case keys, so nothing stale is resumed."""
         def fig(f):
             if isinstance(f, Figure):
-                return [f.kind, f.output, f.after]
+                return [f.kind, f.output, f.after] + ([f.label] if f.label else [])
             return [f.name, f"{f.function.__module__}.{f.function.__qualname__}",
                     list(f.outputs)]
         prep = (None if self.prepare is None
@@ -134,6 +132,25 @@ class Study:
                    stop_time=self.stop_time, output_interval=self.output_interval,
                    figures=[fig(f) for f in self.figures], fixed=self.fixed, prepare=prep)
         return hashlib.sha256(_json(doc).encode()).hexdigest()
+
+
+def _named(figures: list, stop_time: float) -> list:
+    """``figures`` with ``after`` in [0, stop_time], and distinct names: figures
+    that share KIND_OUTPUT but differ in ``after`` (and have no label) are
+    named KIND_OUTPUT_from_<after>s; truly repeated figures are refused."""
+    for f in figures:
+        if isinstance(f, Figure) and f.after > stop_time:
+            raise ValueError(f"after = {f.after:g} s (figure {f.name}); allowed: 0 ... "
+                             f"stop_time = {stop_time:g} s")
+    clash = {n for n in (f.name for f in figures) if [g.name for g in figures].count(n) > 1}
+    figures = [dataclasses.replace(f, label=f.from_label())
+               if isinstance(f, Figure) and not f.label and f.name in clash else f
+               for f in figures]
+    names = [f.name for f in figures]
+    if len(set(names)) != len(names):
+        raise ValueError(f"figures: names {names} repeat; allowed: distinct figures (a "
+                         "Figure's label names its column)")
+    return figures
 
 
 def case_key(fingerprint: str, case: dict) -> str:
