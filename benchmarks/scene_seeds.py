@@ -144,45 +144,11 @@ def sweep(name: str, scene, fmus, tmp: Path, quick: bool) -> dict:
     return out
 
 
-def libcosim_run(ssp, scene, refs, *, step: float, stop: float) -> np.ndarray:
-    """loomfmu.scene.libcosim.run_ssp, and the scene's start values of its
-    states set through libcosim's initial values: libcosim 0.0.6 reads the
-    SSP's parameter set but skips a variable that is not an input or
-    parameter (it logs "Non-input causality for variable frame_b:phi" and the
-    FMU keeps its default start), so the spindle would start at rest and the
-    second heald frame in phase with the first."""
-    from libcosimpy.CosimExecution import CosimExecution
-    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
-    from libcosimpy.CosimObserver import CosimObserver
-    from loomfmu.scene.libcosim import NS, step_ns
-    h_ns = step_ns(step)
-    n = int(round(stop * NS / h_ns))
-    log_output_level(CosimLogLevel.ERROR)
-    ex = CosimExecution.from_ssp_file(str(ssp), step_size=h_ns)
-    obs = CosimObserver.create_last_value()
-    ex.add_observer(obs)
-    index = {c: ex.slave_index_from_instance_name(c) for c in scene.components}
-    vrs = {c: {v.name.decode(): v.reference for v in ex.slave_variables(i)}
-           for c, i in index.items()}
-    for c, comp in scene.components.items():
-        for var, value in comp.start.items():
-            if comp.interface.variables[var].causality != "input":
-                ex.real_initial_value(index[c], vrs[c][var], float(value))
-    cols = [(index[c], vrs[c][v]) for c, v in refs]
-    rows = []
-    for k in range(n):
-        if not ex.step(1):
-            raise RuntimeError(f"libcosim failed to step at t = {k * step:.9g} s")
-        rows.append([obs.last_real_values(i, [vr])[0] for i, vr in cols])
-    data = np.zeros(n, dtype=[("time", "f8")] + [(f"{c}.{v}", "f8") for c, v in refs])
-    data["time"] = (np.arange(n) + 1) * h_ns / NS
-    values = np.array(rows)
-    for j, (c, v) in enumerate(refs):
-        data[f"{c}.{v}"] = values[:, j]
-    return data
-
-
 def libcosim_sweep(scene, fmus, tmp, steps, horizon, outputs, ref) -> list[dict]:
+    """libcosim on the exported SSP (run_ssp sets the SSP's start values of
+    states as libcosim initial values: libcosim 0.0.6 skips them in the
+    parameter set)."""
+    from loomfmu.scene.libcosim import run_ssp
     from loomfmu.scene.ssp import export_ssp
     ssp = export_ssp(scene, tmp / f"{scene.name}.ssp", fmus=fmus)
     rows = []
@@ -191,7 +157,7 @@ def libcosim_sweep(scene, fmus, tmp, steps, horizon, outputs, ref) -> list[dict]
         row = {"algorithm": LIBCOSIM, "h": h}
         try:
             t0 = time.process_time()
-            data = libcosim_run(ssp, scene, refs, step=h, stop=horizon)
+            data = run_ssp(ssp, refs, step=h, stop=horizon)
             cpu = time.process_time() - t0
             err, growth, per = error_of(data, ref.data, outputs)
             row.update(error=err, growth=growth, per_output=per, cpu_s=cpu,
@@ -365,6 +331,8 @@ def omega_of(ppm: float) -> float:
 def stuck_phases(t, w, after: float) -> tuple[float, int]:
     """(share of the time after ``after`` the rate is zero, number of stick phases)."""
     st = np.abs(np.asarray(w))[np.asarray(t) > after] < STUCK
+    if st.size == 0:      # a run shorter than ``after`` (--quick)
+        return math.nan, 0
     return float(st.mean()), int(np.count_nonzero(np.diff(st.astype(int)) == 1) + st[0])
 
 

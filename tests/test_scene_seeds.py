@@ -6,10 +6,8 @@ run in opposition and the warp stays taut.  Short horizons; the FMUs are
 built once per module."""
 from __future__ import annotations
 
-import importlib.util
 import math
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,19 +17,9 @@ from loomfmu.scene import loom as loom_scene
 from loomfmu.scene import spinning
 from loomfmu.scene.__main__ import main
 from loomfmu.scene.fmus import build_fmus
+from loomfmu.scene.libcosim import run_ssp
 from loomfmu.scene.library import SCENES, load_scene
 from loomfmu.scene.ssp import export_ssp
-
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def _bench():
-    spec = importlib.util.spec_from_file_location("scene_seeds",
-                                                  ROOT / "benchmarks" / "scene_seeds.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
 
 @pytest.fixture(scope="module")
 def fmu_dir(tmp_path_factory):
@@ -140,7 +128,7 @@ def test_the_exported_ssp_runs_on_libcosim_and_agrees_with_our_master(fmu_dir, t
     fmus = build_fmus(s, fmu_dir)
     ssp = export_ssp(s, tmp_path / f"{name}.ssp", fmus=fmus)
     refs = s.recorded_variables()
-    theirs = _bench().libcosim_run(ssp, s, refs, step=h, stop=stop)
+    theirs = run_ssp(ssp, refs, step=h, stop=stop)
     ours = run(s, master="jacobi", fmus=fmus,
                master_options={"resolve_feedthrough": False}).data
     assert np.allclose(theirs["time"], ours["time"][1:], rtol=0, atol=1e-12)
