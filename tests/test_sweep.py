@@ -202,10 +202,10 @@ def test_cli_sweep_run(blob, tmp_path, capsys):
     rows = store.read_rows(tmp_path / "heald_frame_rigid.csv")
     assert [r["omega"] for r in rows] == [40.0, 60.0] and all(r["status"] == "ok" for r in rows)
     assert "2 cases, 2 run now" in capsys.readouterr().out
-    with pytest.raises(SystemExit) as e:
-        cli_main(["sweep", "run", "heald_frame_rigid", "--grid", "omega=40,abc",
-                  "--figure", "max:N_rem", "--stop", "0.1"])
-    assert e.value.code == 2
+    code = cli_main(["sweep", "run", "heald_frame_rigid", "--grid", "omega=40,abc",
+                     "--figure", "max:N_rem", "--stop", "0.1"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.startswith("loomfmu sweep: error: --grid omega: 'abc'; allowed")
 
 
 def _nan_figure(t, y, case):
@@ -343,6 +343,8 @@ def test_a_scheduler_address_without_a_dask_scheduler_is_refused_in_bounded_time
             took = time.perf_counter() - t0
             assert str(e.value).startswith(f"scheduler = '{address}': "), (what, str(e.value))
             assert "allowed: the address of a running dask scheduler" in str(e.value)
+            if what == "garbage":
+                assert "answered with bytes that are not dask's protocol" in str(e.value)
             assert took < 1.5 + 2.0, (what, took)
             assert not (tmp_path / "x.csv").exists()  # refused before anything ran
         _alarm(30)
@@ -360,12 +362,16 @@ def test_a_scheduler_address_without_a_dask_scheduler_is_refused_in_bounded_time
                           "scheduler answered within 1 s"), err
 
 
-def test_a_running_scheduler_is_accepted(blob, tmp_path):
+def test_a_running_scheduler_is_accepted_a_worker_is_not(blob, tmp_path):
     from dask.distributed import LocalCluster
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
                       dashboard_address=None) as cluster:
         res = run_study(_study(cases=grid(omega=[40.0, 60.0])), blob=blob, progress=False,
                         scheduler=cluster.scheduler_address, connect_timeout=5)
+        (worker,) = [w.address for w in cluster.workers.values()]
+        with pytest.raises(ValueError, match=r"the peer is not a dask scheduler \(it answered "
+                                             r"as 'Worker'\)"):
+            run_study(_study(), blob=blob, scheduler=worker, connect_timeout=5)
     assert res.workers == -1 and [r["status"] for r in res.rows] == ["ok", "ok"]
 
 

@@ -154,7 +154,10 @@ def _study_from_args(args):
 
 
 def _run(study, out: Path, args):
+    from .connect import MAX_CONNECT_TIMEOUT
     from .run import run_study
+    check_number("--connect-timeout", args.connect_timeout, lo=0.0, hi=MAX_CONNECT_TIMEOUT,
+                 lo_open=True, unit="s")
     return run_study(study, out=out, workers=args.workers, scheduler=args.scheduler,
                      fmu=args.fmu, resume=not args.fresh, batch=args.batch,
                      connect_timeout=args.connect_timeout)

@@ -25,12 +25,26 @@ def refused(address: str, why: str) -> ValueError:
     return ValueError(f"scheduler = {address!r:.80}: {why}; {ALLOWED}")
 
 
+class _NotDask(Exception):
+    """The peer accepted the connection and answered with other bytes."""
+
+
 async def _identity(address: str, timeout: float):
     from distributed.comm import connect
-    comm = await connect(address, timeout=timeout)
+    from distributed.comm.core import CommClosedError
+    try:
+        comm = await connect(address, timeout=timeout)
+    except (MemoryError, ValueError) as exc:  # the handshake read garbage
+        if "unknown address scheme" in str(exc):
+            raise
+        raise _NotDask(f"{type(exc).__name__}: {str(exc)[:120]}") from None
     try:
         await comm.write({"op": "identity", "reply": True})
         return await comm.read()
+    except CommClosedError:
+        raise
+    except Exception as exc:  # noqa: BLE001 (MemoryError, msgpack errors: not dask)
+        raise _NotDask(f"{type(exc).__name__}: {str(exc)[:120]}") from None
     finally:
         comm.abort()
 
@@ -48,7 +62,10 @@ def check_scheduler(address: str, timeout: float) -> None:
         answer = pool.submit(_ask, address, timeout).result(timeout + 5.0)
     except (asyncio.TimeoutError, concurrent.futures.TimeoutError, TimeoutError):
         raise refused(address, f"no dask scheduler answered within {timeout:g} s") from None
-    except Exception as exc:  # noqa: BLE001 (OSError, CommClosedError, garbage: MemoryError...)
+    except _NotDask as exc:
+        raise refused(address, f"the peer answered with bytes that are not dask's "
+                               f"protocol ({exc})") from None
+    except Exception as exc:  # noqa: BLE001 (OSError, CommClosedError, a bad scheme)
         raise refused(address, f"no dask scheduler there ({type(exc).__name__}: "
                                f"{str(exc)[:160]})") from None
     finally:
