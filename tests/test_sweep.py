@@ -8,7 +8,12 @@ one instance per worker with fmi2Reset.
 from __future__ import annotations
 
 import csv
+import http.server
 import math
+import signal
+import socket
+import threading
+import time
 
 import psutil
 import pytest
@@ -284,9 +289,6 @@ def test_an_fmu_of_another_model_is_named_as_such(blob, tmp_path):
 def not_dask():
     """Addresses where no dask scheduler answers: an HTTP server, a server
     that sends garbage, a closed port (all on this host, free ports)."""
-    import http.server
-    import socket
-    import threading
     web = http.server.ThreadingHTTPServer(("127.0.0.1", 0), _QuietHandler)
     junk = socket.create_server(("127.0.0.1", 0))
 
@@ -312,17 +314,12 @@ def not_dask():
     junk.close()
 
 
-import http.server as _http  # noqa: E402
-
-
-class _QuietHandler(_http.SimpleHTTPRequestHandler):
+class _QuietHandler(http.server.SimpleHTTPRequestHandler):
     def log_message(self, *args):
         pass
 
 
 def _alarm(seconds):
-    import signal
-
     def fail(*_):
         raise TimeoutError(f"still waiting after {seconds} s")
     signal.signal(signal.SIGALRM, fail)
@@ -331,8 +328,6 @@ def _alarm(seconds):
 
 def test_a_scheduler_address_without_a_dask_scheduler_is_refused_in_bounded_time(
         not_dask, blob, tmp_path, capsys):
-    import signal
-    import time
     try:
         for what, address in not_dask.items():
             _alarm(30)  # before the fix the HTTP server held the client for ever
