@@ -364,6 +364,12 @@ def declare_section(m: Model, *, horizontal: bool) -> Section:
             source="assumption: typical heald frame height 330-360 mm", min=0.05, max=2.0)
     mu = P("mu", 30.0, unit="N.s/m", description="damping coefficient of every coordinate",
            source=SEED0, min=0.0, max=1e5)
+    # a box wall can be at most half the section (d1 = b1/2: a solid bar; the area
+    # and inertia formulas hold up to there and go wrong beyond)
+    m.constraint("box_wall_width", b1 - 2 * d1, "the slat's wall thickness d1 must not "
+                 "exceed half its width b1 (2 d1 <= b1)")
+    m.constraint("box_wall_height", h1 - 2 * d1, "the slat's wall thickness d1 must not "
+                 "exceed half its height h1 (2 d1 <= h1)")
     m_l = rho * (h1 * b1 - (h1 - 2 * d1) * (b1 - 2 * d1)) * l
     return Section(l, h_B, E, mu, box_inertia(h1, b1, d1), box_inertia(b1, h1, d1),
                    s_w * s_t**3 / 12, m_l, rho * s_w * s_t * s_L, rho * s_w * s_t, l_n)

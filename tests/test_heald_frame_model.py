@@ -125,3 +125,13 @@ def test_inertia_variants_differ_as_documented():
     assert np.sign(a[11] - b[11]) != 0
     with pytest.raises(ValueError, match="inertia"):
         load_model("heald_frame", inertia="sideways")
+
+
+@pytest.mark.parametrize("name", ["heald_frame", "heald_frame_planar"])
+def test_a_box_wall_thicker_than_half_the_section_is_refused(name):
+    m = load_model(name)
+    m.check_constraints({"b1": 0.010, "d1": 0.005, "m_RR": 50.0})  # a solid bar: allowed
+    with pytest.raises(ValueError, match=r"box_wall_width: .* \(value -0\.002"):
+        m.check_constraints({"b1": 0.010, "d1": 0.006, "m_RR": 50.0})
+    with pytest.raises(ValueError, match=r"box_wall_height: .* \(value -0\.002"):
+        m.check_constraints({"h1": 0.010, "b1": 0.05, "d1": 0.006, "m_RR": 50.0})
