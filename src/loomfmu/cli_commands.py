@@ -92,13 +92,15 @@ def cmd_list(args) -> int:
                           "levels": {n: vars(lv) for n, lv in LEVELS.items()}},
                          indent=2, default=str))
         return 0
-    print(f"{'model':<22}{'mechanism':<16}build options (default)")
+    wn = max(len(n) for n in rows) + 2
+    wm = max(len(r["mechanism"]) for r in rows.values()) + 2
+    print(f"{'model':<{wn}}{'mechanism':<{wm}}build options (default)")
     for name, row in rows.items():
         opts = ", ".join(f"{k}={v!r}" for k, v in row["options"].items()) or "-"
-        print(f"{name:<22}{row['mechanism']:<16}{opts}")
+        print(f"{name:<{wn}}{row['mechanism']:<{wm}}{opts}")
     print("\nfidelity levels, lowest first (docs/fidelity.md):")
     for mech, levels in FIDELITY.items():
-        print(f"  {mech:<14}{' < '.join(levels)}")
+        print(f"  {mech}: {' < '.join(levels)}")
         for name in levels:
             lv = LEVELS[name]
             print(f"    {name}: leaves out {'; '.join(lv.leaves_out) or 'nothing'}")
