@@ -461,7 +461,8 @@ def add_parser(sub) -> None:
     f.add_argument("--outputs", required=True, help="comma-separated comp.var")
     f.add_argument("--tol", type=float, default=0.01,
                    help="tolerance relative to each output's range (0 < tol < 1)")
-    f.add_argument("--stop-time", type=float, default=None, help="run length in s")
+    f.add_argument("--stop", "--stop-time", dest="stop_time", type=float, default=None,
+                   help="run length in s (as in loomfmu scene run)")
     f.add_argument("--step", type=float, default=None, help="communication step in s")
     f.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
                    help="an option of the scene (loom: tension, omega; spinning: cam, "
