@@ -12,19 +12,31 @@ from . import classic, failures, report
 from .scenes import BENCH, load_scene_model
 from .sweep import Plan, prepare, work_precision
 
+#: most local dask workers (as loomfmu.sweep.run.MAX_WORKERS; not imported
+#: from there so the serial run needs no dask)
+MAX_WORKERS = 64
+
 
 def charts(models, *, quick: bool, out: Path, readme: Path | None, failures_on: bool,
-           cmd: str) -> dict:
-    """Every chart, the CSV and the summary for ``models`` (scene names)."""
+           cmd: str, dask: dict | None = None, plan: Plan | None = None,
+           only=None) -> dict:
+    """Every chart, the CSV and the summary for ``models`` (scene names).
+
+    dask: None (serial) or the keyword arguments of
+    :func:`loomfmu.sweep.bench.work_precision_dask` (workers, scheduler): one
+    dask task per (model, method) sweep. plan: the sweeps' settings (default
+    ``Plan.make(quick)``); only: the (family, method) pairs to sweep (None:
+    all)."""
     wall = time.perf_counter()
-    plan = Plan.make(quick)
+    plan = plan or Plan.make(quick)
     out.mkdir(parents=True, exist_ok=True)
-    rows, infos, verdicts, cases = [], {}, {}, {}
+    rows, infos, verdicts, cases, tasks = [], {}, {}, {}, []
     n_studies = sum(1 for n in failures.STUDIES if failures_on and n in models)
     with tempfile.TemporaryDirectory() as tmp, \
             Progress(total=len(models) + n_studies, desc="bench charts") as bar:
         for name in models:
-            bar.stage(f"{name}: work-precision sweep")
+            bar.stage(f"{name}: " + ("preparing" if dask is not None else
+                                     "work-precision sweep"))
             model = load_scene_model(name)
             if model is None:
                 bar.advance(f"{name}: no model")
@@ -36,11 +48,21 @@ def charts(models, *, quick: bool, out: Path, readme: Path | None, failures_on: 
                            "ref": case.ref_note}
             if case.casadi is None:
                 infos[name]["ref"] += f"; no CasADi: {case.casadi_note.split(': ', 1)[-1]}"
-            pts = work_precision(case, plan)
+            if dask is not None:
+                bar.advance(f"{name}: prepared, {time.perf_counter() - t0:.0f} s")
+                continue
+            pts = work_precision(case, plan, only)
             rows += pts
             report.wp_chart(rows, name, infos[name], out / f"{name}_wp.png")
             bar.advance(f"{name}: {len(pts)} work-precision points, "
                         f"{time.perf_counter() - t0:.0f} s")
+        if dask is not None and cases:
+            from ..sweep.bench import work_precision_dask
+            got = work_precision_dask(cases, plan, quick, only=only, **dask)
+            tasks = got["tasks"]
+            for name in cases:
+                rows += got["rows"][name]
+                report.wp_chart(rows, name, infos[name], out / f"{name}_wp.png")
         for name, study in failures.STUDIES.items():
             if not failures_on or name not in cases:
                 continue
@@ -59,12 +81,14 @@ def charts(models, *, quick: bool, out: Path, readme: Path | None, failures_on: 
     (out / "summary.md").write_text("# Speed against accuracy\n\n" + body)
     (out / "speed_table.json").write_text(json.dumps(
         {"target_error": report.TARGET, "quick": quick, "wall_seconds": wall,
-         "table": table, "verdicts": verdicts, "scenes": infos}, indent=2, default=str))
+         "table": table, "verdicts": verdicts, "scenes": infos,
+         **({"dask_tasks": tasks} if dask is not None else {})}, indent=2, default=str))
     if readme is not None and report.update_readme(readme, body):
         print(f"updated: {readme} (between the bench markers)")
     print(report.speed_table_md(table))
     print(f"written: {out}/points.csv, summary.md, *.png in {wall:.0f} s")
-    return {"rows": rows, "table": table, "verdicts": verdicts, "wall_seconds": wall}
+    return {"rows": rows, "table": table, "verdicts": verdicts, "wall_seconds": wall,
+            "tasks": tasks}
 
 
 def main(argv=None, prog: str = "loomfmu bench") -> int:
@@ -76,6 +100,15 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
                     help=f"charts: the models to sweep (default: all of {list(BENCH)})")
     ap.add_argument("--quick", action="store_true", help="charts: coarse sweeps")
     ap.add_argument("--no-failures", action="store_true", help="charts: skip failure studies")
+    ap.add_argument("--dask", action="store_true",
+                    help="charts: one dask task per (model, method) sweep, on a local "
+                         "cluster (--workers) or --scheduler")
+    ap.add_argument("--workers", type=int, default=2,
+                    help=f"charts --dask: local worker processes, one thread each "
+                         f"(1 ... {MAX_WORKERS}; default 2)")
+    ap.add_argument("--scheduler", default=None,
+                    help="charts --dask: address of a running dask scheduler "
+                         "(tcp://host:8786) instead of a local cluster")
     ap.add_argument("--readme", type=Path, default=None,
                     help="charts: page whose marked bench section to rewrite "
                          "(default: ./docs/speed.md when --out is docs/bench, full runs "
@@ -100,11 +133,17 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
     unknown = sorted(set(args.models) - set(BENCH))
     if unknown:
         ap.error(f"--models {' '.join(unknown)}: not a scene; allowed: {', '.join(BENCH)}")
+    if not 1 <= args.workers <= MAX_WORKERS:
+        ap.error(f"--workers {args.workers}: allowed 1 ... {MAX_WORKERS}")
+    if (args.scheduler is not None or args.workers != 2) and not args.dask:
+        ap.error("--workers and --scheduler go with --dask")
     out = args.out or Path("docs/bench")
     readme = args.readme
     if readme is None and not args.quick and out == Path("docs/bench") and \
             Path("docs/speed.md").exists():
         readme = Path("docs/speed.md")
     charts(args.models, quick=args.quick, out=out, readme=readme,
-           failures_on=not args.no_failures, cmd="loomfmu bench charts")
+           failures_on=not args.no_failures, cmd="loomfmu bench charts" + (
+               " --dask" if args.dask else ""),
+           dask={"workers": args.workers, "scheduler": args.scheduler} if args.dask else None)
     return 0

@@ -64,17 +64,23 @@ class Case:
 
 
 def prepare(name: str, scene: Scene, model: Model, plan: Plan, quick: bool,
-            work: Path) -> Case:
-    """Build the FMU, fix the grid and solve the tight reference."""
+            work: Path, known: tuple | None = None) -> Case:
+    """Build the FMU, fix the grid and solve the tight reference (``known``:
+    (grid, ref, ref_note) of an earlier prepare of the same scene and plan,
+    reused instead of solved again)."""
     fmu = Fmu(model, work / name)
     stop = (scene.quick_stop if quick and scene.quick_stop else scene.stop) or model.stop_time
     interval = scene.interval
-    grid = fmu.run(solver="dopri5", rtol=1e-4, atol=1e-4 * scene.atol_scale, stop=stop,
-                   interval=interval, outputs=scene.outputs[:1], values=scene.values).t
     try:
         casadi, casadi_note = CasadiModel(model, scene.values), ""
     except ValueError as exc:
         casadi, casadi_note = None, str(exc)
+    if known is not None:
+        grid, ref, note = known
+        return Case(name, scene, model, fmu, stop, interval, grid, ref, note, casadi,
+                    casadi_note)
+    grid = fmu.run(solver="dopri5", rtol=1e-4, atol=1e-4 * scene.atol_scale, stop=stop,
+                   interval=interval, outputs=scene.outputs[:1], values=scene.values).t
     if scene.reference == "cvodes":
         if casadi is None:
             raise ValueError(f"scene {name}: reference 'cvodes' needs a CasADi model: "
@@ -123,25 +129,45 @@ def _sweep(case, family, method, settings, run_one, key, plan) -> list[dict]:
     return rows
 
 
-def work_precision(case: Case, plan: Plan) -> list[dict]:
-    """Every method's work-precision points on ``case``."""
-    sc, rows = case.scene, []
-    for solver in FMU_ADAPTIVE:
-        rows += _sweep(case, "fmu", solver, plan.fmu_rtols, lambda r, s=solver: case.fmu.run(
-            solver=s, rtol=r, atol=r * sc.atol_scale, stop=case.stop, interval=case.interval,
-            outputs=sc.outputs, values=sc.values), "rtol", plan)
-    steps = [case.model.h_fixed * f for f in plan.rk4_factors]
-    rows += _sweep(case, "fmu", "rk4", steps, lambda h: case.fmu.run(
-        solver="rk4", rtol=1e-6, atol=1e-9, stop=case.stop, interval=case.interval,
-        outputs=sc.outputs, values={**sc.values, "solver_h_fixed": h}), "h", plan)
-    for method in SCIPY_METHODS:
-        rows += _sweep(case, "scipy", method, plan.scipy_rtols, lambda r, m=method: scipy_run(
-            case.model, case.grid, method=m, rtol=r, atol=r * sc.atol_scale,
-            values=sc.values), "rtol", plan)
+def methods(case: Case) -> list[tuple[str, str]]:
+    """Every (family, method) swept on ``case``, in the charts' order: the unit
+    of work of a parallel run, since one method's sweep is sequential (it
+    stops at its first run slower than the cap)."""
+    found = [("fmu", s) for s in FMU_ADAPTIVE] + [("fmu", "rk4")]
+    found += [("scipy", m) for m in SCIPY_METHODS]
     if case.casadi is not None:
-        for plugin in case.casadi.plugins:
-            rows += _sweep(case, "casadi", plugin, plan.casadi_rtols,
-                           lambda r, p=plugin: case.casadi.run(
-                               case.grid, plugin=p, rtol=r, atol=r * sc.atol_scale,
-                               outputs=sc.outputs), "rtol", plan)
+        found += [("casadi", p) for p in case.casadi.plugins]
+    return found
+
+
+def method_sweep(case: Case, plan: Plan, family: str, method: str) -> list[dict]:
+    """One method's work-precision points on ``case``, loose to tight."""
+    sc = case.scene
+    if family == "fmu" and method == "rk4":
+        steps = [case.model.h_fixed * f for f in plan.rk4_factors]
+        return _sweep(case, "fmu", "rk4", steps, lambda h: case.fmu.run(
+            solver="rk4", rtol=1e-6, atol=1e-9, stop=case.stop, interval=case.interval,
+            outputs=sc.outputs, values={**sc.values, "solver_h_fixed": h}), "h", plan)
+    if family == "fmu":
+        return _sweep(case, "fmu", method, plan.fmu_rtols, lambda r: case.fmu.run(
+            solver=method, rtol=r, atol=r * sc.atol_scale, stop=case.stop,
+            interval=case.interval, outputs=sc.outputs, values=sc.values), "rtol", plan)
+    if family == "scipy":
+        return _sweep(case, "scipy", method, plan.scipy_rtols, lambda r: scipy_run(
+            case.model, case.grid, method=method, rtol=r, atol=r * sc.atol_scale,
+            values=sc.values), "rtol", plan)
+    if family == "casadi" and case.casadi is not None:
+        return _sweep(case, "casadi", method, plan.casadi_rtols, lambda r: case.casadi.run(
+            case.grid, plugin=method, rtol=r, atol=r * sc.atol_scale,
+            outputs=sc.outputs), "rtol", plan)
+    raise ValueError(f"family, method = {family!r}, {method!r}; allowed: {methods(case)}")
+
+
+def work_precision(case: Case, plan: Plan, only=None) -> list[dict]:
+    """Every method's work-precision points on ``case`` (``only``: the
+    (family, method) pairs to sweep; None: all of :func:`methods`)."""
+    rows = []
+    for family, method in methods(case):
+        if only is None or (family, method) in only:
+            rows += method_sweep(case, plan, family, method)
     return rows
