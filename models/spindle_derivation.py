@@ -247,3 +247,23 @@ def force_quantities(m, sup, xb, vb, d, dv, h, vh) -> tuple[ca.SX, ca.SX]:
       "on the housing: -(K_2 h + C_XX h')", symbol=r"F_{d}", source="derived: support seat "
       "of " + SEED + ", fig. 4, with (1)-(5)", group=FORCES)
     return Fu, Fl
+
+
+def static_correction_quantities(m, R, F, dF, q, v) -> None:
+    """The residual flexibility R of the dropped modes and the corrected
+    recovery q = B eta + R F, v = B eta' + R F' (spindle_modal with
+    static_correction=True)."""
+    Q = m.quantity
+    src = ("derived: mode-acceleration (static correction) method, Craig & Kurdila, "
+           "Fundamentals of Structural Dynamics, 2nd ed. (2006), sec. on mode "
+           "acceleration / residual flexibility; exact for static loads for any Ritz basis")
+    Q("R_res", R, unit="m/N", description="residual flexibility of the dropped modes "
+      "R = K^-1 - B (B^T K B)^-1 B^T (numbers, K at the default parameters and the film "
+      "stiffness at basis_rpm)", symbol="[R]", source=src, group=MODAL)
+    Q("q_corr", q, description="recovered displacements B eta + R F (m, rad)",
+      symbol=r"\{q_c\}", source=src, group=MODAL)
+    Q("F_dot", dF, description="time derivative of the unbalance forces (N/s) "
+      "dF/dphi * Omega (exact at constant speed; the speed's rate is not an input)",
+      symbol=r"\{\dot F\}", source="derived: d/dt of " + SEED + " (13)", group=MODAL)
+    Q("v_corr", v, description="recovered rates B eta' + R F' (m/s, rad/s)",
+      symbol=r"\{v_c\}", source=src, group=MODAL)

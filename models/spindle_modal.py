@@ -8,6 +8,15 @@ K_r = B^T K(p, Omega) B, ... (a Ritz projection), so parameters can still be
 changed in the FMU; the basis itself is numeric, computed at build time, and
 is exact only at the default parameters.  Same inputs and outputs as
 ``spindle``.
+
+static_correction=True (mode-acceleration method, Craig & Kurdila,
+"Fundamentals of Structural Dynamics", 2nd ed.): the reduced dynamics stay
+as they are, but the displacements used by the outputs are recovered as
+q = B eta + R F(t), v = B eta' + R F'(t), with R = K^-1 - B (B^T K B)^-1 B^T
+the residual (static) flexibility of the dropped modes (numbers: K at the
+default parameters and the film stiffness at ``basis_rpm``, like B) and F the
+unbalance forces (13); F' = dF/dphi * Omega is exact at constant speed
+(assumption: the speed's rate is not an input).
 """
 from __future__ import annotations
 
@@ -19,8 +28,11 @@ import scipy.linalg as sla
 
 from loomfmu.checks import check_int, check_number
 from loomfmu.declare import Model
-from loomfmu.models.spindle import (RPM, declare_dynamics, declare_rotor, node_labels,
-                                    spindle_system)
+from loomfmu.models.spindle import (RPM, _outputs, declare_dynamics, declare_rotor,
+                                    node_labels, spindle_system, unbalance_force)
+from loomfmu.models.spindle_derivation import (modal_quantities,
+                                               static_correction_quantities)
+from loomfmu.rotor import band_ldl_solve
 
 
 def planar_modes(model: Model, sp, basis_rpm: float):
@@ -84,9 +96,13 @@ MAX_MODES = 12
 
 def build(*, n_modes: int = 4, basis_rpm: float = 16000.0, beam: str = "euler",
           n_turns: int = 4, damper: str = "corrected", n_low: int = 2,
-          n_cone: int = 4) -> Model:
-    """The modal spindle; n_modes planar modes (>= 1) kept in each plane."""
+          n_cone: int = 4, static_correction: bool = False) -> Model:
+    """The modal spindle; n_modes planar modes (>= 1) kept in each plane;
+    static_correction adds the residual flexibility of the dropped modes to
+    the recovered displacements (see the module text)."""
     check_int("n_modes", n_modes, lo=1, hi=MAX_MODES)
+    if not isinstance(static_correction, bool):
+        raise ValueError(f"static_correction = {static_correction!r}; allowed: False, True")
     check_number("basis_rpm", basis_rpm, lo=0.0, hi=40000.0)
     m = Model("spindle_modal", description="D1201 ring-spinning spindle reduced to "
               f"{n_modes} planar modes per plane (Ritz projection of the FE rotor of "
@@ -95,7 +111,7 @@ def build(*, n_modes: int = 4, basis_rpm: float = 16000.0, beam: str = "euler",
               "parameters", stop_time=0.02, step_size=2e-4, h_fixed=2e-6,
               options={"n_modes": n_modes, "basis_rpm": basis_rpm, "beam": beam,
                        "n_turns": n_turns, "damper": damper, "n_low": n_low,
-                       "n_cone": n_cone})
+                       "n_cone": n_cone, "static_correction": static_correction})
     n_rpm = m.input("n_rpm", 16000.0, unit="rpm", description="spin speed, from the drive",
                     min=0.0, max=40000.0)
     Omega = n_rpm * RPM
@@ -105,8 +121,57 @@ def build(*, n_modes: int = 4, basis_rpm: float = 16000.0, beam: str = "euler",
                               n_cone=n_cone)
     B = modal_basis(am, free, n_modes, basis_rpm)
     w2 = planar_modes(am, free, basis_rpm)[0][:n_modes]
-    declare_dynamics(m, sp, Omega, sp.M, sp.C, sp.G, sp.K, basis=B,
-                     basis_labels=mode_labels(am, free, n_modes, basis_rpm),
-                     basis_omega=np.sqrt(np.maximum(w2, 0.0)))
+    labels = mode_labels(am, free, n_modes, basis_rpm)
+    omega = np.sqrt(np.maximum(w2, 0.0))
+    if not static_correction:
+        declare_dynamics(m, sp, Omega, sp.M, sp.C, sp.G, sp.K, basis=B,
+                         basis_labels=labels, basis_omega=omega)
+    else:
+        m.description += ("; static correction: outputs recovered with the residual "
+                          "flexibility of the dropped modes (mode-acceleration method)")
+        _corrected_dynamics(m, sp, Omega, B, labels, omega,
+                            residual_flexibility(am, free, B, basis_rpm))
     return m
+
+
+def residual_flexibility(model: Model, sp, B: np.ndarray, basis_rpm: float) -> np.ndarray:
+    """R = K^-1 - B (B^T K B)^-1 B^T, K the full stiffness at the default
+    parameters and the film stiffness at ``basis_rpm`` (the basis' K)."""
+    p = model.syms("parameter")
+    K = np.array(ca.Function("k", [p, sp.Omega], [sp.K])(model.starts("parameter"),
+                                                          basis_rpm * RPM))
+    return np.linalg.inv(K) - B @ np.linalg.solve(B.T @ K @ B, B.T)
+
+
+def _corrected_dynamics(m: Model, sp, Omega, B: np.ndarray, labels, omega, R) -> None:
+    """The modal branch of spindle.declare_dynamics (unchanged reduced
+    dynamics) with the corrected recovery for the outputs."""
+    phi = m.state("phi", 0.0, unit="rad", description="rotation angle of the spindle "
+                  "(phase of the unbalance forces)")
+    m.eq(m.der(phi), Omega)
+    F = unbalance_force(m, sp, Omega, phi)
+    r = B.shape[1]
+    eta = ca.vertcat(*[m.state(f"eta{i}", 0.0, unit="m", nominal=1e-4,
+                               description=f"modal coordinate of {labels[i]}")
+                       for i in range(r)])
+    deta = ca.vertcat(*[m.state(f"deta{i}", 0.0, unit="m/s", nominal=0.1,
+                                description=f"rate of eta{i} "
+                                f"({labels[i].split(', largest')[0]})") for i in range(r)])
+    Bd = ca.DM(B)
+    Mr = Bd.T @ sp.M @ Bd
+    modal_quantities(m, B, ca.DM(omega), Mr, Bd.T @ sp.C @ Bd, Bd.T @ sp.G @ Bd,
+                     Bd.T @ sp.K @ Bd, Bd.T @ F)
+    a = band_ldl_solve(Mr, Bd.T @ (F - (sp.C + Omega * sp.G) @ (Bd @ deta)
+                                   - sp.K @ (Bd @ eta)))
+    for i in range(r):
+        m.eq(m.der(eta[i]), deta[i])
+        m.eq(m.der(deta[i]), a[i])
+    Rd = ca.DM(R)
+    dF = ca.jacobian(F, phi) * Omega
+    q = Bd @ eta + Rd @ F
+    v = Bd @ deta + Rd @ dF
+    static_correction_quantities(m, R, F, dF, q, v)
+    _outputs(m, sp, q, v)
+    m.port("drive", "flange", speed="n_rpm", description="spindle speed from the drive "
+           "(tape on the whorl), rev/min")
 
