@@ -105,13 +105,24 @@ LEVELS: dict[str, Level] = {lv.model: lv for lv in (
           cost="the reference", suffices="the highest level: the reference"),
     Level("spindle_modal", "spindle rotor",
           leaves_out=("modes above the n_modes-th (4 modes: above 1572.5 Hz, i.e. the 5th "
-                      "at 2284 Hz and up), and their static (residual) flexibility",),
+                      "at 2284 Hz and up), and their static (residual) flexibility; with "
+                      "static_correction=True only their dynamics (the residual "
+                      "flexibility is added to the recovered displacements)",),
           represents=("the first n_modes planar modes per plane, Ritz projection of the FE "
-                      "rotor at 16 000 rpm; the blade's unbalance orbit",),
+                      "rotor at 16 000 rpm; the blade's unbalance orbit",
+                      "static_correction=True: plus the quasi-static response of the "
+                      "dropped modes to the unbalance (mode-acceleration method, "
+                      "R = K^-1 - B (B^T K B)^-1 B^T)"),
           cost="4 modes 0.20, 8 modes 0.49, 12 modes 1.14 CPU s per simulated s against "
-               "3.36 for the full FE (docs/scene_spinning.md)",
+               "3.36 for the full FE (docs/scene_spinning.md); static_correction adds "
+               "no state: 4 modes 3.08 vs 3.11 CPU s/s without, full FE 34.9, in "
+               "3-revolution fmpy runs incl. start-up "
+               "(tests/test_spindle_static_correction.py)",
           suffices="the orbit of the blade's top at constant speed: 0.0 % with 4 modes; "
-                   "bearing forces need 12 (within 3 %) (docs/scene_spinning.md)",
+                   "bearing forces need 12 (within 3 %) (docs/scene_spinning.md), or 4 "
+                   "with static_correction=True: bolster -0.75 %, footstep -1.03 %, top "
+                   "+0.01 % of the full FE amplitude at 16 000 rpm "
+                   "(tests/test_spindle_static_correction.py)",
           sources=_SPINDLE),
     Level("spindle", "spindle rotor",
           leaves_out=("the cone and blade above the FE mesh's resolution (n_low, n_cone "
@@ -138,7 +149,8 @@ LEVELS: dict[str, Level] = {lv.model: lv for lv in (
 
 #: build options that change a model's fidelity: model -> option -> values,
 #: cheapest first
-VARIANTS: dict[str, dict[str, tuple]] = {"spindle_modal": {"n_modes": (4, 8, 12)}}
+VARIANTS: dict[str, dict[str, tuple]] = {"spindle_modal": {"n_modes": (4, 8, 12),
+                                                           "static_correction": (False, True)}}
 
 
 def level(model: str) -> Level:
