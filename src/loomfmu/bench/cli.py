@@ -34,9 +34,11 @@ def charts(models, *, quick: bool, out: Path, readme: Path | None, failures_on: 
     n_studies = sum(1 for n in failures.STUDIES if failures_on and n in models)
     with tempfile.TemporaryDirectory() as tmp, \
             Progress(total=len(models) + n_studies, desc="bench charts") as bar:
-        for name in models:
-            bar.stage(f"{name}: " + ("preparing" if dask is not None else
-                                     "work-precision sweep"))
+        if dask is not None:
+            cases = _charts_dask(models, plan, quick, out, Path(tmp), infos, rows, tasks, bar,
+                                 dask, only, failures_on)
+        for name in models if dask is None else ():
+            bar.stage(f"{name}: work-precision sweep")
             model = load_scene_model(name)
             if model is None:
                 bar.advance(f"{name}: no model")
@@ -44,25 +46,12 @@ def charts(models, *, quick: bool, out: Path, readme: Path | None, failures_on: 
             t0 = time.perf_counter()
             case = prepare(name, BENCH[name], model, plan, quick, Path(tmp))
             cases[name] = case
-            infos[name] = {"outputs": list(case.scene.outputs), "t_end": float(case.grid[-1]),
-                           "ref": case.ref_note}
-            if case.casadi is None:
-                infos[name]["ref"] += f"; no CasADi: {case.casadi_note.split(': ', 1)[-1]}"
-            if dask is not None:
-                bar.advance(f"{name}: prepared, {time.perf_counter() - t0:.0f} s")
-                continue
+            infos[name] = _info(case.scene, case.grid, case.ref_note, case.casadi_note)
             pts = work_precision(case, plan, only)
             rows += pts
             report.wp_chart(rows, name, infos[name], out / f"{name}_wp.png")
             bar.advance(f"{name}: {len(pts)} work-precision points, "
                         f"{time.perf_counter() - t0:.0f} s")
-        if dask is not None and cases:
-            from ..sweep.bench import work_precision_dask
-            got = work_precision_dask(cases, plan, quick, only=only, **dask)
-            tasks = got["tasks"]
-            for name in cases:
-                rows += got["rows"][name]
-                report.wp_chart(rows, name, infos[name], out / f"{name}_wp.png")
         for name, study in failures.STUDIES.items():
             if not failures_on or name not in cases:
                 continue
@@ -89,6 +78,36 @@ def charts(models, *, quick: bool, out: Path, readme: Path | None, failures_on: 
     print(f"written: {out}/points.csv, summary.md, *.png in {wall:.0f} s")
     return {"rows": rows, "table": table, "verdicts": verdicts, "wall_seconds": wall,
             "tasks": tasks}
+
+
+def _info(scene, grid, ref_note: str, casadi_note: str) -> dict:
+    info = {"outputs": list(scene.outputs), "t_end": float(grid[-1]), "ref": ref_note}
+    if casadi_note:
+        info["ref"] += f"; no CasADi: {casadi_note.split(': ', 1)[-1]}"
+    return info
+
+
+def _charts_dask(models, plan, quick, out, tmp, infos, rows, tasks, bar, dask, only,
+                 failures_on) -> dict:
+    """The work-precision sweeps on dask (loomfmu.sweep.bench); fills infos,
+    rows and tasks, draws the charts; returns the scenes prepared here (from
+    the workers' grids and references) for the failure studies."""
+    from ..sweep.bench import work_precision_dask
+    names = [n for n in models if load_scene_model(n) is not None]
+    bar.stage(f"{', '.join(names)}: work-precision sweeps on dask")
+    got = work_precision_dask(names, plan, quick, only=only, **dask)
+    tasks += got["tasks"]
+    cases = {}
+    for name in names:
+        grid, ref, note, casadi_note = got["known"][name]
+        infos[name] = _info(BENCH[name], grid, note, casadi_note)
+        rows += got["rows"][name]
+        report.wp_chart(rows, name, infos[name], out / f"{name}_wp.png")
+        if failures_on:
+            cases[name] = prepare(name, BENCH[name], load_scene_model(name), plan, quick, tmp,
+                                  known=(grid, ref, note))
+        bar.advance(f"{name}: {len(got['rows'][name])} work-precision points")
+    return cases
 
 
 def main(argv=None, prog: str = "loomfmu bench") -> int:
