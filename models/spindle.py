@@ -345,12 +345,16 @@ def unbalance_force(m: Model, sp: SpindleRotor, Omega, phi) -> ca.SX:
 
 
 def declare_dynamics(m: Model, sp: SpindleRotor, Omega, M, C, G, K, basis=None,
-                     basis_labels: list[str] | None = None, basis_omega=None) -> None:
+                     basis_labels: list[str] | None = None, basis_omega=None,
+                     residual=None) -> None:
     """States, equations (12) and outputs.  ``basis`` (numeric n x r) makes a
     Ritz reduction q = basis eta (spindle_modal); None keeps every FE DOF.
     basis_labels: what each basis column is (e.g. its mode and frequency),
     for the states' descriptions; basis_omega: the natural frequencies
-    (rad/s) of the basis' planar modes, for the derivation's quantities."""
+    (rad/s) of the basis' planar modes, for the derivation's quantities.
+    residual (numeric n x n, with a basis): the residual flexibility R of the
+    dropped modes; the outputs then use q = B eta + R F, v = B eta' + R F'
+    (mode-acceleration recovery; the reduced dynamics are unchanged)."""
     phi = m.state("phi", 0.0, unit="rad", description="rotation angle of the spindle "
                   "(phase of the unbalance forces)")
     m.eq(m.der(phi), Omega)
@@ -385,6 +389,11 @@ def declare_dynamics(m: Model, sp: SpindleRotor, Omega, M, C, G, K, basis=None,
                              B.T @ K @ B, B.T @ F)
         a = band_ldl_solve(Mr, B.T @ (F - (C + Omega * G) @ (B @ deta) - K @ (B @ eta_)))
         q, v, qv, vv = B @ eta_, B @ deta, eta_, deta
+        if residual is not None:
+            from loomfmu.models.spindle_derivation import static_correction_quantities
+            dF = ca.jacobian(F, phi) * Omega  # exact at constant speed
+            q, v = q + ca.DM(residual) @ F, v + ca.DM(residual) @ dF
+            static_correction_quantities(m, residual, F, dF, q, v)
     for i in range(qv.numel()):
         m.eq(m.der(qv[i]), vv[i])
         m.eq(m.der(vv[i]), a[i])

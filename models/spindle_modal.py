@@ -28,11 +28,8 @@ import scipy.linalg as sla
 
 from loomfmu.checks import check_int, check_number
 from loomfmu.declare import Model
-from loomfmu.models.spindle import (RPM, _outputs, declare_dynamics, declare_rotor,
-                                    node_labels, spindle_system, unbalance_force)
-from loomfmu.models.spindle_derivation import (modal_quantities,
-                                               static_correction_quantities)
-from loomfmu.rotor import band_ldl_solve
+from loomfmu.models.spindle import (RPM, declare_dynamics, declare_rotor, node_labels,
+                                    spindle_system)
 
 
 def planar_modes(model: Model, sp, basis_rpm: float):
@@ -123,14 +120,13 @@ def build(*, n_modes: int = 4, basis_rpm: float = 16000.0, beam: str = "euler",
     w2 = planar_modes(am, free, basis_rpm)[0][:n_modes]
     labels = mode_labels(am, free, n_modes, basis_rpm)
     omega = np.sqrt(np.maximum(w2, 0.0))
-    if not static_correction:
-        declare_dynamics(m, sp, Omega, sp.M, sp.C, sp.G, sp.K, basis=B,
-                         basis_labels=labels, basis_omega=omega)
-    else:
+    residual = None
+    if static_correction:
         m.description += ("; static correction: outputs recovered with the residual "
                           "flexibility of the dropped modes (mode-acceleration method)")
-        _corrected_dynamics(m, sp, Omega, B, labels, omega,
-                            residual_flexibility(am, free, B, basis_rpm))
+        residual = residual_flexibility(am, free, B, basis_rpm)
+    declare_dynamics(m, sp, Omega, sp.M, sp.C, sp.G, sp.K, basis=B, basis_labels=labels,
+                     basis_omega=omega, residual=residual)
     return m
 
 
@@ -141,37 +137,4 @@ def residual_flexibility(model: Model, sp, B: np.ndarray, basis_rpm: float) -> n
     K = np.array(ca.Function("k", [p, sp.Omega], [sp.K])(model.starts("parameter"),
                                                           basis_rpm * RPM))
     return np.linalg.inv(K) - B @ np.linalg.solve(B.T @ K @ B, B.T)
-
-
-def _corrected_dynamics(m: Model, sp, Omega, B: np.ndarray, labels, omega, R) -> None:
-    """The modal branch of spindle.declare_dynamics (unchanged reduced
-    dynamics) with the corrected recovery for the outputs."""
-    phi = m.state("phi", 0.0, unit="rad", description="rotation angle of the spindle "
-                  "(phase of the unbalance forces)")
-    m.eq(m.der(phi), Omega)
-    F = unbalance_force(m, sp, Omega, phi)
-    r = B.shape[1]
-    eta = ca.vertcat(*[m.state(f"eta{i}", 0.0, unit="m", nominal=1e-4,
-                               description=f"modal coordinate of {labels[i]}")
-                       for i in range(r)])
-    deta = ca.vertcat(*[m.state(f"deta{i}", 0.0, unit="m/s", nominal=0.1,
-                                description=f"rate of eta{i} "
-                                f"({labels[i].split(', largest')[0]})") for i in range(r)])
-    Bd = ca.DM(B)
-    Mr = Bd.T @ sp.M @ Bd
-    modal_quantities(m, B, ca.DM(omega), Mr, Bd.T @ sp.C @ Bd, Bd.T @ sp.G @ Bd,
-                     Bd.T @ sp.K @ Bd, Bd.T @ F)
-    a = band_ldl_solve(Mr, Bd.T @ (F - (sp.C + Omega * sp.G) @ (Bd @ deta)
-                                   - sp.K @ (Bd @ eta)))
-    for i in range(r):
-        m.eq(m.der(eta[i]), deta[i])
-        m.eq(m.der(deta[i]), a[i])
-    Rd = ca.DM(R)
-    dF = ca.jacobian(F, phi) * Omega
-    q = Bd @ eta + Rd @ F
-    v = Bd @ deta + Rd @ dF
-    static_correction_quantities(m, R, F, dF, q, v)
-    _outputs(m, sp, q, v)
-    m.port("drive", "flange", speed="n_rpm", description="spindle speed from the drive "
-           "(tape on the whorl), rev/min")
 
