@@ -28,7 +28,8 @@ from .checks import check_choice, check_int, check_mapping, check_number
 from .rotor_analysis import RPM, unbalance_response
 
 #: models this module knows, and the build options that are not the rotor's
-MODELS = {"spindle": (), "spindle_modal": ("n_modes", "basis_rpm")}
+#: (static_correction changes only how the outputs are recovered, not the states)
+MODELS = {"spindle": (), "spindle_modal": ("n_modes", "basis_rpm", "static_correction")}
 #: parameters of the unbalance forcing (declared by models/spindle.py's
 #: unbalance_force, not by the rotor)
 PHASES = ("phase_b", "phase_w")

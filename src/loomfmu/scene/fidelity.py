@@ -90,6 +90,9 @@ def _spindles() -> list[Choice]:
     from ..fidelity import VARIANTS
     out = [Choice("spindle_modal", (("n_modes", n),))
            for n in VARIANTS["spindle_modal"]["n_modes"]]
+    if True in VARIANTS["spindle_modal"]["static_correction"]:  # the cheapest basis, corrected
+        n = min(VARIANTS["spindle_modal"]["n_modes"])
+        out.insert(1, Choice("spindle_modal", (("n_modes", n), ("static_correction", True))))
     return out + [Choice("spindle")]
 
 
