@@ -17,7 +17,6 @@ everything but the seconds equals the serial run's.
 """
 from __future__ import annotations
 
-import logging
 import os
 import tempfile
 import time
@@ -27,8 +26,8 @@ from ..bench.scenes import BENCH, load_scene_model
 from ..bench.sweep import (CASADI_PLUGINS, FMU_ADAPTIVE, SCIPY_METHODS, Case, Plan,
                            method_sweep, methods, prepare)
 from ..checks import check_int
-from .connect import MAX_CONNECT_TIMEOUT, check_scheduler, refused
-from .run import MAX_WORKERS, QUIET_WORKERS, _need_distributed
+from .connect import MAX_CONNECT_TIMEOUT, check_scheduler
+from .run import MAX_WORKERS, _need_distributed, open_client
 
 #: a worker's prepared scenes: (name, quick, plan) -> Case
 _CASES: dict = {}
@@ -92,8 +91,7 @@ def work_precision_dask(names: list[str], plan: Plan, quick: bool, *,
     _need_distributed()
     if scheduler is not None:
         check_scheduler(scheduler, connect_timeout)
-    import dask
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import as_completed
 
     from ..progress import Progress
     unknown = sorted(set(names) - set(BENCH))
@@ -101,18 +99,7 @@ def work_precision_dask(names: list[str], plan: Plan, quick: bool, *,
         raise ValueError(f"names = {unknown}: not a scene; allowed: {', '.join(BENCH)}")
     units = [(name, fm) for name in names for fm in ALL_METHODS
              if only is None or fm in only]
-    cluster = None
-    if scheduler is None:
-        with dask.config.set(QUIET_WORKERS):
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.ERROR)
-        client = Client(cluster)
-    else:
-        try:
-            client = Client(scheduler, timeout=connect_timeout)
-        except Exception as exc:  # noqa: BLE001 (gone since check_scheduler)
-            raise refused(scheduler, f"connecting failed ({type(exc).__name__}: "
-                                     f"{str(exc)[:160]})") from None
+    client, cluster = open_client(workers, scheduler, connect_timeout)
     results = {}
     try:
         known = {name: client.submit(_reference, name, quick, plan, key=f"wp-{name}-prepare",

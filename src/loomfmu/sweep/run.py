@@ -61,6 +61,24 @@ class StudyResult:
         return [r for r in self.rows if r["status"] != "ok"]
 
 
+
+def open_client(workers: int, scheduler: str | None, connect_timeout: float):
+    """(client, cluster): a LocalCluster of ``workers`` one-thread processes
+    (cluster is then to be closed too), or a client of the (already checked)
+    ``scheduler`` with cluster None."""
+    import dask
+    from dask.distributed import Client, LocalCluster
+    if scheduler is None:
+        with dask.config.set(QUIET_WORKERS):  # passed on to the workers by their nannies
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=logging.ERROR)
+        return Client(cluster), cluster
+    try:
+        return Client(scheduler, timeout=connect_timeout), None
+    except Exception as exc:  # noqa: BLE001 (gone since check_scheduler)
+        raise refused(scheduler, f"connecting failed ({type(exc).__name__}: "
+                                 f"{str(exc)[:160]})") from None
+
 def fmu_blob(study: Study, fmu: Path | str | None = None) -> FmuBlob:
     """The study's FMU as bytes: ``fmu`` (a built .fmu of the study's model)
     or built now from loomfmu.registry with the study's options."""
@@ -232,24 +250,12 @@ def _finished(out, keys: list[str], cols: list[str], resume: bool) -> dict[str, 
 
 def _dask_run(study, blob, pending, where, progress, appender,
               stats: dict, batch: int) -> dict:
-    import dask
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import as_completed
 
     from ..progress import Progress
     t0 = time.perf_counter()
     workers, scheduler, connect_timeout = where
-    cluster = None
-    if scheduler is None:
-        with dask.config.set(QUIET_WORKERS):  # passed on to the workers by their nannies
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.ERROR)
-        client = Client(cluster)
-    else:
-        try:
-            client = Client(scheduler, timeout=connect_timeout)
-        except Exception as exc:  # noqa: BLE001 (gone since check_scheduler)
-            raise refused(scheduler, f"connecting failed ({type(exc).__name__}: "
-                                     f"{str(exc)[:160]})") from None
+    client, cluster = open_client(workers, scheduler, connect_timeout)
     rows = {}
     try:
         setup = study.setup()
