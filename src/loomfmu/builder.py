@@ -81,7 +81,7 @@ def _check_symbols(objs: list[str], model_identifier: str) -> None:
     bad = [s for s in bad if not s.startswith(("fmi2", f"{model_identifier}_"))]
     if bad:
         raise BuildError(f"global symbols without the prefix {model_identifier}_: {bad} "
-                         "(add them to runtime_files.RUNTIME_SYMBOLS)")
+                         "(define them in column 0 of a runtime .c file, so that runtime_files finds them)")
 
 
 def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 2,

@@ -117,6 +117,13 @@ typedef struct {
     double x_tmp[LF_DIM(LF_NX)];
     long max_steps;          /* internal steps per communication step */
     long n_events;
+
+    /* Fields added by one concern each (append only, inside your block). */
+    /* -- codegen: parameter folding, directional derivatives -- */
+    /* -- step loop: early return at events, known breaks -- */
+    /* -- model exchange -- */
+    /* -- FMI 3.0 facade -- */
+    /* -- solvers and statistics -- */
 } LfInstance;
 
 LfInstance *lf_instantiate(const char *name, LfLogFn log, void *log_env,
