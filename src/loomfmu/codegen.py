@@ -236,6 +236,14 @@ def _output_rates(dae: DaeForm, ud: ca.SX, dd: ca.SX) -> list[ca.SX]:
     return [y_part + ca.jtimes(y, dae.w, w_rate), ca.SX.zeros(1, 1), ca.SX.zeros(1, 1)]
 
 
+def event_time_only(dae: DaeForm) -> list[int]:
+    """Per event indicator: 1 where it depends only on time and the parameters
+    (not on x, w, u, q, d), so that its zeros are known in advance and the
+    step loop can land a step on them; 0 otherwise."""
+    moving = ca.vertcat(dae.x, dae.w, dae.u, dae.q, dae.d)
+    return [0 if ca.depends_on(dae.e[k], moving) else 1 for k in range(dae.e.numel())]
+
+
 def _c_double(v: float | None) -> str:
     if v is None:
         return "NAN"
@@ -310,6 +318,8 @@ def declaration_source(model: Model, dae: DaeForm, guid: str) -> str:
     mode_index = {v.name: i for i, v in enumerate(modes)}
     out.append(_c_array("int", "event_mode", [
         str(mode_index.get(model.event_modes.get(e.name), -1)) for e in model.events]))
+    out.append(_c_array("int", "event_time_only",
+                        [str(v) for v in event_time_only(dae)]))
     out.append(_c_array("double", "delay_max", [repr(v.max_delay) for v in model.delays]))
     out.append(_c_array("int", "x_computed", ["1" if v.name in model.initials else "0"
                                               for v in model.of_kind("state")]))
@@ -325,7 +335,7 @@ def declaration_source(model: Model, dae: DaeForm, guid: str) -> str:
     {_c_str(guid)},
     {len(rows)},
     real_names, real_start, real_min, real_max, real_kind,
-    event_names, event_mode,
+    event_names, event_mode, event_time_only,
     mode_names, mode_start, mode_value_offset, mode_values,
     delay_names, delay_max,
     constraint_messages, x_computed,

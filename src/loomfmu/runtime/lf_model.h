@@ -83,6 +83,8 @@ typedef struct {
     const LfKind *real_kind;
     const char *const *event_names;
     const int *event_mode;           /* mode re-chosen at each event, -1: none */
+    const int *event_time_only;      /* 1: indicator depends on t and p only (its
+                                        zeros are known ahead), 0: on x, w, u, q, d */
     const char *const *mode_names;
     const int *mode_start;
     const int *mode_value_offset;    /* values of mode k: [offset[k], offset[k+1]) */
