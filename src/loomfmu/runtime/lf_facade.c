@@ -1,0 +1,204 @@
+/* loomfmu shared runtime: the FMI facades' version-independent parts
+ * (lf_facade.h): used by lf_fmi2*.c and lf_fmi3*.c. */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "lf_facade.h"
+#include "lf_internal.h"
+
+/* ---- registry of live instances ---------------------------------------------
+ * An instance is known by this registry, so that a call with a freed
+ * instance (FreeInstance twice, DoStep after FreeInstance) is refused
+ * without touching the freed memory.  Limit: if the allocator has given the
+ * freed address to a new instance of this FMU, the call goes to that one. */
+
+#define LF_MAX_LIVE 1024
+static void *live_slots[LF_MAX_LIVE];
+static int live_top; /* slots in use are below */
+
+int lf_live_add(void *c) {
+    int i, top;
+    for (i = 0; i < LF_MAX_LIVE; i++) {
+        void *expected = NULL;
+        if (__atomic_compare_exchange_n(&live_slots[i], &expected, c, 0, __ATOMIC_SEQ_CST,
+                                        __ATOMIC_SEQ_CST)) {
+            top = __atomic_load_n(&live_top, __ATOMIC_SEQ_CST);
+            while (top < i + 1 &&
+                   !__atomic_compare_exchange_n(&live_top, &top, i + 1, 0, __ATOMIC_SEQ_CST,
+                                                __ATOMIC_SEQ_CST)) {
+            }
+            return 1;
+        }
+    }
+    return 0;
+}
+
+int lf_live_remove(void *c) {
+    int i, top = __atomic_load_n(&live_top, __ATOMIC_SEQ_CST);
+    for (i = 0; i < top; i++) {
+        void *expected = c;
+        if (__atomic_compare_exchange_n(&live_slots[i], &expected, NULL, 0, __ATOMIC_SEQ_CST,
+                                        __ATOMIC_SEQ_CST))
+            return 1;
+    }
+    return 0;
+}
+
+LfInstance *lf_live(void *c) {
+    int i, top = __atomic_load_n(&live_top, __ATOMIC_SEQ_CST);
+    if (!c) return NULL;
+    for (i = 0; i < top; i++)
+        if (__atomic_load_n(&live_slots[i], __ATOMIC_SEQ_CST) == c) return (LfInstance *)c;
+    return NULL;
+}
+
+/* ---- experiment ---------------------------------------------------------------- */
+
+LfStatus lf_setup_experiment(LfInstance *c, const char *fn, int tolerance_defined,
+                             double tolerance, double start_time, int stop_time_defined,
+                             double stop_time) {
+    LfStatus status = LF_OK;
+    int k;
+    if (!isfinite(start_time) ||
+        (stop_time_defined && !(isfinite(stop_time) && stop_time >= start_time))) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "%s: startTime = %g, stopTime = %g (expected finite, "
+               "start <= stop); nothing set", fn, start_time,
+               stop_time_defined ? stop_time : INFINITY);
+        return LF_ERROR;
+    }
+    c->t_start = c->t = c->last_successful_time = start_time;
+    for (k = 0; k < LF_NU; k++) c->u_t0[k] = start_time; /* input derivatives set before */
+    c->seen_t = start_time;
+    c->t_stop = stop_time_defined ? stop_time : INFINITY;
+    /* the importer's tolerance is the solvers' relative tolerance (it wins over
+     * solver_rtol, which keeps its value); it is limited to solver_rtol's range */
+    c->rtol_importer = 0.0;
+    if (tolerance_defined) {
+        double lo = lf_model.real_min[LF_SET_RTOL], hi = lf_model.real_max[LF_SET_RTOL];
+        double tol = tolerance;
+        if (!(tol >= lo && tol <= hi)) {
+            tol = isfinite(tol) && tol > hi ? hi : lo;
+            lf_log(c, LF_WARNING, LF_LOG_WARNING, "%s: tolerance = %g is outside [%g, %g]; "
+                   "using %g", fn, tolerance, lo, hi, tol);
+            status = LF_WARNING;
+        }
+        c->rtol_importer = tol;
+    }
+    return status;
+}
+
+int lf_log_rtol_override(LfInstance *c, int rtol_set, const char *fn) {
+    const char *name = lf_model.real_names[LF_SET_RTOL];
+    if (!(c->rtol_importer > 0) || !rtol_set || c->r[LF_SET_RTOL] == c->rtol_importer)
+        return 0;
+    lf_log(c, LF_WARNING, LF_LOG_WARNING,
+           "t = %.17g: %s = %g is overridden by the importer's tolerance = %g of %s; the "
+           "solvers use %g", c->t_start, name, c->r[LF_SET_RTOL], c->rtol_importer, fn,
+           c->rtol_importer);
+    return 1;
+}
+
+/* ---- undo ------------------------------------------------------------------------- */
+
+void lf_undo_save(const LfInstance *c, LfSetUndo *u) {
+    memcpy(u->r, c->r, sizeof u->r);
+    memcpy(u->u_d1, c->u_d1, sizeof u->u_d1);
+    memcpy(u->u_d2, c->u_d2, sizeof u->u_d2);
+    memcpy(u->u_t0, c->u_t0, sizeof u->u_t0);
+    u->u_poly = c->u_poly;
+    memcpy(u->x_set, c->x_set, sizeof u->x_set);
+    u->inputs_changed = c->inputs_changed;
+    u->outputs_valid = c->outputs_valid;
+    u->solver_id = c->solver_id;
+    u->solver_index = c->solver_index;
+    u->delay_interp = c->delay_interp;
+}
+
+void lf_undo_restore(LfInstance *c, const LfSetUndo *u) {
+    memcpy(c->r, u->r, sizeof u->r);
+    memcpy(c->u_d1, u->u_d1, sizeof u->u_d1);
+    memcpy(c->u_d2, u->u_d2, sizeof u->u_d2);
+    memcpy(c->u_t0, u->u_t0, sizeof u->u_t0);
+    c->u_poly = u->u_poly;
+    memcpy(c->x_set, u->x_set, sizeof u->x_set);
+    c->inputs_changed = u->inputs_changed;
+    c->outputs_valid = u->outputs_valid;
+    c->solver_id = u->solver_id;
+    c->solver_index = u->solver_index;
+    c->delay_interp = u->delay_interp;
+}
+
+/* ---- state derivatives ------------------------------------------------------------ */
+
+LfStatus lf_state_derivatives(LfInstance *c, double *dx) {
+    if (lf_prepare_initial(c) != LF_OK) return LF_ERROR;
+    if (lf_solve_w(c, c->t, &c->r[LF_VR_X0], c->w_tmp) != LF_OK) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: model equations cannot be solved (state "
+               "derivatives)", c->t);
+        return LF_ERROR;
+    }
+    memcpy(dx, c->w_tmp, sizeof(double) * LF_NX); /* w = [der(x); z] */
+    return LF_OK;
+}
+
+/* ---- FMU-state blobs ----------------------------------------------------------------- */
+
+LfBlob *lf_blob_alloc(LfInstance *c, LfBlob **list, size_t n) {
+    LfBlob *b = NULL;
+    if (n <= (size_t)-1 - offsetof(LfBlob, data)) /* else the size wraps */
+        b = (LfBlob *)c->alloc.calloc(1, offsetof(LfBlob, data) + n);
+    if (!b) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "FMU state: out of memory (%lu bytes)",
+               (unsigned long)n);
+        return NULL;
+    }
+    b->n = n;
+    b->next = *list;
+    *list = b;
+    return b;
+}
+
+LfBlob **lf_blob_find(LfInstance *c, LfBlob **list, const char *fn, const void *s) {
+    LfBlob **p = list;
+    while (*p && (const void *)*p != s) p = &(*p)->next;
+    if (*p) return p;
+    lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: FMU state %p was not made by this "
+           "instance or was freed; nothing done", c->t, fn, s);
+    return NULL;
+}
+
+void lf_blob_free(LfInstance *c, LfBlob **at) {
+    LfBlob *b = *at;
+    *at = b->next;
+    c->alloc.free(b);
+}
+
+void lf_blobs_free(LfInstance *c, LfBlob **list) {
+    while (*list) lf_blob_free(c, list);
+}
+
+/* ---- stepping ------------------------------------------------------------------------ */
+
+int lf_step_integrable(LfInstance *c, const char *fn, double t, double h) {
+    const char *why = NULL;
+    char buf[200];
+    if (!isfinite(t)) why = "currentCommunicationPoint is not finite";
+    else if (!isfinite(h) || !(h > 0)) why = "communicationStepSize is not finite and > 0";
+    else if (!isfinite(t + h)) why = "the end of the step is not finite";
+    else if (fabs(t - c->t) > 1e-9 * fmax(1.0, fabs(c->t))) { /* as lf_check_step */
+        snprintf(buf, sizeof buf, "expected currentCommunicationPoint = t = %.17g (the end of "
+                 "the last step, or the time of the FMU state set), got %.17g (%s the FMU's "
+                 "time)", c->t, t, t < c->t ? "behind" : "ahead of");
+        why = buf;
+    } else if (!(t + h > c->t)) {
+        snprintf(buf, sizeof buf, "the step does not advance time (below the resolution of "
+                 "time here: %g s)", nextafter(c->t, INFINITY) - c->t);
+        why = buf;
+    }
+    if (!why) return 1;
+    lf_log(c, LF_ERROR, LF_LOG_ERROR,
+           "t = %.17g: %s(currentCommunicationPoint = %.17g, communicationStepSize = %g): %s; "
+           "step refused, nothing changed", c->t, fn, t, h, why);
+    return 0;
+}

@@ -1,0 +1,81 @@
+/* loomfmu shared runtime: what the FMI 2.0 and FMI 3.0 facades share,
+ * independent of the FMI version (lf_facade.c): the registry of live
+ * instances, the experiment's setup, undo of a refused set call, the state
+ * derivatives, the list of FMU-state blobs, the check of a step's
+ * arguments.  Every function that logs takes the calling FMI function's
+ * name, so that the log says which call was refused. */
+#ifndef LF_FACADE_H
+#define LF_FACADE_H
+
+#include <stddef.h>
+
+#include "lf_runtime.h"
+
+/* ---- live instances (lock-free; instances may live in several threads) --- */
+
+/* 1 if c was added (at most LF_MAX_LIVE instances live at once). */
+int lf_live_add(void *c);
+/* 1 if c was live (and is not any more): only one caller can free it. */
+int lf_live_remove(void *c);
+/* The instance if c is live, else NULL (never dereferences c). */
+LfInstance *lf_live(void *c);
+
+/* ---- experiment ------------------------------------------------------------ */
+
+/* Start and stop time, and the importer's tolerance (fmi2SetupExperiment,
+ * fmi3EnterInitializationMode): LF_OK, LF_WARNING (tolerance outside
+ * solver_rtol's range: clipped, logged) or LF_ERROR (non-finite start, stop
+ * before start: logged, nothing set). */
+LfStatus lf_setup_experiment(LfInstance *c, const char *fn, int tolerance_defined,
+                             double tolerance, double start_time, int stop_time_defined,
+                             double stop_time);
+/* When the importer's tolerance (of `fn`) overrides a solver_rtol the
+ * importer set (rtol_set): logs both values and gives 1; else 0. */
+int lf_log_rtol_override(LfInstance *c, int rtol_set, const char *fn);
+
+/* ---- undo of a refused set call -------------------------------------------- */
+
+/* What setting Reals and Integers can change: a refused call changes nothing. */
+typedef struct {
+    double r[LF_NREAL];
+    double u_d1[LF_DIM(LF_NU)], u_d2[LF_DIM(LF_NU)], u_t0[LF_DIM(LF_NU)];
+    int x_set[LF_DIM(LF_NX)];
+    int inputs_changed, outputs_valid, solver_id, delay_interp, u_poly, solver_index;
+} LfSetUndo;
+
+void lf_undo_save(const LfInstance *c, LfSetUndo *u);
+void lf_undo_restore(LfInstance *c, const LfSetUndo *u);
+
+/* ---- state derivatives ------------------------------------------------------- */
+
+/* der(x) at the instance's time and states (before initialization: at the
+ * start values), with the inputs at that time; LF_ERROR (logged) if the
+ * equations cannot be solved there. */
+LfStatus lf_state_derivatives(LfInstance *c, double *dx);
+
+/* ---- FMU states: blobs of lf_state_write's bytes in the instance's list ---- */
+
+typedef struct LfBlob {
+    struct LfBlob *next;
+    size_t n;
+    unsigned char data[1];
+} LfBlob;
+
+/* A new blob of n bytes at the head of *list; NULL (logged) if out of memory. */
+LfBlob *lf_blob_alloc(LfInstance *c, LfBlob **list, size_t n);
+/* Where *list holds s, or NULL (logged with `fn`) if s is not one of its
+ * blobs: never dereferences a pointer the list does not hold. */
+LfBlob **lf_blob_find(LfInstance *c, LfBlob **list, const char *fn, const void *s);
+/* Unlinks and frees the blob at *at. */
+void lf_blob_free(LfInstance *c, LfBlob **at);
+/* Frees every blob of the list. */
+void lf_blobs_free(LfInstance *c, LfBlob **list);
+
+/* ---- stepping ------------------------------------------------------------------ */
+
+/* A step the runtime can integrate (`fn`: fmi2DoStep, fmi3DoStep): finite
+ * time and step, h > 0, starting at the FMU's time, an end later than the
+ * FMU's time.  Otherwise logged and 0, with nothing changed. */
+int lf_step_integrable(LfInstance *c, const char *fn, double t, double h);
+
+#endif
