@@ -27,4 +27,19 @@ void lf_lu_solve(const double *lu, size_t n, const size_t *piv, double *b);
  * double workspace. */
 size_t lf_lu_piv_doubles(size_t n);
 
+/* The Newton (iteration) matrix E = alpha*I - J of the implicit solvers
+ * (lf_schur.c).  Factored densely, or, when rows of J hold a single
+ * off-diagonal entry (kinematic rows q' = v of mechanical models), by
+ * eliminating those unknowns and factoring the Schur complement on the
+ * others (about half the size).  The rows are detected anew in each J.
+ * ws: lf_shifted_doubles(n) doubles owned by the caller; J must stay
+ * unchanged between factor and solve (the solve reads its coupling rows). */
+size_t lf_shifted_doubles(size_t n);
+/* Returns 0, or nonzero when E is singular or not finite (see lf_lu_factor). */
+int lf_shifted_factor(double *ws, const double *J, size_t n, double alpha);
+/* x := E^-1 x with the factors in ws (ws's scratch part is overwritten). */
+void lf_shifted_solve(double *ws, const double *J, size_t n, double *x);
+/* Unknowns eliminated in the last factorization (0: dense LU). */
+size_t lf_shifted_eliminated(const double *ws);
+
 #endif

@@ -64,19 +64,19 @@
 
 /* private data: 3 controller scalars (h_acc, err_acc, valid), then vectors
  * k1..k6, stage argument / new state, f at stage, f0 = f(t,x), df/dt,
- * dense cont3, cont4; then J and the LU of the iteration matrix (n*n each),
- * then the pivot indices. */
+ * dense cont3, cont4; then J (n*n) and the factored iteration matrix
+ * (lf_shifted_factor: dense LU, or the Schur complement when J has
+ * kinematic rows q' = v). */
 enum { RO_HACC, RO_ERRACC, RO_HISTOK, RO_NSCAL };
 enum { RO_K1, RO_K2, RO_K3, RO_K4, RO_K5, RO_K6, RO_Y, RO_DY, RO_F0, RO_FT, RO_CONT3, RO_CONT4, RO_NVEC };
 
 static size_t ro_work_size(size_t n) {
-    return RO_NSCAL + RO_NVEC * n + 2 * n * n + lf_lu_piv_doubles(n);
+    return RO_NSCAL + RO_NVEC * n + n * n + lf_shifted_doubles(n);
 }
 
 static double *ro_vec(LfSolver *s, int k) { return LF_PRIV(s) + RO_NSCAL + (size_t)k * s->ode.n; }
 static double *ro_jac(LfSolver *s) { return LF_PRIV(s) + RO_NSCAL + RO_NVEC * s->ode.n; }
 static double *ro_lu(LfSolver *s) { return ro_jac(s) + s->ode.n * s->ode.n; }
-static size_t *ro_piv(LfSolver *s) { return (size_t *)(void *)(ro_lu(s) + s->ode.n * s->ode.n); }
 
 void lf_rodas4_clear_history(LfSolver *s) { LF_PRIV(s)[RO_HISTOK] = 0.0; }
 
@@ -107,7 +107,6 @@ static LfStatus ro_step(LfSolver *s, double t_bound) {
     double *k4 = ro_vec(s, RO_K4), *k5 = ro_vec(s, RO_K5), *k6 = ro_vec(s, RO_K6);
     double *y = ro_vec(s, RO_Y), *dy = ro_vec(s, RO_DY), *f0 = ro_vec(s, RO_F0);
     double *ft = ro_vec(s, RO_FT), *J = ro_jac(s), *E = ro_lu(s), *hist = LF_PRIV(s);
-    size_t *piv = ro_piv(s);
     double *x = s->x;
     const double t = s->t, hmax = s->opt.h_max;
     double h;
@@ -133,10 +132,8 @@ static LfStatus ro_step(LfSolver *s, double t_bound) {
 
         /* iteration matrix I/(h*gamma) - J, factorized */
         fac_lu = 1.0 / (h * RO_GAMMA);
-        for (i = 0; i < n * n; i++) E[i] = -J[i];
-        for (i = 0; i < n; i++) E[i + i * n] += fac_lu;
         s->n_lu++;
-        if (lf_lu_factor(E, n, piv) != 0) {
+        if (lf_shifted_factor(E, J, n, fac_lu) != 0) {
             if (++nsing >= 5) {
                 lf_sv_set_msg(s, "rodas4: singular iteration matrix I/(h*gamma) - J at t=%.17g "
                            "(h=%.3g, 5 step reductions)", t, h);
@@ -152,7 +149,7 @@ static LfStatus ro_step(LfSolver *s, double t_bound) {
         /* stage 1 */
         hd = h * RO_D1;
         for (i = 0; i < n; i++) k1[i] = f0[i] + hd * ft[i];
-        lf_lu_solve(E, n, piv, k1);
+        lf_shifted_solve(E, J, n, k1);
         /* stage 2 */
         for (i = 0; i < n; i++) y[i] = x[i] + RO_A21 * k1[i];
         st = lf_sv_eval_rhs(s, t + RO_C2 * h, y, dy);
@@ -160,7 +157,7 @@ static LfStatus ro_step(LfSolver *s, double t_bound) {
         hd = h * RO_D2;
         c1 = RO_C21 / h;
         for (i = 0; i < n; i++) k2[i] = dy[i] + c1 * k1[i] + hd * ft[i];
-        lf_lu_solve(E, n, piv, k2);
+        lf_shifted_solve(E, J, n, k2);
         /* stage 3 */
         for (i = 0; i < n; i++) y[i] = x[i] + RO_A31 * k1[i] + RO_A32 * k2[i];
         st = lf_sv_eval_rhs(s, t + RO_C3 * h, y, dy);
@@ -169,7 +166,7 @@ static LfStatus ro_step(LfSolver *s, double t_bound) {
         c1 = RO_C31 / h;
         c2 = RO_C32 / h;
         for (i = 0; i < n; i++) k3[i] = dy[i] + c1 * k1[i] + c2 * k2[i] + hd * ft[i];
-        lf_lu_solve(E, n, piv, k3);
+        lf_shifted_solve(E, J, n, k3);
         /* stage 4 */
         for (i = 0; i < n; i++) y[i] = x[i] + RO_A41 * k1[i] + RO_A42 * k2[i] + RO_A43 * k3[i];
         st = lf_sv_eval_rhs(s, t + RO_C4 * h, y, dy);
@@ -179,7 +176,7 @@ static LfStatus ro_step(LfSolver *s, double t_bound) {
         c2 = RO_C42 / h;
         c3 = RO_C43 / h;
         for (i = 0; i < n; i++) k4[i] = dy[i] + c1 * k1[i] + c2 * k2[i] + c3 * k3[i] + hd * ft[i];
-        lf_lu_solve(E, n, piv, k4);
+        lf_shifted_solve(E, J, n, k4);
         /* stage 5 (c5 = 1, d5 = 0) */
         for (i = 0; i < n; i++)
             y[i] = x[i] + RO_A51 * k1[i] + RO_A52 * k2[i] + RO_A53 * k3[i] + RO_A54 * k4[i];
@@ -190,7 +187,7 @@ static LfStatus ro_step(LfSolver *s, double t_bound) {
         c3 = RO_C53 / h;
         c4 = RO_C54 / h;
         for (i = 0; i < n; i++) k5[i] = dy[i] + c1 * k1[i] + c2 * k2[i] + c3 * k3[i] + c4 * k4[i];
-        lf_lu_solve(E, n, piv, k5);
+        lf_shifted_solve(E, J, n, k5);
         /* embedded 3rd-order solution, stage 6 */
         for (i = 0; i < n; i++) y[i] += k5[i];
         st = lf_sv_eval_rhs(s, t_new, y, dy);
@@ -202,7 +199,7 @@ static LfStatus ro_step(LfSolver *s, double t_bound) {
         c5 = RO_C65 / h;
         for (i = 0; i < n; i++)
             k6[i] = dy[i] + c1 * k1[i] + c2 * k2[i] + c3 * k3[i] + c4 * k4[i] + c5 * k5[i];
-        lf_lu_solve(E, n, piv, k6);
+        lf_shifted_solve(E, J, n, k6);
         /* new solution (4th order) */
         for (i = 0; i < n; i++) y[i] += k6[i];
 

@@ -1,5 +1,5 @@
 /* loomfmu runtime: what the solver files (lf_solvers.c: helpers, rk4,
- * registry and life cycle; lf_dopri5.c; lf_rodas4.c) share.  Not part of
+ * registry and life cycle; lf_dopri5.c; lf_rodas4.c; lf_wmethod.c) share.  Not part of
  * the solver contract, which is lf_solver.h. */
 #ifndef LF_SOLVER_IMPL_H
 #define LF_SOLVER_IMPL_H
@@ -22,6 +22,7 @@ enum { CAUSE_NONE, CAUSE_ERRTEST, CAUSE_NONFINITE, CAUSE_SINGULAR };
 extern const LfMethod lf_dopri5;
 extern const LfMethod lf_rodas4;
 extern const LfMethod lf_rk4;
+extern const LfMethod lf_ros34pw2;
 
 void lf_sv_set_msg(LfSolver *s, const char *fmt, ...);
 int lf_sv_all_finite(const double *v, size_t n);
@@ -43,5 +44,8 @@ int lf_sv_plan_step(const LfSolver *s, double t_bound, double *h, double *t_new,
                     double *hmin);
 /* forget rodas4's step-size controller history (after a restart) */
 void lf_rodas4_clear_history(LfSolver *s);
+/* ros34pw2 after a restart: forget the controller history, keep J and the
+ * factorization (a W-method keeps its order with any matrix) */
+void lf_ros34pw2_restart(LfSolver *s);
 
 #endif

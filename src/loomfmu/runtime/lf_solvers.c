@@ -6,6 +6,11 @@
  *           with its 3rd-order dense output (lf_rodas4.c)
  *   rk4     classical fixed-step Runge-Kutta with cubic Hermite dense output
  *           (here, with the shared helpers, the registry and the life cycle)
+ *   ros34pw2  Rang-Angermann Rosenbrock-W ROS34PW2 (3(2), 4 stages, stiffly
+ *           accurate, L-stable) reusing the Jacobian and its factorization
+ *           across steps (lf_wmethod.c)
+ * The implicit methods factor I/(h*gamma) - J through lf_schur.c (dense, or
+ * a Schur complement for the kinematic rows q' = v of mechanical models).
  *
  * Workspace layout (doubles, one buffer from the allocator):
  *   work[0 .. n)        x      (state at t)
@@ -351,6 +356,7 @@ void lf_solver_reset(LfSolver *s, double t, const double *x) {
     s->fsal_valid = 0;
     if (s->h > s->opt.h_max) s->h = s->opt.h_max;
     if (s->method == &lf_rodas4) lf_rodas4_clear_history(s);
+    if (s->method == &lf_ros34pw2) lf_ros34pw2_restart(s);
     s->message[0] = '\0';
 }
 
