@@ -1,4 +1,4 @@
-"""``loomfmu bench charts|speed|friction``."""
+"""``loomfmu bench charts|speed|friction|limit``."""
 from __future__ import annotations
 
 import argparse
@@ -113,10 +113,21 @@ def _charts_dask(models, plan, quick, out, tmp, infos, rows, tasks, bar, dask, o
 def main(argv=None, prog: str = "loomfmu bench") -> int:
     ap = argparse.ArgumentParser(prog=prog,
                                  description="loomfmu benchmarks (never timed tests)")
-    ap.add_argument("what", choices=["charts", "speed", "friction"])
+    ap.add_argument("what", choices=["charts", "speed", "friction", "limit"])
     ap.add_argument("--model", default="heald_frame", help="speed: the model")
-    ap.add_argument("--models", nargs="+", default=list(BENCH),
-                    help=f"charts: the models to sweep (default: all of {list(BENCH)})")
+    ap.add_argument("--models", nargs="+", default=None,
+                    help=f"charts: the models to sweep (default: all of {list(BENCH)}); "
+                         "limit: the models to run (default: every model of the registry)")
+    ap.add_argument("--solvers", nargs="+", default=None,
+                    help="limit: the solvers (default: all)")
+    ap.add_argument("--best-of", type=int, default=5,
+                    help="limit: timing batches of one RHS/Jacobian call, the best kept "
+                         "(1 ... 64; default 5)")
+    ap.add_argument("--fmpy-repeats", type=int, default=5,
+                    help="limit: FMPy runs per row, the median kept (0: none; default 5)")
+    ap.add_argument("--page", type=Path, default=None,
+                    help="limit: the markdown page to write (default ./docs/limit.md when "
+                         "--out is the default)")
     ap.add_argument("--quick", action="store_true", help="charts: coarse sweeps")
     ap.add_argument("--no-failures", action="store_true", help="charts: skip failure studies")
     ap.add_argument("--dask", action="store_true",
@@ -133,13 +144,14 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
                          "(default: ./docs/speed.md when --out is docs/bench, full runs "
                          "only)")
     ap.add_argument("--repeats", type=int, default=5,
-                    help="speed: timed runs per point, the fastest kept (>= 1; default 5)")
+                    help="speed: timed runs per point, the fastest kept; limit: C runs per "
+                         "row, the median kept (>= 1; default 5)")
     ap.add_argument("--scales", type=float, nargs="+", default=[1.0, 10.0],
                     help="speed: scene lengths as multiples of the model's default experiment")
     ap.add_argument("--out", type=Path, default=None,
-                    help="output: charts a folder (default ./docs/bench), speed and "
-                         "friction a JSON file (default ./docs/speed.json, "
-                         "./docs/friction.json)")
+                    help="output: charts a folder (default ./docs/bench), speed, "
+                         "friction and limit a JSON file (default ./docs/speed.json, "
+                         "./docs/friction.json, ./docs/limit.json)")
     args = ap.parse_args(argv)
     if args.repeats < 1:
         ap.error(f"--repeats {args.repeats}: allowed >= 1")
@@ -149,6 +161,10 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
     if args.what == "speed":
         args.out = args.out or Path("docs/speed.json")
         return classic.main_speed(args)
+    if args.what == "limit":
+        return _main_limit(ap, args)
+    if args.models is None:
+        args.models = list(BENCH)
     unknown = sorted(set(args.models) - set(BENCH))
     if unknown:
         ap.error(f"--models {' '.join(unknown)}: not a scene; allowed: {', '.join(BENCH)}")
@@ -165,4 +181,41 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
            failures_on=not args.no_failures, cmd="loomfmu bench charts" + (
                " --dask" if args.dask else ""),
            dask={"workers": args.workers, "scheduler": args.scheduler} if args.dask else None)
+    return 0
+
+
+def _main_limit(ap, args) -> int:
+    from . import limit
+    from ..codegen import SOLVERS
+    from ..registry import MODELS
+    models = args.models or list(MODELS)
+    solvers = args.solvers or list(SOLVERS)
+    for opt, given, allowed in (("--models", models, MODELS), ("--solvers", solvers, SOLVERS)):
+        unknown = sorted(set(given) - set(allowed))
+        if unknown:
+            ap.error(f"{opt} {' '.join(unknown)}: allowed: {', '.join(allowed)}")
+    for opt, value, lo in (("--repeats", args.repeats, 1), ("--best-of", args.best_of, 1),
+                           ("--fmpy-repeats", args.fmpy_repeats, 0)):
+        if not lo <= value <= 64:
+            ap.error(f"{opt} {value}: allowed {lo} ... 64")
+    out = args.out or Path("docs/limit.json")
+    page = args.page
+    if page is None and args.out is None:
+        page = Path("docs/limit.md")
+    cmd = "loomfmu bench limit" + (f" --models {' '.join(models)}" if args.models else "") + (
+        f" --solvers {' '.join(solvers)}" if args.solvers else "")
+
+    def done(name, rows):
+        for r in rows:
+            ratio = "–" if r["ratio"] is None else f"{r['ratio']:.2f}"
+            fm = f", FMPy {r['fmpy']['cpu_s'] * 1e3:.3g} ms" if "fmpy" in r else ""
+            print(f"{name:24s} {r['solver']:8s} C run {r['cpu_s'] * 1e3:9.3g} ms, limit "
+                  f"ratio {ratio}{fm}", flush=True)
+
+    result = limit.limit(models, solvers, repeats=args.repeats, best_of=args.best_of,
+                         fmpy_repeats=args.fmpy_repeats, on_model=done)
+    limit.write(result, out, page, cmd)
+    print(limit.table_md(result["rows"]))
+    print(f"written: {out}" + (f", {page}" if page else "")
+          + f"; loomfmu bench limit took {result['wall_seconds']:.0f} s")
     return 0

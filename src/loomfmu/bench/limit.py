@@ -1,0 +1,278 @@
+"""``loomfmu bench limit``: each model's verification run at C level, against
+the limit of its method, with FMPy's time of the same run beside it.
+
+    loomfmu bench limit [--models heald_frame drive ...] [--solvers dopri5 rodas4]
+        [--repeats 5] [--best-of 5] [--fmpy-repeats 5]
+        [--out docs/limit.json] [--page docs/limit.md]
+
+For every model (:data:`loomfmu.registry.MODELS`) the FMU is built, its own
+``sources/`` and ``limit_driver.c`` (next to this file) are compiled with gcc
+into one program, which runs the model's verification experiment (the
+FMU's default experiment: stop time, communication step; rtol 1e-6, atol
+1e-9, as :func:`loomfmu.verify.verify`) through the FMI 2.0 functions without
+Python and reads the solver's counters from the instance.  The limit
+(:func:`limit_seconds`) is the fewest evaluations the method needs for the
+steps it took: accepted steps x new stages per step x the best time of one
+right-hand side (+ one Jacobian per step for rodas4).  Definitions and the
+table: docs/limit.md (written by the command).
+"""
+from __future__ import annotations
+
+import json
+import os
+import statistics
+import subprocess
+import tempfile
+import time
+import zipfile
+from pathlib import Path
+
+from ..builder import GENERATED_FLAGS, STRICT_FLAGS, build_fmu, fmi_headers_dir
+from ..checks import check_int, check_name_list
+from ..codegen import SOLVERS
+from ..registry import MODELS, load_model
+
+DRIVER = Path(__file__).with_name("limit_driver.c")
+
+#: per method: (new right-hand-side evaluations per accepted step, Jacobians
+#: per accepted step) of the method itself: dopri5 has 7 stages of which the
+#: first is the previous step's last (FSAL); rodas4 evaluates f(t, x) and 5
+#: more stages and a fresh Jacobian at each step; rk4 has 4 stages.
+STAGES = {"dopri5": (6, 0), "rodas4": (6, 1), "rk4": (4, 0)}
+#: the verification run's tolerances (loomfmu.verify.verify's defaults)
+RTOL, ATOL = 1e-6, 1e-9
+
+
+def compile_driver(fmu: Path, work: Path, cc: str = "gcc") -> Path:
+    """The FMU's ``sources/`` plus the driver, compiled (our code with the
+    builder's strict flags, CasADi's with its own) into ``work/limit_driver``."""
+    src = work / "sources"
+    with zipfile.ZipFile(fmu) as z:
+        for name in z.namelist():
+            if name.startswith("sources/") and not name.endswith("/"):
+                z.extract(name, work)
+    include = ["-I", str(src), "-I", str(fmi_headers_dir())]
+    objs = []
+    for c_file in sorted(src.glob("*.c")) + [DRIVER]:
+        flags = GENERATED_FLAGS if c_file.name.endswith("_casadi.c") else STRICT_FLAGS
+        obj = work / f"{c_file.stem}.o"
+        _gcc([cc, *flags, *include, "-c", str(c_file), "-o", str(obj)])
+        objs.append(str(obj))
+    exe = work / "limit_driver"
+    _gcc([cc, "-o", str(exe), *objs, "-lm"])
+    return exe
+
+
+def _gcc(cmd: list[str]) -> None:
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"gcc failed ({proc.returncode}): {' '.join(cmd)}\n"
+                           f"{proc.stderr[-3000:]}")
+
+
+def run_driver(exe: Path, *, stop: float, step: float, solver: str, rtol: float = RTOL,
+               atol: float = ATOL, repeats: int = 5, best_of: int = 5,
+               values: dict | None = None) -> dict:
+    """One driver run: the counters, the median CPU/wall seconds of ``repeats``
+    runs, the best seconds per right-hand side / Jacobian call, the outputs
+    at the end.  values: start values of Real variables by name."""
+    cmd = [str(exe), repr(stop), repr(step), repr(rtol), repr(atol), solver, str(repeats),
+           str(best_of), *(f"{k}={float(v)!r}" for k, v in (values or {}).items())]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed ({proc.returncode}): "
+                           f"{proc.stderr[-2000:]}")
+    return json.loads(proc.stdout)
+
+
+def limit_seconds(c: dict) -> float | None:
+    """The limit of the run ``c`` (a driver result): accepted steps x
+    (new stages x best RHS seconds + Jacobians per step x best Jacobian
+    seconds); None for a method without a STAGES entry."""
+    if c["solver"] not in STAGES:
+        return None
+    stages, jacs = STAGES[c["solver"]]
+    return c["steps"] * (stages * c["rhs_s"] + jacs * c["jac_s"])
+
+
+def fmpy_run(path: Path, md, *, stop: float, step: float, solver: str, rtol: float = RTOL,
+             atol: float = ATOL, repeats: int = 5) -> dict:
+    """``fmpy.simulate_fmu`` of the same experiment on the unzipped FMU (its
+    model description parsed once): median wall and CPU seconds, and the
+    outputs at the end."""
+    import fmpy
+    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+    wall, cpu, res = [], [], None
+    for _ in range(repeats):
+        w0, c0 = time.perf_counter(), time.process_time()
+        res = fmpy.simulate_fmu(str(path), model_description=md, validate=False,
+                                stop_time=stop, output_interval=step,
+                                relative_tolerance=rtol, output=outputs,
+                                start_values={"solver": SOLVERS.index(solver) + 1,
+                                              "solver_atol": atol})
+        cpu.append(time.process_time() - c0)
+        wall.append(time.perf_counter() - w0)
+    return {"wall_s": statistics.median(wall), "cpu_s": statistics.median(cpu),
+            "y_end": {n: float(res[n][-1]) for n in outputs}, "points": len(res)}
+
+
+def measure_model(name: str, solvers, work: Path, *, repeats: int, best_of: int,
+                  fmpy_repeats: int) -> list[dict]:
+    """Every solver's row for model ``name`` (built and compiled in ``work``)."""
+    import fmpy
+    model = load_model(name)
+    work.mkdir(parents=True, exist_ok=True)
+    fmu = build_fmu(model, out_dir=work, validate=False).path
+    exe = compile_driver(fmu, work)
+    unzipped = work / "unzipped"
+    with zipfile.ZipFile(fmu) as z:
+        z.extractall(unzipped)
+    md = fmpy.read_model_description(str(unzipped), validate=False)
+    rows = []
+    for solver in solvers:
+        c = run_driver(exe, stop=model.stop_time, step=model.step_size, solver=solver,
+                       repeats=repeats, best_of=best_of)
+        f = fmpy_run(unzipped, md, stop=model.stop_time, step=model.step_size,
+                     solver=solver, repeats=fmpy_repeats)
+        rows.append(row(c, f))
+    return rows
+
+
+def row(c: dict, f: dict | None) -> dict:
+    """A table row from a driver result ``c`` and an FMPy result ``f``."""
+    lim = limit_seconds(c)
+    n_comm = round(c["stop"] / c["step"])
+    r = {**c, "limit_s": lim, "ratio": c["cpu_s"] / lim if lim else None,
+         "comm_steps": n_comm,
+         # where the run's CPU time goes, from the counters and the per-call times
+         "rhs_share": c["rhs"] * c["rhs_s"] / c["cpu_s"],
+         "jac_share": c["jac"] * c["jac_s"] / c["cpu_s"]}
+    if f is not None:
+        r["fmpy"] = f
+        r["fmpy_ratio"] = f["cpu_s"] / c["cpu_s"]
+        r["fmpy_per_step_us"] = (f["cpu_s"] - c["cpu_s"]) / n_comm * 1e6
+    return r
+
+
+def limit(models=None, solvers=SOLVERS, *, repeats: int = 5, best_of: int = 5,
+          fmpy_repeats: int = 5, work_dir: Path | None = None, on_model=None) -> dict:
+    """The C-level benchmark for ``models`` (names in the registry; default:
+    all) and ``solvers``: {"rows": [...], "wall_seconds"}.
+
+    repeats: driver runs per row, the median kept (1 ... 64); best_of:
+    timing batches of one RHS/Jacobian call, the best kept (1 ... 64);
+    fmpy_repeats: FMPy runs per row, the median kept (0: no FMPy column;
+    at most 64).  on_model: called with each model's name and rows."""
+    models = list(MODELS) if models is None else models
+    models = check_name_list("models", models, list(MODELS), what="models")
+    solvers = check_name_list("solvers", solvers, list(SOLVERS), what="solvers")
+    if not models or not solvers:
+        raise ValueError("models, solvers: allowed: non-empty lists")
+    repeats = check_int("repeats", repeats, lo=1, hi=64)
+    best_of = check_int("best_of", best_of, lo=1, hi=64)
+    fmpy_repeats = check_int("fmpy_repeats", fmpy_repeats, lo=0, hi=64)
+    t0 = time.perf_counter()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        base = Path(work_dir) if work_dir is not None else Path(tmp)
+        for name in models:
+            got = measure_model(name, solvers, base / name, repeats=repeats, best_of=best_of,
+                                fmpy_repeats=fmpy_repeats) if fmpy_repeats else \
+                _measure_c_only(name, solvers, base / name, repeats, best_of)
+            rows += got
+            if on_model:
+                on_model(name, got)
+    return {"rows": rows, "wall_seconds": time.perf_counter() - t0, "repeats": repeats,
+            "best_of": best_of, "fmpy_repeats": fmpy_repeats, "cpus": os.cpu_count()}
+
+
+def _measure_c_only(name, solvers, work: Path, repeats, best_of) -> list[dict]:
+    model = load_model(name)
+    work.mkdir(parents=True, exist_ok=True)
+    exe = compile_driver(build_fmu(model, out_dir=work, validate=False).path, work)
+    return [row(run_driver(exe, stop=model.stop_time, step=model.step_size, solver=s,
+                           repeats=repeats, best_of=best_of), None) for s in solvers]
+
+
+
+DEFINITION = """\
+**What is measured.** Each model's verification run (its default experiment:
+stop time and communication step; rtol 1e-6, atol 1e-9; the same settings as
+`loomfmu build`'s verification and `fmpy.simulate_fmu`) is driven through the
+FMU's FMI 2.0 functions by a C program (`src/loomfmu/bench/limit_driver.c`)
+compiled with gcc together with the FMU's own `sources/` (the builder's
+flags, -O2), without Python: instantiate, set up, step at the communication
+step reading the outputs after each step, as FMPy does. The program's final
+outputs equal FMPy's bit for bit (`tests/test_bench_limit.py`).
+
+* **C run**: CPU time of the run (instantiate to the last `fmi2DoStep`),
+  median of the repeats.
+* **steps, rej., RHS, Jac, LU, events**: the solver's counters read from the
+  instance after the run (`LfSolver.n_steps`, `n_rejected`, `n_rhs`, `n_jac`,
+  `n_lu`; `LfInstance.n_events`). RHS counts the solver's calls of the
+  right-hand side only (not the outputs, event indicators or event location).
+* **RHS µs, Jac µs**: CPU time of one call of the right-hand side the solver
+  integrates (`lf_ode_of(c).rhs`: the generated `wsol`, or for implicit
+  models `res` with Newton on the exact dF/dw, here converging in one
+  iteration from the solution) and of its Jacobian (`.jac`), at the run's
+  last accepted point, in a tight loop: the best of the batches.
+* **limit** = accepted steps × (new stages per step × RHS µs + Jacobians per
+  step × Jac µs), with dopri5: 6 stages (7, the first reused from the previous
+  step: FSAL), 0 Jacobians; rodas4: 6 (f(t, x) and 5 stages), 1 Jacobian;
+  rk4: 4, 0. The accepted steps are the run's own (the fewest the method took
+  at this tolerance with this communication grid); rejected steps, restarts
+  after events and input changes, the LU factorizations and solves, event
+  location, outputs and the step loop are all above the limit.
+* **ratio** = C run ÷ limit (the issue's target: ≤ 2).
+* **RHS share**: RHS × RHS µs ÷ C run, the part of the run spent in the
+  right-hand side (the rest: Jacobians, linear algebra, step loop, events,
+  outputs).
+* **FMPy**: CPU time of `fmpy.simulate_fmu` of the same run on the unzipped
+  FMU, the model description parsed once (median); FMPy ÷ C: how many times
+  the C run; the Python side's cost per communication step is
+  (FMPy − C run) ÷ communication steps."""
+
+
+def _f(v, fmt: str, scale: float = 1.0) -> str:
+    return "–" if v is None else format(v * scale, fmt)
+
+
+def table_md(rows) -> str:
+    head = ("| model | solver | nx | comm. steps | steps (rej.) | RHS | Jac | LU | events | "
+            "RHS µs | Jac µs | C run ms | limit ms | ratio | RHS share | FMPy ms | FMPy ÷ C |"
+            "\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
+    lines = []
+    for r in rows:
+        f = r.get("fmpy")
+        lines.append(
+            f"| {r['model']} | {r['solver']} | {r['nx']} | {r['comm_steps']} | "
+            f"{r['steps']} ({r['rejected']}) | {r['rhs']} | {r['jac']} | {r['lu']} | "
+            f"{r['events']} | {r['rhs_s'] * 1e6:.3g} | {r['jac_s'] * 1e6:.3g} | "
+            f"{r['cpu_s'] * 1e3:.3g} | {_f(r['limit_s'], '.3g', 1e3)} | "
+            f"{_f(r['ratio'], '.2f')} | {r['rhs_share'] * 100:.0f} % | "
+            f"{_f(f and f['cpu_s'], '.3g', 1e3)} | {_f(r.get('fmpy_ratio'), '.1f')} |")
+    return head + "\n".join(lines) + "\n"
+
+
+def page_md(result: dict, cmd: str) -> str:
+    rows = result["rows"]
+    over = [r for r in rows if r["ratio"] is not None and r["ratio"] > 2]
+    lines = ["# The C-level benchmark: how far each run is from its limit", "",
+             DEFINITION, "",
+             f"**Table** (from `{cmd}`, {result['wall_seconds'] / 60:.1f} min on this "
+             f"machine, {result['cpus']} cores shared with other work: medians of "
+             f"{result['repeats']} C runs and {result['fmpy_repeats']} FMPy runs, per-call "
+             f"times the best of {result['best_of']} batches):", "", table_md(rows),
+             f"{len(rows) - len(over)} of {len(rows)} runs are within 2× of their limit.",
+             "", f"Every number is in `docs/limit.json`. Regenerate: `{cmd}`.", ""]
+    return "\n".join(lines)
+
+
+def write(result: dict, json_path: Path | None, page: Path | None, cmd: str) -> None:
+    """docs/limit.json and docs/limit.md (either may be None: not written)."""
+    if json_path is not None:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        json_path.write_text(json.dumps({"command": cmd, **result}, indent=1, default=str))
+    if page is not None:
+        page.parent.mkdir(parents=True, exist_ok=True)
+        page.write_text(page_md(result, cmd))
