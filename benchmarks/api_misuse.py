@@ -610,8 +610,10 @@ def cases() -> list[Case]:
     add("build_fmu('heald_frame_rigid')", "model", lambda fx: _build(fx, "heald_frame_rigid"))
     add("build_fmu(validate='yes')", "validate",
         lambda fx: _build(fx, out_dir=fx.tmp, validate="yes"))
-    add("build_fmu(fmi_version=3)", "fmi_version",
-        lambda fx: _build(fx, out_dir=fx.tmp, fmi_version=3))
+    add("build_fmu(fmi_version=4)", "fmi_version",
+        lambda fx: _build(fx, out_dir=fx.tmp, fmi_version=4))
+    add("build_fmu(interface='hil')", "interface",
+        lambda fx: _build(fx, out_dir=fx.tmp, interface="hil"))
 
     def _unit(u):
         from loomfmu.units import check_unit

@@ -2,6 +2,7 @@
 
     loomfmu list                      models, build options, fidelity levels
     loomfmu build [MODEL ...]         build, validate, verify -> dist/*.fmu, report.json
+                                      (--fmi-version 2|3 --interface cs|me|both)
     loomfmu simulate MODEL|FMU        one run, printed, --csv / --plot
     loomfmu verify FMU                compare an FMU with its scipy reference
     loomfmu docs                      docs/models/<model>.md from the declarations
@@ -43,7 +44,7 @@ ANALYSES = {
 def _parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="loomfmu", description="Textile-machine mechanisms as CasADi DAEs, exported "
-                                    "as self-contained FMI co-simulation FMUs.",
+                                    "as self-contained FMI 2.0/3.0 co-simulation and model-exchange FMUs.",
         epilog="Run 'loomfmu COMMAND --help' for a command's options.")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
     ap.set_defaults(_subparsers=sub.choices)
@@ -54,15 +55,23 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
 
     p = sub.add_parser("build", help="build, validate and verify FMUs",
-                       description="Build MODELs (default: all) into OUT_DIR/<model>.fmu, "
-                                   "validate each with FMPy, verify each solver against "
-                                   "the scipy reference, write OUT_DIR/report.json and "
+                       description="Build MODELs (default: all) into OUT_DIR/<model>.fmu "
+                                   "(FMI 2.0 co-simulation; other variants: "
+                                   "OUT_DIR/<model>_fmi<VERSION>_<INTERFACE>.fmu, e.g. "
+                                   "backrest_fmi3_me.fmu), validate each with FMPy, verify "
+                                   "each solver against the scipy reference (co-simulation "
+                                   "only: a model-exchange FMU is integrated by its importer), "
+                                   "write OUT_DIR/report.json and "
                                    "documentation/index.html inside each FMU.")
     p.add_argument("models", nargs="*", metavar="MODEL",
                    help=f"models to build (default: all of {', '.join(sorted(MODELS))})")
     _option_arg(p)
-    p.add_argument("--fmi-version", type=int, choices=[2], default=2,
-                   help="FMI version (only 2: FMI 2.0 co-simulation, so far)")
+    p.add_argument("--fmi-version", type=int, choices=[2, 3], default=2,
+                   help="FMI version: 2 (FMI 2.0, the default) or 3 (FMI 3.0)")
+    p.add_argument("--interface", choices=["cs", "me", "both"], default="cs",
+                   help="cs: co-simulation with the embedded solvers (default); me: model "
+                        "exchange (the importer integrates; not verified here); both: one "
+                        "FMU with both")
     p.add_argument("--no-verify", action="store_true",
                    help="skip the comparison with the scipy reference")
     p.add_argument("--out-dir", type=Path, default=Path("dist"), help="default: dist")

@@ -163,17 +163,24 @@ def cmd_build(args) -> int:
     with Progress(total=len(models), desc="build") as bar:
         for name, model in models.items():
             bar.stage(f"{name}: generating C, compiling, validating")
-            result = build_fmu(model, out_dir=out_dir, fmi_version=args.fmi_version)
+            result = build_fmu(model, out_dir=out_dir, fmi_version=args.fmi_version,
+                               interface=args.interface)
             rep = {"fmu": str(result.path), "guid": result.guid,
+                   "fmi_version": result.fmi_version, "interface": result.interface,
                    "build_seconds": result.build_seconds,
                    "validation_problems": result.problems, "options": options}
-            if not args.no_verify:
+            verify = not args.no_verify and args.interface != "me"
+            if verify:
                 rep |= {"rtol": args.rtol, **_verify_with_progress(
                     result.path, model, bar, rtol=args.rtol)}
+            elif not args.no_verify:
+                rep["verification"] = ("not run: model exchange only (the importer's solver "
+                                       "integrates); build --interface both to verify the "
+                                       "co-simulation")
             bar.stage(f"{name}: documentation (equations in MathML)")
-            write_documentation(result.path, model, verification=rep if not args.no_verify
-                                else None, readable=True)
-            reports[name] = rep
+            write_documentation(result.path, model, verification=rep if verify else None,
+                                readable=True)
+            reports[result.path.stem] = rep
             bar.advance(f"{name}: done")
     report_path = out_dir / "report.json"
     old = {}
@@ -206,7 +213,7 @@ def _description_of(target: str, options: dict):
         if options:
             raise UsageError("--option applies to a MODEL, not to a built FMU")
         return fmpy.read_model_description(target), None
-    from .fmi2_xml import model_description
+    from .fmi_xml import model_description
     from .ode import dae_form
     model = declare(target, options)
     xml = model_description(model, dae_form(model), "{00000000-0000-0000-0000-000000000000}",

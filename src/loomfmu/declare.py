@@ -15,7 +15,7 @@ A mechanism module in ``models/`` builds a :class:`Model` by declaring
 
 This one declaration is the only source for the generated C, the model
 description, the scipy reference right-hand side and the parameter tables in
-the docs (see :mod:`loomfmu.codegen`, :mod:`loomfmu.fmi2_xml`,
+the docs (see :mod:`loomfmu.codegen`, :mod:`loomfmu.fmi_xml`,
 :mod:`loomfmu.reference`).
 """
 from __future__ import annotations
@@ -40,7 +40,7 @@ def reserved_names() -> tuple[str, ...]:
     SETTINGS), the ``solver`` and ``delay_interpolation`` enumerations, the
     ``solver_index`` Integer, and ``time`` (the first column of FMPy's result)."""
     from .codegen import SETTINGS  # both import this module: import at call time
-    from .fmi2_xml import SOLVER_INDEX
+    from .fmi_xml import SOLVER_INDEX
     return ("solver", SOLVER_INDEX, *(s.name for s in SETTINGS), "delay_interpolation",
             "time")
 

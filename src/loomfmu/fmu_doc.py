@@ -143,6 +143,7 @@ def html_for(model: Model, verification: dict | None = None, *,
                 f"sources/{model.name}_casadi.c")
     sections = [  # the short sections first, the long reference tables after
         ("about", "What it is", _about(model)),
+        ("interfaces", "Interfaces", _interfaces(model, md)),
         ("verification", "Verification", _verification(model, verification)),
         ("solver", "Solvers and tolerances", _solver(md)),
         ("experiment", "Default experiment", _experiment(md)),
@@ -167,7 +168,7 @@ def html_for(model: Model, verification: dict | None = None, *,
 
 def _generated_xml(model: Model) -> str:
     from .codegen import model_guid
-    from .fmi2_xml import model_description
+    from .fmi_xml import model_description
     from .ode import dae_form
     dae = dae_form(model)
     return model_description(model, dae, model_guid(model, dae), [])
@@ -264,11 +265,41 @@ def _header(model: Model, md: ET.Element) -> str:
     a = md.attrib
     opts = ", ".join(f"{k} = {v!r}" for k, v in model.options.items()) or "none"
     return (f"<h1>{_e(model.name)}</h1><p class=\"lead\">{_e(model.description)}</p>"
-            f'<p class="meta">FMI {_e(a.get("fmiVersion"))} Co-Simulation · GUID '
-            f'<code>{_e(a.get("guid"))}</code> · {_e(a.get("generationTool", ""))}<br>'
+            f'<p class="meta">FMI {_e(a.get("fmiVersion"))} '
+            f'{_e(" and ".join(interfaces(md)))} · '
+            f'{"GUID" if a.get("guid") else "instantiation token"} '
+            f'<code>{_e(a.get("guid") or a.get("instantiationToken"))}</code> · '
+            f'{_e(a.get("generationTool", ""))}<br>'
             f'Author: {_e(a.get("author", ""))} · Version {_e(a.get("version", ""))} · '
             f'{_e(a.get("copyright", ""))} · License: {_e(a.get("license", ""))}<br>'
             f"Build options: <code>{_e(opts)}</code></p>")
+
+
+def _interfaces(model: Model, md: ET.Element) -> str:
+    """What each declared interface does, and the FMU variants one build makes."""
+    v = md.get("fmiVersion", "")
+    rows = []
+    if md.find("CoSimulation") is not None:
+        rows.append(("Co-Simulation", "the FMU integrates itself between communication "
+                     "points with its embedded solver (parameter <code>solver</code>); events "
+                     "are located inside the step" + (
+                         "; with event mode enabled the importer is told of them"
+                         if v.startswith("3") else "")))
+    if md.find("ModelExchange") is not None:
+        rows.append(("Model Exchange", "the importer's solver integrates the states from "
+                     "their derivatives; the FMU solves its algebraic loops itself (Newton), "
+                     "gives event indicators for the stick/slip and dwell events and updates "
+                     "its modes in event mode. The importer must call completedIntegratorStep "
+                     "after every accepted step" + (
+                         ": the delay history is built from those steps only"
+                         if model.delays else "")))
+    body = "".join(f"<tr><td>{_e(n)}</td><td>{d}</td></tr>" for n, d in rows)
+    return (f"<p>FMI {_e(v)}. One declaration builds four variants: <code>loomfmu build "
+            f"{_e(model.name)} --fmi-version 2|3 --interface cs|me|both</code> writes "
+            f"<code>{_e(model.name)}.fmu</code> for FMI 2.0 co-simulation and "
+            f"<code>{_e(model.name)}_fmi&lt;version&gt;_&lt;interface&gt;.fmu</code> for the "
+            "others (e.g. <code>_fmi3_me</code>).</p>"
+            + _table(["interface", "what it does"], [body]))
 
 
 def _about(model: Model) -> str:
@@ -431,23 +462,39 @@ _GROUPS = (("Parameters", lambda v, kind: v.get("causality") == "parameter"),
             and kind != "state"))
 
 
+def _model_variables(md: ET.Element) -> list[tuple[ET.Element, ET.Element]]:
+    """(variable, type element) of every variable: FMI 2.0's ScalarVariable
+    and its Real/Integer/Enumeration child; FMI 3.0's Float64/Int32/
+    Enumeration element twice (its tag is the type)."""
+    mv = md.find("ModelVariables")
+    if md.get("fmiVersion", "").startswith("3"):
+        return [(v, v) for v in mv]
+    return [(sv, next(iter(sv))) for sv in mv.findall("ScalarVariable")]
+
+
+def interfaces(md: ET.Element) -> list[str]:
+    """The interfaces the model description declares, in words."""
+    return [words for tag, words in (("CoSimulation", "Co-Simulation"),
+                                     ("ModelExchange", "Model Exchange"))
+            if md.find(tag) is not None]
+
+
 def _variables(model: Model, md: ET.Element) -> str:
     kinds = {v.name: v.kind for v in model.variables}
     settings = {s.name for s in SETTINGS}
-    svs = md.find("ModelVariables").findall("ScalarVariable")
-    out = [f"<p>Every ScalarVariable of modelDescription.xml ({len(svs)} in all), as the "
+    svs = _model_variables(md)
+    out = [f"<p>Every variable of modelDescription.xml ({len(svs)} in all), as the "
            "importer sees them. Ranges are enforced by the FMU: a parameter or state set "
            "outside its range is refused (fmi2Error and a log line); an input outside its "
            "range is taken with a warning (the model may not be valid there).</p>"]
     enums = {st.get("name"): {it.get("value"): it.get("name") for it in st.iter("Item")}
-             for st in md.iter("SimpleType")}
+             for st in (*md.iter("SimpleType"), *md.iter("EnumerationType"))}
     for title, pick in _GROUPS:
         rows = []
-        for sv in svs:
+        for sv, typ in svs:
             name = sv.get("name")
             if not pick(sv, kinds.get(name)):
                 continue
-            typ = next(iter(sv))
             start, unit = typ.get("start", ""), typ.get("unit", "")
             if typ.tag == "Enumeration":
                 items = enums.get(typ.get("declaredType"), {})
@@ -479,8 +526,7 @@ def _solver(md: ET.Element) -> str:
     tol = exp.get("tolerance") if exp is not None else None
     rows = [f'<tr><td class="name">{i}</td><td class="name">{_e(s)}</td>'
             f"<td>{_e(SOLVER_DESCRIPTIONS[s])}</td></tr>" for i, s in enumerate(SOLVERS, 1)]
-    starts = {sv.get("name"): next(iter(sv)).get("start")
-              for sv in md.find("ModelVariables").findall("ScalarVariable")}
+    starts = {sv.get("name"): typ.get("start") for sv, typ in _model_variables(md)}
     srows = [f'<tr><td class="name">{_e(s.name)}</td><td class="num">{_fmt(starts.get(s.name))}'
              f'</td><td>{_e(s.unit)}</td><td class="num">[{_fmt(s.min)}, {_fmt(s.max)}]</td>'
              f"<td>{_e(s.description)}</td></tr>" for s in SETTINGS]

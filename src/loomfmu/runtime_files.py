@@ -11,20 +11,30 @@ RUNTIME_DIR = Path(__file__).parent / "runtime"
 FACADE_PREFIX = {2: "lf_fmi2", 3: "lf_fmi3"}
 
 
+def _runtime_files(pattern: str, fmi_version) -> tuple[str, ...]:
+    if type(fmi_version) is not int or fmi_version not in FACADE_PREFIX:
+        raise ValueError(f"fmi_version = {fmi_version!r}; allowed: 2 or 3")
+    others = tuple(v for k, v in FACADE_PREFIX.items() if k != fmi_version)
+    return tuple(sorted(p.name for p in RUNTIME_DIR.glob(pattern)
+                        if not p.name.startswith(others)))
+
+
 def runtime_sources(fmi_version: int = 2) -> tuple[str, ...]:
     """The runtime's C sources an FMU of ``fmi_version`` compiles: the common
     ones and that version's facade (found in the folder, so that a new file
     needs no list kept by hand)."""
-    if fmi_version not in FACADE_PREFIX:
-        raise ValueError(f"fmi_version = {fmi_version!r}; allowed: 2 or 3")
-    others = tuple(v for k, v in FACADE_PREFIX.items() if k != fmi_version)
-    return tuple(sorted(p.name for p in RUNTIME_DIR.glob("lf_*.c")
-                        if not p.name.startswith(others)))
+    return _runtime_files("lf_*.c", fmi_version)
+
+
+def runtime_headers(fmi_version: int = 2) -> tuple[str, ...]:
+    """The runtime's headers an FMU of ``fmi_version`` ships: the common ones
+    and that version's facade headers (lf_fmi2*.h, lf_fmi3*.h)."""
+    return _runtime_files("lf_*.h", fmi_version)
 
 
 #: Sources of the shared runtime for FMI 2.0 (compiled with -Wall -Wextra -Werror).
 RUNTIME_SOURCES = runtime_sources(2)
-RUNTIME_HEADERS = tuple(sorted(p.name for p in RUNTIME_DIR.glob("lf_*.h")))
+RUNTIME_HEADERS = runtime_headers(2)
 
 # a definition at file scope of a global lf_ name: not static, not a type,
 # starting in column 0 (the runtime's style), followed by ( [ or =

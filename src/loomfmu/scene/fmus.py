@@ -19,7 +19,7 @@ from .declare import Component, Scene, declare_model
 
 
 #: files whose text goes into every FMU (the runtime) or makes its code
-_GENERATOR = ("codegen.py", "fmi2_xml.py", "builder.py", "ode.py")
+_GENERATOR = ("codegen.py", "fmi_xml.py", "fmi_structure.py", "builder.py", "ode.py")
 
 
 def _generator_text() -> str:

@@ -153,7 +153,7 @@ def interface_of_fmu(path: str | os.PathLike) -> Interface:
 def interface_of_model(model) -> Interface:
     """The interface of a declared model (loomfmu.declare.Model): its model
     description, generated without compiling, and its declared ports."""
-    from ..fmi2_xml import model_description
+    from ..fmi_xml import model_description
     from ..ode import dae_form
     xml = model_description(model, dae_form(model), "{00000000-0000-0000-0000-000000000000}",
                             ["model.c"])

@@ -23,7 +23,7 @@ import xml.etree.ElementTree as ET
 import zipfile
 from pathlib import Path
 
-from ..fmi2_xml import SOLVER_INDEX
+from ..fmi_xml import SOLVER_INDEX
 from .declare import Scene
 from .fmus import build_fmus
 
