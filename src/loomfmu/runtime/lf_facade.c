@@ -129,19 +129,6 @@ void lf_undo_restore(LfInstance *c, const LfSetUndo *u) {
     c->delay_interp = u->delay_interp;
 }
 
-/* ---- state derivatives ------------------------------------------------------------ */
-
-LfStatus lf_state_derivatives(LfInstance *c, double *dx) {
-    if (lf_prepare_initial(c) != LF_OK) return LF_ERROR;
-    if (lf_solve_w(c, c->t, &c->r[LF_VR_X0], c->w_tmp) != LF_OK) {
-        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: model equations cannot be solved (state "
-               "derivatives)", c->t);
-        return LF_ERROR;
-    }
-    memcpy(dx, c->w_tmp, sizeof(double) * LF_NX); /* w = [der(x); z] */
-    return LF_OK;
-}
-
 /* ---- FMU-state blobs ----------------------------------------------------------------- */
 
 LfBlob *lf_blob_alloc(LfInstance *c, LfBlob **list, size_t n) {

@@ -10,6 +10,7 @@
 #include <stddef.h>
 
 #include "lf_runtime.h"
+#include "lf_me.h" /* the model-exchange core: lf_state_derivatives, lf_me_* */
 
 /* ---- live instances (lock-free; instances may live in several threads) --- */
 
@@ -45,13 +46,6 @@ typedef struct {
 
 void lf_undo_save(const LfInstance *c, LfSetUndo *u);
 void lf_undo_restore(LfInstance *c, const LfSetUndo *u);
-
-/* ---- state derivatives ------------------------------------------------------- */
-
-/* der(x) at the instance's time and states (before initialization: at the
- * start values), with the inputs at that time; LF_ERROR (logged) if the
- * equations cannot be solved there. */
-LfStatus lf_state_derivatives(LfInstance *c, double *dx);
 
 /* ---- FMU states: blobs of lf_state_write's bytes in the instance's list ---- */
 

@@ -69,3 +69,12 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
         if (lf_output_derivative(inst, vr[i], &value[i]) != LF_OK) return fmi2Error;
     return fmi2OK;
 }
+
+/* ---- directional derivatives ------------------------------------------------ */
+
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference u[],
+                                        size_t nu, const fmi2ValueReference z[], size_t nz,
+                                        const fmi2Real dv[], fmi2Real dz[]) {
+    (void)u; (void)nu; (void)z; (void)nz; (void)dv; (void)dz;
+    return lf_fmi2_unsupported(c, "fmi2GetDirectionalDerivative");
+}

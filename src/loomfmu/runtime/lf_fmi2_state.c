@@ -12,45 +12,23 @@
 
 /* ---- FMU state (lf_state.c): blobs in the instance's list --------------- */
 
-#define STATE_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING | LF_ST_TERMINATED)
+#define STATE_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING | ME_RUNNING | LF_ST_TERMINATED)
 /* FMI 2.0, 2.1.3: after fmi2Error a stored state may be set again */
 #define RESTORE_STATES (STATE_STATES | LF_ST_ERROR)
 
-static StateBlob *blob_alloc(LfInstance *c, size_t n) {
-    StateBlob *b = NULL;
-    if (n <= (size_t)-1 - offsetof(StateBlob, data)) /* else the size wraps */
-        b = (StateBlob *)c->alloc.calloc(1, offsetof(StateBlob, data) + n);
-    if (!b) {
-        lf_log(c, LF_ERROR, LF_LOG_ERROR, "FMU state: out of memory (%lu bytes)",
-               (unsigned long)n);
-        return NULL;
-    }
-    b->n = n;
-    b->next = ENV(c)->states;
-    ENV(c)->states = b;
-    return b;
+static LfBlob *blob_alloc(LfInstance *c, size_t n) {
+    return lf_blob_alloc(c, &ENV(c)->states, n);
 }
 
 /* Where the instance's list holds `s`, or NULL (logged) if it is not one of
  * its states: never dereferences a pointer it did not make. */
-static StateBlob **find_state(LfInstance *c, const char *fn, fmi2FMUstate s) {
-    StateBlob **p = &ENV(c)->states;
-    while (*p && (void *)*p != s) p = &(*p)->next;
-    if (*p) return p;
-    lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: FMU state %p was not made by this "
-           "instance or was freed; nothing done", c->t, fn, s);
-    return NULL;
-}
-
-static void blob_free(LfInstance *c, StateBlob **at) {
-    StateBlob *b = *at;
-    *at = b->next;
-    c->alloc.free(b);
+static LfBlob **find_state(LfInstance *c, const char *fn, fmi2FMUstate s) {
+    return lf_blob_find(c, &ENV(c)->states, fn, s);
 }
 
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
     LfInstance *inst = (LfInstance *)c;
-    StateBlob **old = NULL, *b;
+    LfBlob **old = NULL, *b;
     size_t n;
     CHECK("fmi2GetFMUstate", STATE_STATES);
     if (!state) return lf_fmi2_null_arg(inst, "fmi2GetFMUstate", "FMUstate");
@@ -60,7 +38,7 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
         b = *old;
     } else {
         if (!(b = blob_alloc(inst, n))) return fmi2Error; /* *state left as it was */
-        if (*state) blob_free(inst, find_state(inst, "fmi2GetFMUstate", *state));
+        if (*state) lf_blob_free(inst, find_state(inst, "fmi2GetFMUstate", *state));
     }
     lf_state_write(inst, b->data);
     *state = b;
@@ -69,7 +47,7 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
 
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
     LfInstance *inst = (LfInstance *)c;
-    StateBlob **b;
+    LfBlob **b;
     CHECK("fmi2SetFMUstate", RESTORE_STATES);
     if (!state) return lf_fmi2_null_arg(inst, "fmi2SetFMUstate", "FMUstate");
     if (!(b = find_state(inst, "fmi2SetFMUstate", state))) return fmi2Error;
@@ -78,19 +56,19 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
 
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {
     LfInstance *inst = (LfInstance *)c;
-    StateBlob **b;
+    LfBlob **b;
     CHECK("fmi2FreeFMUstate", RESTORE_STATES);
     if (!state) return lf_fmi2_null_arg(inst, "fmi2FreeFMUstate", "FMUstate");
     if (!*state) return fmi2OK; /* FMI 2.0: a NULL state is ignored */
     if (!(b = find_state(inst, "fmi2FreeFMUstate", *state))) return fmi2Error;
-    blob_free(inst, b);
+    lf_blob_free(inst, b);
     *state = NULL;
     return fmi2OK;
 }
 
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *n) {
     LfInstance *inst = (LfInstance *)c;
-    StateBlob **b;
+    LfBlob **b;
     CHECK("fmi2SerializedFMUstateSize", RESTORE_STATES);
     if (!n) return lf_fmi2_null_arg(inst, "fmi2SerializedFMUstateSize", "size");
     if (!(b = find_state(inst, "fmi2SerializedFMUstateSize", state))) return fmi2Error;
@@ -101,7 +79,7 @@ fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_
 fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte bytes[],
                                  size_t n) {
     LfInstance *inst = (LfInstance *)c;
-    StateBlob **b;
+    LfBlob **b;
     CHECK("fmi2SerializeFMUstate", RESTORE_STATES);
     if (!bytes) return lf_fmi2_null_arg(inst, "fmi2SerializeFMUstate", "serializedState");
     if (!(b = find_state(inst, "fmi2SerializeFMUstate", state))) return fmi2Error;
@@ -123,7 +101,7 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte b
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t n,
                                    fmi2FMUstate *state) {
     LfInstance *inst = (LfInstance *)c;
-    StateBlob **old = NULL, *b;
+    LfBlob **old = NULL, *b;
     CHECK("fmi2DeSerializeFMUstate", RESTORE_STATES);
     if (!bytes) return lf_fmi2_null_arg(inst, "fmi2DeSerializeFMUstate", "serializedState");
     if (!state) return lf_fmi2_null_arg(inst, "fmi2DeSerializeFMUstate", "FMUstate");
@@ -139,7 +117,7 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size
         return fmi2Error;
     if (!(b = blob_alloc(inst, n))) return fmi2Error;
     memcpy(b->data, bytes, n);
-    if (*state) blob_free(inst, find_state(inst, "fmi2DeSerializeFMUstate", *state));
+    if (*state) lf_blob_free(inst, find_state(inst, "fmi2DeSerializeFMUstate", *state));
     *state = b;
     return fmi2OK;
 }

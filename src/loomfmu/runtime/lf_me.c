@@ -1,0 +1,289 @@
+/* loomfmu shared runtime: the model-exchange core (lf_me.h), independent of
+ * the FMI version.
+ *
+ * The importer's solver integrates; the FMU evaluates at the time and
+ * states the importer set: the unknowns w = [der(x); z] by lf_solve_w
+ * (closed form, or Newton for algebraic loops, as in co-simulation), the
+ * event indicators of the current modes (LF_FN_EVT), and in event mode the
+ * modes chosen again by the rules of co-simulation (lf_events.c).
+ *
+ * The reference signs of the indicators are c->e_old (part of the FMU
+ * state): set at the start, at every completed step without a sign change,
+ * after an event update and on entering continuous-time mode.  An event
+ * update chooses again the mode of every indicator whose sign differs from
+ * the reference.
+ *
+ * The solver of co-simulation is not used, but kept at (t, x) so that an
+ * FMU state taken in model exchange is consistent (lf_state.c checks it). */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "lf_internal.h"
+#include "lf_me.h"
+
+/* ---- checks ---------------------------------------------------------------- */
+
+static LfStatus bad_size(LfInstance *c, const char *fn, const char *what, size_t n,
+                         unsigned expected) {
+    lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: %s = %lu, expected %u (this FMU's "
+           "number); nothing done", c->t, fn, what, (unsigned long)n, expected);
+    return LF_ERROR;
+}
+
+static LfStatus null_array(LfInstance *c, const char *fn, const char *what) {
+    lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: %s is NULL; nothing done", c->t, fn,
+           what);
+    return LF_ERROR;
+}
+
+/* the array of n values the call reads or writes: present if n > 0 and n
+ * the model's count */
+static LfStatus check_array(LfInstance *c, const char *fn, const void *a, const char *what,
+                            size_t n, unsigned expected, const char *count) {
+    if (n != expected) return bad_size(c, fn, count, n, expected);
+    if (n > 0 && !a) return null_array(c, fn, what);
+    return LF_OK;
+}
+
+/* keep the (unused) co-simulation solver at the instance's (t, x) */
+static void sync_solver(LfInstance *c) {
+    if (c->solver_ready) lf_solver_reset(&c->solver, c->t, &c->r[LF_VR_X0]);
+}
+
+/* ---- delays: the history the importer's completed steps made ---------------- */
+
+/* time of the last sample of delay k's history (lf_delay.c's ring) */
+static double hist_last_time(const LfInstance *c, int k) {
+    long i = (c->hist_start[k] + c->hist_count[k] - 1) % LF_HIST_CAP;
+    return c->hist[((size_t)k * LF_HIST_CAP + (size_t)i) * 3];
+}
+
+LfStatus lf_me_delays_known(LfInstance *c, const char *fn) {
+    int k;
+    for (k = 0; k < LF_ND; k++) {
+        double s, last, eps = 8 * LF_EPS * fmax(1.0, fabs(c->t));
+        if (!(c->tau[k] > 0) || c->hist_count[k] == 0) continue; /* read now (tau = 0, start) */
+        s = c->t - c->tau[k];
+        last = hist_last_time(c, k);
+        if (s <= last + eps) continue;
+        lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
+               "t = %.17g: %s: delay %s needs its value at t - tau = %.17g, but the history "
+               "ends at t = %.17g (the last completed integrator step); model exchange "
+               "with delays needs a completed integrator step after every accepted step and "
+               "steps no longer than tau = %g s; nothing extrapolated", c->t, fn,
+               lf_model.delay_names[k], s, last, c->tau[k]);
+        return LF_DISCARD;
+    }
+    return LF_OK;
+}
+
+/* ---- values at (t, x) --------------------------------------------------------- */
+
+LfStatus lf_state_derivatives(LfInstance *c, double *dx) {
+    if (lf_prepare_initial(c) != LF_OK) return LF_ERROR;
+    if (lf_solve_w(c, c->t, &c->r[LF_VR_X0], c->w_tmp) != LF_OK) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: model equations cannot be solved (state "
+               "derivatives)", c->t);
+        return LF_ERROR;
+    }
+    memcpy(dx, c->w_tmp, sizeof(double) * LF_NX); /* w = [der(x); z] */
+    return LF_OK;
+}
+
+LfStatus lf_me_initialize(LfInstance *c) { return lf_initialize(c); }
+
+LfStatus lf_me_set_time(LfInstance *c, const char *fn, double t) {
+    if (!isfinite(t) || t < c->t_start) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: time = %g, expected a finite time "
+               ">= the start time %.17g; nothing set", c->t, fn, t, c->t_start);
+        return LF_ERROR;
+    }
+    c->t = t;
+    c->outputs_valid = 0;
+    sync_solver(c);
+    return LF_OK;
+}
+
+LfStatus lf_me_set_states(LfInstance *c, const char *fn, const double *x, size_t nx) {
+    int bad;
+    LfStatus st = check_array(c, fn, x, "x", nx, LF_NX, "nx");
+    if (st != LF_OK) return st;
+    bad = lf_first_nonfinite(x, nx);
+    if (bad >= 0) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: x[%d] (%s) = %g is not finite; "
+               "nothing set", c->t, fn, bad, lf_model.real_names[LF_VR_X0 + bad], x[bad]);
+        return LF_ERROR;
+    }
+    if (nx > 0) memcpy(&c->r[LF_VR_X0], x, sizeof(double) * nx);
+    c->outputs_valid = 0;
+    sync_solver(c);
+    return LF_OK;
+}
+
+LfStatus lf_me_get_states(LfInstance *c, const char *fn, double *x, size_t nx) {
+    LfStatus st = check_array(c, fn, x, "x", nx, LF_NX, "nx");
+    if (st != LF_OK) return st;
+    if (lf_prepare_initial(c) != LF_OK) return LF_ERROR;
+    if (nx > 0) memcpy(x, &c->r[LF_VR_X0], sizeof(double) * nx);
+    return LF_OK;
+}
+
+LfStatus lf_me_nominals(LfInstance *c, const char *fn, double *x_nominal, size_t nx) {
+    size_t i;
+    LfStatus st = check_array(c, fn, x_nominal, "x_nominal", nx, LF_NX, "nx");
+    if (st != LF_OK) return st;
+    for (i = 0; i < nx; i++) x_nominal[i] = 1.0;
+    return LF_OK;
+}
+
+/* the unknowns at (c->t, x), or LF_DISCARD with the time and `fn` */
+static LfStatus solve_here(LfInstance *c, const char *fn, const double *x, double *w) {
+    LfStatus st = lf_me_delays_known(c, fn);
+    if (st != LF_OK) return st;
+    if (lf_prepare_initial(c) != LF_OK) return LF_ERROR;
+    st = lf_solve_w(c, c->t, x, w);
+    if (st == LF_OK) return LF_OK;
+    lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: %s: the model equations cannot be "
+           "solved at these states and inputs; the importer may retry with a shorter step",
+           c->t, fn);
+    return LF_DISCARD;
+}
+
+LfStatus lf_me_derivatives(LfInstance *c, const char *fn, double *dx, size_t nx) {
+    LfStatus st = check_array(c, fn, dx, "derivatives", nx, LF_NX, "nx");
+    if (st != LF_OK) return st;
+    st = solve_here(c, fn, &c->r[LF_VR_X0], c->w_tmp);
+    if (st != LF_OK) return st;
+    /* Newton's next start (implicit models): the last solution */
+    if (LF_IMPLICIT) memcpy(c->w_cur, c->w_tmp, sizeof c->w_cur);
+    if (nx > 0) memcpy(dx, c->w_tmp, sizeof(double) * nx);
+    return LF_OK;
+}
+
+/* indicators at (c->t, x) into e */
+static LfStatus indicators_at(LfInstance *c, const char *fn, const double *x, double *e) {
+    LfStatus st;
+    if (LF_NE == 0) return LF_OK;
+    st = solve_here(c, fn, x, c->w_tmp);
+    if (st != LF_OK) return st;
+    if (lf_eval_fn(c, LF_FN_EVT, c->t, x, c->w_tmp, e, NULL, NULL) != LF_OK ||
+        lf_first_nonfinite(e, LF_NE) >= 0) {
+        lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: %s: event indicators not finite",
+               c->t, fn);
+        return LF_DISCARD;
+    }
+    return LF_OK;
+}
+
+LfStatus lf_me_event_indicators(LfInstance *c, const char *fn, double *e, size_t ne) {
+    LfStatus st = check_array(c, fn, e, "eventIndicators", ne, LF_NE, "ni");
+    if (st != LF_OK) return st;
+    return indicators_at(c, fn, &c->r[LF_VR_X0], e);
+}
+
+/* ---- validity conditions, completed steps, events --------------------------------- */
+
+/* Model.require at (c->t, x): where one fails, log it and ask to terminate */
+static LfStatus check_validity(LfInstance *c, const char *fn, int *terminate) {
+    double v[LF_DIM(LF_NV)];
+    int k;
+    LfStatus st;
+    if (LF_NV == 0) return LF_OK;
+    st = solve_here(c, fn, &c->r[LF_VR_X0], c->w_tmp);
+    if (st != LF_OK) return st;
+    if (lf_eval_fn(c, LF_FN_VLD, c->t, &c->r[LF_VR_X0], c->w_tmp, v, NULL, NULL) != LF_OK)
+        return LF_ERROR;
+    for (k = 0; k < LF_NV; k++)
+        if (!(v[k] >= 0)) {
+            lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "%s: %s: value %g at t = %.17g s; the model "
+                   "is not valid there (%s: terminateSimulation is true)",
+                   lf_model.validity_names[k], lf_model.validity_messages[k], v[k], c->t, fn);
+            c->wants_terminate = 1;
+            *terminate = 1;
+            return LF_OK;
+        }
+    return LF_OK;
+}
+
+static int crossed(double a, double b) { return (a > 0 && b <= 0) || (a < 0 && b >= 0); }
+
+LfStatus lf_me_completed_step(LfInstance *c, const char *fn, int *enter_event_mode,
+                              int *terminate) {
+    double e[LF_DIM(LF_NE)];
+    int k;
+    LfStatus st;
+    *enter_event_mode = 0;
+    *terminate = 0;
+    st = lf_me_delays_known(c, fn);
+    if (st != LF_OK) return st;
+    if (LF_ND > 0) {
+        st = lf_hist_push(c, c->t, &c->r[LF_VR_X0], 0);
+        if (st != LF_OK) return st;
+    }
+    st = check_validity(c, fn, terminate);
+    if (st != LF_OK) return st;
+    st = indicators_at(c, fn, &c->r[LF_VR_X0], e);
+    if (st != LF_OK) return st;
+    for (k = 0; k < LF_NE; k++)
+        if (crossed(c->e_old[k], e[k])) *enter_event_mode = 1;
+    /* a sign change keeps the reference: the event update looks for it */
+    if (!*enter_event_mode && LF_NE > 0) memcpy(c->e_old, e, sizeof(double) * LF_NE);
+    c->last_successful_time = c->t;
+    return LF_OK;
+}
+
+LfStatus lf_me_event_update(LfInstance *c, const char *fn, LfMeEventInfo *info) {
+    double e[LF_DIM(LF_NE)], x[LF_DIM(LF_NX)];
+    int k, any = 0, jump = 0, is_bp = 0;
+    LfStatus st;
+    memset(info, 0, sizeof *info);
+    st = indicators_at(c, fn, &c->r[LF_VR_X0], e);
+    if (st != LF_OK) return st;
+    if (LF_NX > 0) memcpy(x, &c->r[LF_VR_X0], sizeof(double) * LF_NX);
+    /* the mode of each indicator that changed sign, chosen again (then every
+     * mode made consistent, as after an event in co-simulation) */
+    for (k = 0; k < LF_NE; k++) {
+        int mode = lf_model.event_mode[k];
+        if (!crossed(c->e_old[k], e[k])) continue;
+        lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: %s: event %s", c->t, fn,
+               lf_model.event_names[k]);
+        any = 1;
+        if (mode < 0) continue;
+        jump = 1;
+        st = lf_consistent_modes(c, c->t, x, mode);
+        if (st != LF_OK) return st;
+    }
+    if (any) c->n_events++;
+    if (!jump && LF_NQ > 0) { /* an input set in event mode may call for other modes */
+        st = lf_consistent_modes(c, c->t, x, -1);
+        if (st != LF_OK) return st;
+    }
+    for (k = 0; k < LF_NX; k++)
+        if (x[k] != c->r[LF_VR_X0 + k]) info->states_changed = 1;
+    if (LF_NX > 0) memcpy(&c->r[LF_VR_X0], x, sizeof(double) * LF_NX);
+    c->outputs_valid = 0;
+    sync_solver(c);
+    if (LF_ND > 0) {
+        /* the point, unless a completed step gave it already and nothing jumped */
+        int have = 0;
+        for (k = 0; k < LF_ND; k++)
+            if (c->tau[k] > 0 && c->hist_count[k] > 0) have = hist_last_time(c, k) == c->t;
+        st = jump || !have ? lf_hist_push(c, c->t, &c->r[LF_VR_X0], jump) : LF_OK;
+        if (st != LF_OK) return st;
+        /* a jump of a delayed value: a time event for the importer */
+        info->next_time = lf_next_breakpoint(c, c->t, INFINITY, &is_bp);
+        info->next_time_defined = is_bp;
+    }
+    st = check_validity(c, fn, &info->terminate);
+    if (st != LF_OK) return st;
+    return lf_me_enter_continuous(c, fn);
+}
+
+LfStatus lf_me_enter_continuous(LfInstance *c, const char *fn) {
+    double e[LF_DIM(LF_NE)];
+    LfStatus st = indicators_at(c, fn, &c->r[LF_VR_X0], e);
+    if (st != LF_OK) return st;
+    if (LF_NE > 0) memcpy(c->e_old, e, sizeof(double) * LF_NE);
+    return LF_OK;
+}
