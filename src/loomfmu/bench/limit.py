@@ -37,8 +37,10 @@ DRIVER = Path(__file__).with_name("limit_driver.c")
 #: per method: (new right-hand-side evaluations per accepted step, Jacobians
 #: per accepted step) of the method itself: dopri5 has 7 stages of which the
 #: first is the previous step's last (FSAL); rodas4 evaluates f(t, x) and 5
-#: more stages and a fresh Jacobian at each step; rk4 has 4 stages.
-STAGES = {"dopri5": (6, 0), "rodas4": (6, 1), "rk4": (4, 0)}
+#: more stages and a fresh Jacobian at each step; rk4 has 4 stages;
+#: ros34pw2 (a W-method) 4, its first f(t, x) the previous step's last, and
+#: reuses its Jacobian over steps (None: the Jacobians the run evaluated).
+STAGES = {"dopri5": (6, 0), "rodas4": (6, 1), "rk4": (4, 0), "ros34pw2": (4, None)}
 #: the verification run's tolerances (loomfmu.verify.verify's defaults)
 RTOL, ATOL = 1e-6, 1e-9
 
@@ -92,7 +94,8 @@ def limit_seconds(c: dict) -> float | None:
     if c["solver"] not in STAGES:
         return None
     stages, jacs = STAGES[c["solver"]]
-    return c["steps"] * (stages * c["rhs_s"] + jacs * c["jac_s"])
+    jac_calls = c["jac"] if jacs is None else jacs * c["steps"]
+    return c["steps"] * stages * c["rhs_s"] + jac_calls * c["jac_s"]
 
 
 def fmpy_run(path: Path, md, *, stop: float, step: float, solver: str, rtol: float = RTOL,
@@ -219,7 +222,8 @@ outputs equal FMPy's bit for bit (`tests/test_bench_limit.py`).
 * **limit** = accepted steps × (new stages per step × RHS µs + Jacobians per
   step × Jac µs), with dopri5: 6 stages (7, the first reused from the previous
   step: FSAL), 0 Jacobians; rodas4: 6 (f(t, x) and 5 stages), 1 Jacobian;
-  rk4: 4, 0. The accepted steps are the run's own (the fewest the method took
+  rk4: 4, 0; ros34pw2 (Rosenbrock-W, Jacobian reused over steps): 4 (FSAL),
+  and the Jacobians the run evaluated. The accepted steps are the run's own (the fewest the method took
   at this tolerance with this communication grid); rejected steps, restarts
   after events and input changes, the LU factorizations and solves, event
   location, outputs and the step loop are all above the limit.
