@@ -115,7 +115,9 @@ def compile_binary(src: Path, out: Path, generated_c: list[str], cc: str = "gcc"
             objs.append(str(obj))
         out.parent.mkdir(parents=True, exist_ok=True)
         _check_symbols(objs, model_identifier=out.stem)
-        _run([cc, "-shared", "-o", str(out), *objs, "-lm"], src)
+        # --no-undefined: a facade function missing from the sources is a build error,
+        # not a library that fails to load in the importer
+        _run([cc, "-shared", "-Wl,--no-undefined", "-o", str(out), *objs, "-lm"], src)
 
 
 def _check_symbols(objs: list[str], model_identifier: str) -> None:
