@@ -5,6 +5,11 @@ A thin wrapper around ``loomfmu build`` (same options: ``python build_fmu.py
 --help``), kept because the README's first command runs it:
 
     python build_fmu.py [MODEL ...] [--out-dir dist] [--rtol 1e-6] [--max-error 1e-3]
+                        [--fmi-version 2|3] [--interface cs|me|both]
+
+The default is FMI 2.0 co-simulation into dist/<model>.fmu; other variants
+go to dist/<model>_fmi<version>_<interface>.fmu (same report.json, keyed by
+the FMU's name).
 
 Exits 1 if an FMU has a validation problem or if any solver's worst output
 misses the reference by more than --max-error (relative to the output's

@@ -74,6 +74,7 @@ def test_list_names_every_model_option_and_fidelity_level():
     (["build", "--rtol", "2"], "--rtol"),
     (["build", "--max-error", "-1"], "--max-error"),
     (["build", "--fmi-version", "5"], "--fmi-version"),
+    (["build", "--interface", "hil"], "--interface"),
     (["simulate", "no_such_model"], "allowed:"),
     (["simulate", "missing.fmu"], "does not exist"),
     (["simulate", "backrest", "--stop", "-1"], "--stop"),
@@ -196,6 +197,25 @@ def test_verify_an_fmu(built):
     res = run("verify", out / "heald_frame_rigid.fmu", "--solver", "rk4",
               "--max-error", "1e-300")
     assert res.returncode == 1 and "FAILED" in res.stderr
+
+
+def test_build_model_exchange_variant_is_named_reported_and_not_verified(tmp_path):
+    """--fmi-version/--interface: the variant's own file name and report key,
+    zero validation problems, no verification (model exchange is integrated
+    by the importer), and the default FMU name untouched."""
+    res = run("build", "heald_frame_rigid", "--fmi-version", "2", "--interface", "me",
+              "--out-dir", tmp_path)
+    assert res.returncode == 0, res.stderr
+    fmu = tmp_path / "heald_frame_rigid_fmi2_me.fmu"
+    assert fmu.exists() and not (tmp_path / "heald_frame_rigid.fmu").exists()
+    rep = json.loads((tmp_path / "report.json").read_text())["heald_frame_rigid_fmi2_me"]
+    assert rep["fmu"] == str(fmu) and rep["validation_problems"] == []
+    assert (rep["fmi_version"], rep["interface"]) == (2, "me")
+    assert "solvers" not in rep and "not run: model exchange" in rep["verification"]
+    assert "scipy reference" not in res.stderr
+    with zipfile.ZipFile(fmu) as z:
+        md = z.read("modelDescription.xml").decode()
+    assert "<ModelExchange" in md and "<CoSimulation" not in md
 
 
 def test_build_fmu_py_is_a_thin_wrapper():

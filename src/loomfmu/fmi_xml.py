@@ -64,7 +64,7 @@ FMI3_COMMON = {"needsExecutionTool": "false", "canBeInstantiatedOnlyOncePerProce
                "providesDirectionalDerivatives": "false", "providesAdjointDerivatives": "false"}
 FMI3_CS = {**FMI3_COMMON, "canHandleVariableCommunicationStepSize": "true",
            "maxOutputDerivativeOrder": "1", "providesIntermediateUpdate": "false",
-           "mightReturnEarlyFromDoStep": "false",
+           "mightReturnEarlyFromDoStep": "true",
            "canReturnEarlyAfterIntermediateUpdate": "false", "hasEventMode": "true"}
 FMI3_ME = {**FMI3_COMMON, "needsCompletedIntegratorStep": "true"}
 
