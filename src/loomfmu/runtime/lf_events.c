@@ -314,6 +314,64 @@ static LfStatus scan_events(LfInstance *c, double ta, const double *ga, double t
     return LF_OK;
 }
 
+/* The modes after event k at (t, x) without a solver: the event's own mode
+ * (if it has one) chosen first, then every mode made consistent; x is
+ * updated with the reinitialized states.  *changed (if not NULL): a mode
+ * or a state changed. */
+LfStatus lf_event_update(LfInstance *c, int k, double t, double *x, int *changed) {
+    double q0[LF_DIM(LF_NQ)], x0[LF_DIM(LF_NX)];
+    int touched = k >= 0 && k < LF_NE ? lf_model.event_mode[k] : -1;
+    LfStatus st;
+    memcpy(q0, c->q, sizeof q0);
+    memcpy(x0, x, sizeof(double) * LF_NX);
+    if (changed) *changed = 0;
+    if (LF_NQ == 0) return LF_OK;
+    if (touched >= 0) {
+        st = choose_mode(c, touched, t, x);
+        if (st != LF_OK) return st;
+    }
+    st = lf_consistent_modes(c, t, x, touched);
+    if (st != LF_OK) return st;
+    if (changed)
+        *changed = memcmp(q0, c->q, sizeof(double) * LF_NQ) != 0 ||
+                   memcmp(x0, x, sizeof(double) * LF_NX) != 0;
+    return LF_OK;
+}
+
+/* Event `first` at the solver's point (the root's new side, where cross_gap
+ * restarted it): modes, reinit, solver restart, the validity conditions at
+ * the restart (t_ok, x_ok, q_ok: the last point before the event) and the
+ * history. */
+static LfStatus apply_event(LfInstance *c, int first, double t_ok, const double *x_ok,
+                            const double *q_ok, int *changed) {
+    LfSolver *s = &c->solver;
+    LfStatus st;
+    c->n_events++;
+    if (changed) *changed = 0;
+    if (LF_NQ > 0) {
+        memcpy(c->x_tmp, s->x, sizeof(double) * LF_NX);
+        st = lf_event_update(c, first, s->t, c->x_tmp, changed);
+        if (st != LF_OK) return st;
+        lf_solver_reset(s, s->t, c->x_tmp);
+        st = lf_eval_events(c, s->t, s->x, c->e_old);
+        if (st != LF_OK) return st;
+    }
+    lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: event %s, solver restarted", s->t,
+           lf_model.event_names[first]);
+    st = lf_validity_restart(c, t_ok, x_ok, q_ok);
+    if (st != LF_OK) return st;
+    return lf_hist_push(c, s->t, s->x, lf_model.event_mode[first] >= 0);
+}
+
+LfStatus lf_apply_pending_event(LfInstance *c, int *changed) {
+    int k = c->event_index;
+    if (changed) *changed = 0;
+    if (!c->event_pending) return LF_OK;
+    c->event_pending = 0;
+    c->event_index = -1;
+    return apply_event(c, k, c->ev_t_ok, c->ev_x_ok, c->ev_q_ok, changed);
+}
+
 /* After an accepted step: find the earliest crossing (scan_events).  The
  * step is then redone from t_old to the root's old side, so that no stage
  * straddles the discontinuity (the dense output of the straddling step is
@@ -376,24 +434,18 @@ static LfStatus handle_events(LfInstance *c, double *h_bound) {
         if (st != LF_OK) return st;
         return lf_hist_push(c, s->t, s->x, 0);
     }
-    c->n_events++;
-    if (LF_NQ > 0) {
-        memcpy(c->x_tmp, s->x, sizeof(double) * LF_NX);
-        if (lf_model.event_mode[first] >= 0) {
-            st = choose_mode(c, lf_model.event_mode[first], s->t, c->x_tmp);
-            if (st != LF_OK) return st;
-        }
-        st = lf_consistent_modes(c, s->t, c->x_tmp, lf_model.event_mode[first]);
-        if (st != LF_OK) return st;
-        lf_solver_reset(s, s->t, c->x_tmp);
-        st = lf_eval_events(c, s->t, s->x, c->e_old);
-        if (st != LF_OK) return st;
+    if (c->stop_at_events) { /* early return: handled by lf_apply_pending_event */
+        c->event_pending = 1;
+        c->event_index = first;
+        c->t_event = s->t;
+        c->ev_t_ok = t_ok;
+        memcpy(c->ev_x_ok, x_ok, sizeof x_ok);
+        memcpy(c->ev_q_ok, q_ok, sizeof q_ok);
+        lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: event %s, step ends here (early return)",
+               s->t, lf_model.event_names[first]);
+        return LF_OK;
     }
-    lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: event %s, solver restarted", s->t,
-           lf_model.event_names[first]);
-    st = lf_validity_restart(c, t_ok, x_ok, q_ok);
-    if (st != LF_OK) return st;
-    return lf_hist_push(c, s->t, s->x, lf_model.event_mode[first] >= 0);
+    return apply_event(c, first, t_ok, x_ok, q_ok, NULL);
 }
 
 LfStatus lf_handle_events(LfInstance *c) {

@@ -5,6 +5,7 @@
 #define LF_INTERNAL_H
 
 #include "lf_runtime.h"
+#include "lf_step.h"
 
 #define LF_EPS 2.220446049250313e-16
 
@@ -35,6 +36,9 @@ LfStatus lf_eval_events(LfInstance *c, double t, const double *x, double *e);
 LfStatus lf_consistent_modes(LfInstance *c, double t, double *x, int touched);
 LfStatus lf_initial_modes(LfInstance *c);
 LfStatus lf_handle_events(LfInstance *c);
+/* early return (lf_step.h): perform the event located and deferred by
+ * lf_handle_events when c->stop_at_events is set (nothing pending: LF_OK) */
+LfStatus lf_apply_pending_event(LfInstance *c, int *changed);
 /* Scanning a function of time between samples (event indicators, validity
  * conditions; lf_events.c explains the rules): halves scanned again down to
  * LF_EVENT_SCAN_DEPTH levels where the quadratic through three samples

@@ -121,6 +121,19 @@ typedef struct {
     /* Fields added by one concern each (append only, inside your block). */
     /* -- codegen: parameter folding, directional derivatives -- */
     /* -- step loop: early return at events, known breaks -- */
+    /* early return (lf_step.h): with stop_at_events set (by the facade; not
+     * part of the FMU state) lf_do_step ends at the first event located in
+     * the step, on the root's new side with the modes before the event, and
+     * defers its handling to lf_handle_pending_event */
+    int stop_at_events;
+    int event_pending;              /* an event located, its handling deferred */
+    int event_index;                /* its indicator (-1: none pending) */
+    double t_event;                 /* its time (the solver's, on the new side) */
+    /* the last point before the event, where the validity conditions held
+     * (the step ends there if one fails across the event) */
+    double ev_t_ok;
+    double ev_x_ok[LF_DIM(LF_NX)];
+    double ev_q_ok[LF_DIM(LF_NQ)];
     /* -- model exchange -- */
     /* -- FMI 3.0 facade -- */
     /* -- solvers and statistics -- */

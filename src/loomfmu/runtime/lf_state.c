@@ -75,6 +75,14 @@ static void write_values(const LfInstance *c, LfStateValues *v) {
     v->seen_t = c->seen_t;
     v->wants_terminate = c->wants_terminate;
     v->solver_index = c->solver_index;
+    v->event_pending = c->solver_ready && c->event_pending;
+    v->event_index = v->event_pending ? c->event_index : -1;
+    if (v->event_pending) {
+        v->t_event = c->t_event;
+        v->ev_t_ok = c->ev_t_ok;
+        memcpy(v->ev_x_ok, c->ev_x_ok, sizeof v->ev_x_ok);
+        memcpy(v->ev_q_ok, c->ev_q_ok, sizeof v->ev_q_ok);
+    }
     v->t = c->t;
     v->t_start = c->t_start;
     v->t_stop = c->t_stop;
@@ -172,7 +180,8 @@ static int check_header(LfInstance *c, const unsigned char *buf, size_t n, LfSta
         return 0;
     }
     memcpy(h, buf, sizeof *h);
-    REQUIRE(h->magic == LF_STATE_MAGIC, "format tag", h->magic, "a loomfmu state (LFS4)");
+    REQUIRE(h->magic == LF_STATE_MAGIC, "format tag", h->magic,
+            "a loomfmu state of this version (LFS5)");
     memset(guid, 0, sizeof guid);
     strncpy(guid, lf_model.guid, sizeof guid - 1);
     if (memcmp(guid, h->guid, sizeof guid) != 0) {
@@ -290,6 +299,37 @@ static int check_modes_delays(LfInstance *c, const LfStateValues *v) {
     return 1;
 }
 
+static int is_mode_value(int k, double q) {
+    int j;
+    for (j = lf_model.mode_value_offset[k]; j < lf_model.mode_value_offset[k + 1]; j++)
+        if (q == lf_model.mode_values[j]) return 1;
+    return 0;
+}
+
+/* The pending event of an early return: at the state's time, after a
+ * solver started, its indicator one of this FMU's, the point before it
+ * (time, states, modes) finite and valid; none pending: all zero. */
+static int check_pending_event(LfInstance *c, const LfStateValues *v) {
+    int k;
+    REQUIRE(is_flag(v->event_pending), "event_pending", v->event_pending, "0 or 1");
+    if (!v->event_pending) {
+        REQUIRE(v->event_index == -1 && v->t_event == 0 && v->ev_t_ok == 0, "event_index",
+                v->event_index, "-1 (no event pending)");
+        return 1;
+    }
+    REQUIRE(v->solver_ready, "event_pending", v->event_pending, "0 before initialization");
+    REQUIRE(v->event_index >= 0 && v->event_index < LF_NE, "event_index", v->event_index,
+            "an event indicator of this FMU");
+    REQUIRE(v->t_event == v->t, "t_event", v->t_event, "the state's time t");
+    REQUIRE(isfinite(v->ev_t_ok) && v->ev_t_ok <= v->t_event && v->ev_t_ok >= v->t_start,
+            "time before the event", v->ev_t_ok, "finite, in [t_start, t_event]");
+    REQUIRE(all_finite(v->ev_x_ok, LF_DIM(LF_NX)), "states before the event", NAN, "finite");
+    for (k = 0; k < LF_NQ; k++)
+        REQUIRE(is_mode_value(k, v->ev_q_ok[k]), lf_model.mode_names[k], v->ev_q_ok[k],
+                "one of the mode's values (before the event)");
+    return 1;
+}
+
 static int check_solver(LfInstance *c, const LfStateHeader *h, const LfStateValues *v,
                         const double *work) {
     const LfSolverOptions *o = &v->s_opt;
@@ -399,6 +439,12 @@ static void apply_values(LfInstance *c, const LfStateValues *v, const double *hi
     c->seen_t = v->seen_t;
     c->wants_terminate = v->wants_terminate;
     c->solver_index = v->solver_index;
+    c->event_pending = v->event_pending;
+    c->event_index = v->event_index;
+    c->t_event = v->t_event;
+    c->ev_t_ok = v->ev_t_ok;
+    memcpy(c->ev_x_ok, v->ev_x_ok, sizeof v->ev_x_ok);
+    memcpy(c->ev_q_ok, v->ev_q_ok, sizeof v->ev_q_ok);
     c->u_poly = 0;
     for (k = 0; k < LF_NU; k++)
         if (c->u_d1[k] != 0 || c->u_d2[k] != 0) c->u_poly = 1;
@@ -434,7 +480,8 @@ LfStatus lf_state_read(LfInstance *c, const unsigned char *buf, size_t n) {
     int k;
     if (!check_header(c, buf, n, &h)) return LF_ERROR;
     memcpy(&v, buf + sizeof h, sizeof v);
-    if (!check_times(c, &v) || !check_flags(c, &v) || !check_modes_delays(c, &v))
+    if (!check_times(c, &v) || !check_flags(c, &v) || !check_modes_delays(c, &v) ||
+        !check_pending_event(c, &v))
         return LF_ERROR;
     for (k = 0; k < LF_ND; k++) hist_len += 3 * (size_t)v.hist_count[k];
     hist_len += (size_t)v.n_bp; /* the breakpoints follow the history */

@@ -13,7 +13,7 @@
 #include <stddef.h>
 #include "lf_runtime.h"
 
-#define LF_STATE_MAGIC 0x4C465334u /* "LFS4": input derivatives added */
+#define LF_STATE_MAGIC 0x4C465335u /* "LFS5": the pending event of an early return added */
 #define LF_STATE_GUID_LEN 64
 #define LF_FNV_OFFSET 0xcbf29ce484222325ULL
 #define LF_FNV_PRIME 0x100000001b3ULL
@@ -43,6 +43,10 @@ typedef struct {
     long max_steps, n_events, n_newton_fail;
     int solver_id, outputs_valid, inputs_changed, delay_interp, n_bp, solver_ready, state;
     int wants_terminate, solver_index;
+    /* an early return's pending event (lf_step.h) and the last point before it */
+    int event_pending, event_index;
+    double t_event, ev_t_ok;
+    double ev_x_ok[LF_DIM(LF_NX)], ev_q_ok[LF_DIM(LF_NQ)];
     /* solver fields (the work buffer follows separately) */
     double s_t, s_t_old, s_h;
     LfSolverOptions s_opt;

@@ -72,6 +72,8 @@ LfStatus lf_initialize(LfInstance *c) {
         return LF_ERROR;
     }
     c->solver_ready = 1;
+    c->event_pending = 0;
+    c->event_index = -1;
     c->inputs_changed = 0;
     lf_inputs_seen(c);
     c->outputs_valid = 0;
@@ -153,6 +155,44 @@ static LfStatus refuse_runaway(LfInstance *c, int i) {
  * readable (fmi2GetRealStatus(fmi2LastSuccessfulTime) tells the time). */
 static long solver_work(const LfSolver *s) { return s->n_steps + s->n_rejected; }
 
+/* The deferred event (lf_step.h), then what the step loop does after an
+ * event inside a step (the history up to the restart point), so that the
+ * trajectory is the one without early return. */
+static LfStatus run_pending_event(LfInstance *c, int *changed) {
+    LfStatus st = lf_apply_pending_event(c, changed);
+    if (st == LF_OK && LF_ND > 0) st = lf_hist_step(c);
+    return st;
+}
+
+LfStatus lf_handle_pending_event(LfInstance *c, int *values_changed) {
+    LfStatus st;
+    if (values_changed) *values_changed = 0;
+    if (!c->event_pending) return LF_OK;
+    st = run_pending_event(c, values_changed);
+    if (st != LF_OK)
+        return c->wants_terminate ? st : fail_step(c, st, "event handling failed");
+    memcpy(&c->r[LF_VR_X0], c->solver.x, sizeof(double) * LF_NX);
+    c->outputs_valid = 0;
+    return lf_update_outputs(c);
+}
+
+/* Early return: the step ends at the event just located (its handling
+ * deferred), the outputs there with the modes before it. */
+static LfStatus return_at_event(LfInstance *c) {
+    double w_keep[LF_DIM(LF_NW)];
+    LfStatus st;
+    memcpy(&c->r[LF_VR_X0], c->solver.x, sizeof(double) * LF_NX);
+    c->t = c->solver.t;
+    c->outputs_valid = 0;
+    /* Newton's start stays that of the step loop (as without early return) */
+    memcpy(w_keep, c->w_cur, sizeof w_keep);
+    st = lf_update_outputs(c);
+    memcpy(c->w_cur, w_keep, sizeof w_keep);
+    if (st != LF_OK) return st;
+    c->last_successful_time = c->t;
+    return LF_OK;
+}
+
 LfStatus lf_do_step(LfInstance *c, double t0, double h) {
     LfSolver *s = &c->solver;
     double t_end = t0 + h;
@@ -161,6 +201,11 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
     LfStatus st = lf_check_step(c, t0, h);
     if (st != LF_OK) return st;
     c->wants_terminate = 0;
+    if (c->event_pending) { /* returned early, the importer did not handle it */
+        st = run_pending_event(c, NULL);
+        if (st != LF_OK)
+            return c->wants_terminate ? st : fail_step(c, st, "event handling failed");
+    }
     if (c->inputs_changed || lf_inputs_moved(c)) {
         /* the inputs jump (or their derivatives change) here: modes made
          * invalid by the jump (a stuck joint now loaded beyond its static
@@ -195,6 +240,7 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
             st = lf_handle_events(c);
             if (st != LF_OK)
                 return c->wants_terminate ? st : fail_step(c, st, "event handling failed");
+            if (c->event_pending) return return_at_event(c);
         }
         if (LF_NV > 0) {
             st = lf_check_validity(c);

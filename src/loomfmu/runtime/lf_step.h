@@ -1,0 +1,41 @@
+/* loomfmu shared runtime: the step loop's interface for the FMI facades
+ * beyond lf_runtime.h: early return at events (FMI 3.0 co-simulation) and
+ * the event update without a solver (model exchange).
+ *
+ * Early return.  With c->stop_at_events = 1 (set by the facade, e.g. from
+ * earlyReturnAllowed; not part of the FMU state), lf_do_step ends the step
+ * at the first event located inside it and returns LF_OK with
+ * c->event_pending = 1, c->event_index = its indicator and c->t =
+ * c->last_successful_time = c->t_event: the solver's point on the root's
+ * new side (the indicator shows its new sign there, at most a gap of about
+ * 1e-12 * max(1, |t|) past the root), the states there, and the outputs
+ * there with the modes before the event.  lf_handle_pending_event then
+ * performs the event exactly as the step loop does it inside a step (modes
+ * chosen again, states reinitialized, solver restarted, the validity
+ * conditions at the restart, the delays' history), so a run with early
+ * returns follows the same trajectory as one without.  A pending event the
+ * importer does not handle is handled at the start of the next lf_do_step.
+ * Without events, stop_at_events changes nothing. */
+#ifndef LF_STEP_H
+#define LF_STEP_H
+
+#include "lf_runtime.h"
+
+/* Perform the pending event (none: LF_OK, *values_changed = 0) and update
+ * the outputs at c->t.  *values_changed (may be NULL): a mode or a state
+ * changed.  LF_ERROR: no consistent mode (logged; the instance stays at
+ * t_event, the event still pending is dropped).  LF_DISCARD with
+ * c->wants_terminate = 1: a validity condition fails across the event; as
+ * inside a step, the instance goes back to the last valid point before the
+ * event (c->t = c->last_successful_time = c->ev_t_ok, at most ~1e-12
+ * relative before t_event) and the simulation cannot go on. */
+LfStatus lf_handle_pending_event(LfInstance *c, int *values_changed);
+
+/* The modes after the event of indicator k (-1: none, e.g. an input jump)
+ * at (t, x), without a solver (model exchange): the event's own mode first,
+ * then every mode made consistent (lf_events.c); x is updated with the
+ * reinitialized states; *changed (may be NULL): a mode or a state changed.
+ * LF_ERROR (logged) if no value of some mode is consistent. */
+LfStatus lf_event_update(LfInstance *c, int k, double t, double *x, int *changed);
+
+#endif
