@@ -13,7 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "lf_facade.h"
+#include "lf_facade_ops.h"
 #include "lf_fmi3_internal.h"
 
 /* FMI 3.0's names of the interface states, in the order of the F3_ bits */
@@ -50,33 +50,10 @@ int lf_fmi3_state(LfInstance *inst) {
     }
 }
 
-/* the names of the states in `mask`, comma separated */
-static void state_list(int mask, char *buf, size_t size) {
-    int i;
-    size_t used = 0;
-    buf[0] = '\0';
-    for (i = 0; i < N_STATE_NAMES; i++) {
-        int n;
-        if (!(mask & (1 << i))) continue;
-        n = snprintf(buf + used, size - used, "%s%s", used ? ", " : "", state_names[i]);
-        if (n < 0 || (size_t)n >= size - used) return;
-        used += (size_t)n;
-    }
-}
-
 int lf_fmi3_allowed(fmi3Instance c, const char *fn, int mask) {
     LfInstance *inst = lf_fmi3_live(c);
-    char now[64], allowed[200];
-    int st;
     if (!inst) return 0; /* NULL, freed or not an instance: nothing to log through */
-    st = lf_fmi3_state(inst);
-    if (st & mask) return 1;
-    state_list(st, now, sizeof now);
-    state_list(mask, allowed, sizeof allowed);
-    lf_log(inst, LF_ERROR, LF_LOG_ERROR,
-           "t = %.17g: %s must not be called in state %s; allowed in: %s", inst->t, fn, now,
-           allowed);
-    return 0;
+    return lf_check_state(inst, fn, lf_fmi3_state(inst), mask, state_names, N_STATE_NAMES);
 }
 
 int lf_fmi3_interface(LfInstance *inst, const char *fn, F3Interface kind) {
@@ -112,39 +89,11 @@ fmi3Status lf_fmi3_fail(LfInstance *inst, LfStatus st) {
 
 const char *fmi3GetVersion(void) { return fmi3Version; }
 
-static int category_index(const char *name) {
-    int k;
-    for (k = 0; name && k < LF_N_LOG; k++)
-        if (strcmp(name, lf_log_category_names[k]) == 0) return k;
-    return -1;
-}
-
 fmi3Status fmi3SetDebugLogging(fmi3Instance c, fmi3Boolean loggingOn, size_t n,
                                const fmi3String categories[]) {
-    LfInstance *inst = (LfInstance *)c;
-    size_t i;
-    int k;
     CHECK3("fmi3SetDebugLogging", F3_ANY);
-    if (n == 0) {
-        for (k = 0; k < LF_N_LOG; k++) inst->log_on[k] = loggingOn;
-        return fmi3OK;
-    }
-    if (!categories)
-        return lf_fmi3_null_arg(inst, "fmi3SetDebugLogging", "categories (with nCategories > 0)");
-    if (n > LF_N_LOG * 16) {
-        lf_log(inst, LF_ERROR, LF_LOG_ERROR, "fmi3SetDebugLogging: nCategories = %lu, expected "
-               "at most %d (the FMU has %d categories)", (unsigned long)n, LF_N_LOG * 16,
-               LF_N_LOG);
-        return fmi3Error;
-    }
-    for (i = 0; i < n; i++) /* all known, or nothing changes */
-        if (category_index(categories[i]) < 0) {
-            lf_log(inst, LF_ERROR, LF_LOG_ERROR, "fmi3SetDebugLogging: unknown category %s",
-                   categories[i] ? categories[i] : "(null)");
-            return fmi3Error;
-        }
-    for (i = 0; i < n; i++) inst->log_on[category_index(categories[i])] = loggingOn;
-    return fmi3OK;
+    return lf_set_debug_logging((LfInstance *)c, "fmi3SetDebugLogging", loggingOn, n,
+                                categories) == LF_OK ? fmi3OK : fmi3Error;
 }
 
 /* ---- instances ------------------------------------------------------------ */
@@ -254,7 +203,8 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance c) {
     CHECK3("fmi3ExitInitializationMode", F3_INIT);
     e = ENV3(inst);
     warned = lf_log_rtol_override(inst, e->rtol_set, "fmi3EnterInitializationMode");
-    if (lf_initialize(inst) != LF_OK) return lf_fmi3_fail(inst, LF_ERROR);
+    if ((e->kind == F3_ME ? lf_me_initialize(inst) : lf_initialize(inst)) != LF_OK)
+        return lf_fmi3_fail(inst, LF_ERROR);
     inst->state = LF_ST_STEP_COMPLETE;
     e->events_seen = inst->n_events;
     /* FMI 3.0: model exchange and co-simulation with eventModeUsed go to
@@ -278,6 +228,7 @@ fmi3Status fmi3Reset(fmi3Instance c) {
     CHECK3("fmi3Reset", F3_ANY);
     e = ENV3(inst);
     lf_reset_values(inst);
+    inst->stop_at_events = e->event_mode_used && e->early_return_allowed; /* configuration */
     e->rtol_set = 0;
     e->in_event_mode = e->in_cont_mode = 0;
     e->events_seen = 0;

@@ -1,22 +1,31 @@
 /* loomfmu shared runtime: FMI 3.0 co-simulation (fmi3DoStep with the
  * runtime's embedded solvers), event mode, output derivatives.
  *
- * Events located inside a step are handled inside it (the mode switch and
- * the states' reinitialization at the located time), as in FMI 2.0.  With
- * eventModeUsed the importer learns of them: fmi3DoStep sets
- * eventHandlingNeeded when an event happened in the step; the importer then
- * enters event mode (fmi3EnterEventMode), where fmi3UpdateDiscreteStates
- * reports that nothing is left to update (valuesOfContinuousStatesChanged
- * says that the event changed states) and may set inputs, and returns with
- * fmi3EnterStepMode.  The model description declares
- * mightReturnEarlyFromDoStep="false": every step ends at its end time (or
- * is discarded at lastSuccessfulTime). */
+ * Without eventModeUsed, events located inside a step are handled inside it
+ * (the mode switch and the states' reinitialization at the located time),
+ * as in FMI 2.0.
+ *
+ * With eventModeUsed and earlyReturnAllowed (mightReturnEarlyFromDoStep is
+ * true), fmi3DoStep returns at the first event located inside the step
+ * (lf_step.h: stop_at_events): earlyReturn, eventHandlingNeeded,
+ * lastSuccessfulTime = the event time, outputs there with the modes before
+ * the event.  The importer enters event mode (fmi3EnterEventMode), where
+ * fmi3UpdateDiscreteStates performs the event (modes chosen again, states
+ * reinitialized: valuesOfContinuousStatesChanged) and may set inputs, and
+ * returns with fmi3EnterStepMode; the next fmi3DoStep starts at the event
+ * time.  The trajectory is the same as without early return.
+ *
+ * With eventModeUsed but no early return, events are handled inside the
+ * step and fmi3DoStep sets eventHandlingNeeded when one happened, so that
+ * the importer learns of it (fmi3UpdateDiscreteStates then has nothing
+ * left to update). */
 #include <math.h>
 #include <stdio.h>
 
 #include "lf_build.h"
 #include "lf_facade.h"
 #include "lf_fmi3_internal.h"
+#include "lf_step.h"
 
 fmi3Instance fmi3InstantiateCoSimulation(
     fmi3String instanceName, fmi3String instantiationToken, fmi3String resourcePath,
@@ -43,6 +52,8 @@ fmi3Instance fmi3InstantiateCoSimulation(
     if (!c) return NULL;
     ENV3(c)->event_mode_used = eventModeUsed ? 1 : 0;
     ENV3(c)->early_return_allowed = earlyReturnAllowed ? 1 : 0;
+    /* return early at events only to an importer that handles them in event mode */
+    c->stop_at_events = eventModeUsed && earlyReturnAllowed;
     return c;
 }
 
@@ -64,22 +75,26 @@ fmi3Status fmi3EnterEventMode(fmi3Instance c) {
     return fmi3OK;
 }
 
-/* Co-simulation: the events of the last steps were handled inside them;
- * nothing is left to iterate. */
+/* Co-simulation: the pending event of an early return is performed here;
+ * events of steps without early return were handled inside them.  The
+ * modes settle in one call: nothing is left to iterate. */
 static fmi3Status cs_update_discrete_states(LfInstance *inst, fmi3Boolean *need_update,
                                             fmi3Boolean *terminate,
                                             fmi3Boolean *nominals_changed,
                                             fmi3Boolean *values_changed,
                                             fmi3Boolean *next_defined, fmi3Float64 *next) {
     Fmi3Env *e = ENV3(inst);
+    int changed = 0;
+    LfStatus st = lf_handle_pending_event(inst, &changed);
     *need_update = fmi3False;
     *terminate = inst->wants_terminate ? fmi3True : fmi3False;
     *nominals_changed = fmi3False;
-    *values_changed = inst->n_events > e->events_seen ? fmi3True : fmi3False;
+    *values_changed = changed || inst->n_events > e->events_seen ? fmi3True : fmi3False;
     *next_defined = fmi3False;
     *next = 0.0;
     e->events_seen = inst->n_events;
-    return fmi3OK;
+    if (st == LF_DISCARD) return fmi3Discard; /* validity failed: terminateSimulation */
+    return st == LF_OK ? fmi3OK : lf_fmi3_fail(inst, st);
 }
 
 fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *discreteStatesNeedUpdate,
@@ -139,12 +154,21 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h,
     /* an invalid call (bad step, past stopTime) is refused and changes nothing */
     if (!lf_step_integrable(inst, fn, t, h) || lf_check_step(inst, t, h) != LF_OK)
         return fmi3Error;
+    if (inst->event_pending && e->event_mode_used) {
+        lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: the event at t = %.17g is not "
+               "handled yet: call fmi3EnterEventMode and fmi3UpdateDiscreteStates first; step "
+               "refused, nothing changed", inst->t, fn, inst->t_event);
+        return fmi3Error;
+    }
     st = lf_do_step(inst, t, h);
-    *earlyReturn = fmi3False;
     *lastSuccessfulTime = inst->last_successful_time;
     *terminateSimulation = inst->wants_terminate ? fmi3True : fmi3False;
-    *eventHandlingNeeded =
-        e->event_mode_used && inst->n_events > e->events_seen ? fmi3True : fmi3False;
+    /* an early return: at a pending event, or where a validity condition failed */
+    *earlyReturn = inst->stop_at_events && inst->last_successful_time < t + h &&
+                   (inst->event_pending || inst->wants_terminate) ? fmi3True : fmi3False;
+    *eventHandlingNeeded = e->event_mode_used && (inst->event_pending ||
+                                                  inst->n_events > e->events_seen)
+                               ? fmi3True : fmi3False;
     if (!e->event_mode_used) e->events_seen = inst->n_events;
     if (st == LF_DISCARD) inst->state = LF_ST_STEP_FAILED;
     else if (st != LF_OK && st != LF_WARNING) return lf_fmi3_fail(inst, st);

@@ -7,8 +7,9 @@
  * runtime's Real vr (lf_model.h), der(x_k) = LF_NREAL + k, the Integers
  * (Int32 for the modes and solver_index, Int64 for the Enumerations
  * `solver` and `delay_interpolation`) = LF_NREAL + LF_NX + the runtime's
- * Integer vr; the independent variable `time` (Float64, read only) comes
- * after them. */
+ * Integer vr; then the independent variable `time` and the event
+ * indicators (model exchange's `event_indicator.<event>`), Float64, read
+ * only. */
 #ifndef LF_FMI3_INTERNAL_H
 #define LF_FMI3_INTERNAL_H
 
@@ -22,6 +23,7 @@
 #define F3_VR_DER0 ((unsigned)LF_NREAL)
 #define F3_VR_INT0 ((unsigned)(LF_NREAL + LF_NX))
 #define F3_VR_TIME ((unsigned)(LF_NREAL + LF_NX + LF_N_INTEGER))
+#define F3_VR_EVT0 (F3_VR_TIME + 1u)
 
 /* The FMI 3.0 interface states, as bits so that each call checks a mask.
  * The runtime's LfState says where the instance is in its life cycle; the

@@ -11,7 +11,7 @@
 #include <stddef.h>
 #include <stdio.h>
 
-#include "lf_facade.h"
+#include "lf_facade_ops.h"
 #include "lf_fmi3_internal.h"
 
 /* FMI 3.0: values are read from initialization mode on; inputs are set in
@@ -63,17 +63,19 @@ int lf_fmi3_check_vrs(LfInstance *c, const char *fn, const fmi3ValueReference vr
 
 /* ---- Float64 ------------------------------------------------------------- */
 
-/* A Float64 value reference: a Real, a state derivative or time (the
- * Integers' references lie between those and time). */
+/* A Float64 value reference: a Real, a state derivative, time or an event
+ * indicator (the Integers' references lie between the derivatives and
+ * time). */
 static int float64_vrs(LfInstance *c, const char *fn, const fmi3ValueReference vr[],
                        size_t nvr, const void *values, size_t n_values) {
     size_t i;
-    if (!lf_fmi3_check_vrs(c, fn, vr, nvr, values, n_values, 0, F3_VR_TIME + 1)) return 0;
+    if (!lf_fmi3_check_vrs(c, fn, vr, nvr, values, n_values, 0, F3_VR_EVT0 + LF_NE)) return 0;
     for (i = 0; i < nvr; i++)
         if (vr[i] >= F3_VR_INT0 && vr[i] < F3_VR_TIME) {
             lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: valueReferences[%lu] = %u is not "
-                   "a Float64 (Float64: 0 ... %u and time = %u); no value read or written", c->t,
-                   fn, (unsigned long)i, (unsigned)vr[i], F3_VR_INT0 - 1, F3_VR_TIME);
+                   "a Float64 (Float64: 0 ... %u, and %u ... %u: time and the event indicators); "
+                   "no value read or written", c->t, fn, (unsigned long)i, (unsigned)vr[i],
+                   F3_VR_INT0 - 1, F3_VR_TIME, F3_VR_EVT0 + LF_NE - 1);
             return 0;
         }
     return 1;
@@ -83,8 +85,8 @@ fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
                           fmi3Float64 values[], size_t nValues) {
     LfInstance *inst = (LfInstance *)c;
     size_t i;
-    int have_der = 0;
-    double der[LF_DIM(LF_NX)];
+    int have_der = 0, have_evt = 0;
+    double der[LF_DIM(LF_NX)], evt[LF_DIM(LF_NE)];
     CHECK3("fmi3GetFloat64", GET_STATES);
     if (!float64_vrs(inst, "fmi3GetFloat64", vr, nvr, values, nValues)) return fmi3Error;
     for (i = 0; i < nvr; i++) {
@@ -92,6 +94,13 @@ fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
             if (lf_get_real(inst, vr[i], &values[i]) != LF_OK) return fmi3Error;
         } else if (vr[i] == F3_VR_TIME) {
             values[i] = inst->t;
+        } else if (vr[i] >= F3_VR_EVT0) {
+            if (!have_evt) { /* the indicators at the instance's time and states */
+                if (lf_me_event_indicators(inst, "fmi3GetFloat64", evt, LF_NE) != LF_OK)
+                    return fmi3Error;
+                have_evt = 1;
+            }
+            values[i] = evt[vr[i] - F3_VR_EVT0];
         } else {
             if (!have_der) { /* der(x) at the instance's time and states, once per call */
                 if (lf_state_derivatives(inst, der) != LF_OK) return fmi3Error;
@@ -106,10 +115,8 @@ fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
 fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
                           const fmi3Float64 values[], size_t nValues) {
     LfInstance *inst = (LfInstance *)c;
-    LfSetUndo u;
     size_t i;
-    int rtol_set = 0;
-    fmi3Status worst = fmi3OK;
+    LfStatus st;
     CHECK3("fmi3SetFloat64", SET_STATES);
     if (!float64_vrs(inst, "fmi3SetFloat64", vr, nvr, values, nValues)) return fmi3Error;
     for (i = 0; i < nvr; i++)
@@ -117,21 +124,12 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
             lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: fmi3SetFloat64: "
                    "valueReferences[%lu] = %u is %s (cannot be set); no value written",
                    inst->t, (unsigned long)i, (unsigned)vr[i],
-                   vr[i] == F3_VR_TIME ? "time, the independent variable" : "a state derivative");
+                   vr[i] == F3_VR_TIME ? "time, the independent variable"
+                   : vr[i] >= F3_VR_EVT0 ? "an event indicator" : "a state derivative");
             return fmi3Error;
         }
-    lf_undo_save(inst, &u);
-    for (i = 0; i < nvr; i++) {
-        LfStatus st = lf_set_real(inst, vr[i], values[i]);
-        if (st > LF_WARNING) {
-            lf_undo_restore(inst, &u);
-            return fmi3Error;
-        }
-        if (st == LF_WARNING) worst = fmi3Warning;
-        if (vr[i] == LF_SET_RTOL) rtol_set = 1;
-    }
-    if (rtol_set) ENV3(inst)->rtol_set = 1;
-    return worst;
+    st = lf_set_reals(inst, vr, nvr, values, &ENV3(inst)->rtol_set);
+    return st == LF_OK ? fmi3OK : st == LF_WARNING ? fmi3Warning : fmi3Error;
 }
 
 /* ---- Int32 (modes, solver_index) and Int64 (Enumerations) ----------------- */

@@ -1,0 +1,351 @@
+"""The FMI 3.0 facade (runtime/lf_fmi3*.c): co-simulation with event mode and
+early return, model exchange, FMU states, misuse.
+
+Oracles: the FMI 2.0 co-simulation run of the same declaration (the same
+runtime behind another facade: co-simulation agrees to rounding; model
+exchange, integrated by FMPy's CVode, to the solvers' tolerances), and the
+runtime's own event log (logEvents: the located time of every mode switch),
+which early returns must reproduce.
+"""
+from __future__ import annotations
+
+import ctypes
+import re
+
+import numpy as np
+import pytest
+from fmpy import extract, read_model_description, simulate_fmu
+from fmpy.fmi3 import FMU3Model, FMU3Slave, fmi3Boolean, fmi3Float64
+from fmpy.validation import validate_fmu
+
+from loomfmu import build_fmu, load_model
+
+#: events and stick/slip modes (backrest); inputs with direct feedthrough
+#: (two_mass_force)
+MODELS = ("backrest", "two_mass_force")
+OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
+STOP = 0.5
+COMM = 0.01
+
+
+@pytest.fixture(scope="module")
+def fmus(tmp_path_factory):
+    d = tmp_path_factory.mktemp("fmi3")
+    out = {}
+    for name in MODELS:
+        model = load_model(name)
+        out[name, 2] = build_fmu(model, out_dir=d / "fmi2", fmi_version=2)
+        # two_mass_force: co-simulation only (model exchange is refused)
+        out[name, 3] = build_fmu(model, out_dir=d / "fmi3", fmi_version=3,
+                                 interface="both" if name == "backrest" else "cs")
+    return out
+
+
+def _event_times(log):
+    """Times of the runtime's mode switches (logEvents lines)."""
+    return [float(m.group(1)) for m in
+            (re.match(r"t = (\S+): mode .* -> ", msg) for msg in log) if m]
+
+
+class Inst3:
+    """An FMI 3 instance driven call by call: raw calls give the status,
+    the log is kept."""
+
+    def __init__(self, path, kind="cs", name="inst", **flags):
+        self.md = read_model_description(str(path))
+        self.unzipdir = extract(str(path))
+        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.log: list[tuple[int, str, str]] = []
+
+        def log(env, status, category, message):
+            self.log.append((status, category.decode(), message.decode()))
+
+        cls = FMU3Slave if kind == "cs" else FMU3Model
+        ident = (self.md.coSimulation if kind == "cs" else self.md.modelExchange).modelIdentifier
+        self.fmu = cls(guid=self.md.instantiationToken, unzipDirectory=self.unzipdir,
+                       modelIdentifier=ident, instanceName=name)
+        if kind == "cs":
+            self.fmu.instantiate(logMessage=log, loggingOn=True, **flags)
+        else:
+            self.fmu.instantiate(logMessage=log, loggingOn=True)
+        self.c = self.fmu.component
+
+    def raw(self, fn, *args):
+        return getattr(self.fmu.dll, fn)(self.c, *args)
+
+    def errors(self):
+        return [m for s, _, m in self.log if s >= ERROR]
+
+    def do_step(self, t, h):
+        flags = [fmi3Boolean() for _ in range(3)]
+        last = fmi3Float64()
+        st = self.raw("fmi3DoStep", t, h, True, *(ctypes.byref(f) for f in flags),
+                      ctypes.byref(last))
+        return st, [f.value for f in flags], last.value
+
+    def free(self):
+        self.fmu.freeInstance()
+
+
+@pytest.fixture
+def instances():
+    made = []
+
+    def make(*args, **kw):
+        made.append(Inst3(*args, **kw))
+        return made[-1]
+
+    yield make
+    for i in made:
+        try:
+            i.free()
+        except Exception:
+            pass
+
+
+@pytest.mark.parametrize("name", MODELS)
+def test_fmi3_fmus_validate(fmus, name):
+    assert fmus[name, 3].problems == []
+    assert list(validate_fmu(str(fmus[name, 3].path))) == []
+
+
+def _outputs(md):
+    return [v.name for v in md.modelVariables if v.causality == "output"]
+
+
+@pytest.mark.parametrize("event_mode", [False, True], ids=["step-mode", "event-mode"])
+@pytest.mark.parametrize("name", MODELS)
+def test_cs_equals_fmi2_cs(fmus, name, event_mode):
+    """Same runtime, same solver: the FMI 3 co-simulation run through FMPy
+    equals the FMI 2 one to rounding at the communication points, also with
+    event mode and early return (the importer then stops at every event
+    inside a step: extra rows, the same trajectory)."""
+    md = read_model_description(str(fmus[name, 2].path))
+    names = _outputs(md)
+    r2 = simulate_fmu(str(fmus[name, 2].path), stop_time=STOP, output_interval=COMM,
+                      output=names)
+    r3 = simulate_fmu(str(fmus[name, 3].path), stop_time=STOP, output_interval=COMM,
+                      output=names, fmi_type="CoSimulation", use_event_mode=event_mode,
+                      early_return_allowed=event_mode)
+    t3 = r3["time"]
+    at_grid = np.isin(t3, r2["time"]) & np.r_[True, np.diff(t3) > 0]
+    assert np.array_equal(t3[at_grid], r2["time"])
+    if event_mode and name == "backrest":
+        assert len(r3) > len(r2)  # stopped at events inside the steps
+    for n in names:
+        np.testing.assert_allclose(r3[n][at_grid], r2[n], rtol=1e-12, atol=1e-12, err_msg=n)
+
+
+def test_me_agrees_with_fmi2_cs(fmus):
+    """FMPy's CVode (rtol 1e-8) integrates the FMI 3 model exchange FMU: the
+    outputs agree with our FMI 2 co-simulation (solver_rtol 1e-6) to the
+    tolerances' scale (measured: 3.6e-6 of each output's range), the
+    stick/slip switch times to FMPy's event location (measured: 3e-8 s)."""
+    name = "backrest"
+    names = ["phi1_out", "phi2_out", "omega1_out", "omega2_out", "S1", "S2"]
+    log2 = []
+    r2 = simulate_fmu(str(fmus[name, 2].path), stop_time=STOP, output_interval=COMM,
+                      output=names, debug_logging=True,
+                      logger=lambda c, n, s, cat, msg: log2.append(msg.decode()))
+    r3 = simulate_fmu(str(fmus[name, 3].path), stop_time=STOP, output_interval=COMM,
+                      output=names, fmi_type="ModelExchange", relative_tolerance=1e-8)
+    for n in names:
+        y3 = np.interp(r2["time"], r3["time"], r3[n])
+        assert np.max(np.abs(y3 - r2[n])) < 2e-5 * np.max(np.abs(r2[n])), n
+    t3 = r3["time"]
+    t_events_me = t3[1:][np.diff(t3) == 0]  # FMPy records every event twice
+    t_fmi2 = _event_times(log2)
+    assert len(t_fmi2) >= 4
+    np.testing.assert_allclose(t_events_me, t_fmi2, rtol=0, atol=1e-6)
+
+
+def test_early_return_reproduces_the_event_times(fmus, instances):
+    """Backrest stick/slip, by hand through fmi3.FMU3Slave with eventModeUsed
+    and earlyReturnAllowed: every early return lands on a mode switch the
+    FMI 2 run located at the same time (its log), and the outputs at the
+    communication points agree with the FMI 2 run."""
+    path2, path3 = fmus["backrest", 2].path, fmus["backrest", 3].path
+    log2 = []
+    r2 = simulate_fmu(str(path2), stop_time=STOP, output_interval=COMM, debug_logging=True,
+                      logger=lambda c, n, s, cat, msg: log2.append(msg.decode()),
+                      output=["phi1_out", "omega1_out"])
+    t_fmi2 = _event_times(log2)
+    assert len(t_fmi2) >= 4  # stick/slip switches in the first half second
+
+    s = instances(path3, "cs", eventModeUsed=True, earlyReturnAllowed=True)
+    f = s.fmu
+    f.enterInitializationMode(startTime=0.0, stopTime=STOP)
+    f.exitInitializationMode()
+    assert f.updateDiscreteStates()[0] is False
+    f.enterStepMode()
+    t, early, y = 0.0, [], {}
+    k = 1
+    while k * COMM <= STOP + 1e-12:
+        target = k * COMM
+        st, (event, terminate, early_return), last = s.do_step(t, target - t)
+        assert st == OK, s.errors()
+        assert not terminate
+        t = last
+        if early_return:
+            assert event and last < target
+            early.append(last)
+        if event:
+            f.enterEventMode()
+            need, _, _, _, _, _ = f.updateDiscreteStates()
+            assert need is False
+            f.enterStepMode()
+        if not early_return:
+            y[k] = f.getFloat64([s.vr["phi1_out"], s.vr["omega1_out"]])
+            k += 1
+    t_fmi3 = _event_times(m for _, _, m in s.log)
+    assert t_fmi3 == pytest.approx(t_fmi2, rel=1e-9, abs=1e-12)
+    # one early return per located switch, at its time
+    assert early == pytest.approx(t_fmi2, rel=1e-9, abs=1e-12)
+    ys = np.array([y[k] for k in sorted(y)])
+    np.testing.assert_allclose(ys[:, 0], r2["phi1_out"][1:len(ys) + 1], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(ys[:, 1], r2["omega1_out"][1:len(ys) + 1], rtol=1e-9,
+                               atol=1e-9)
+
+
+def test_fmu_state_round_trip(fmus, instances):
+    """Get, serialize, deserialize and set a state: the steps after it are
+    taken again with the same results."""
+    s = instances(fmus["backrest", 3].path, "cs")
+    f = s.fmu
+    f.enterInitializationMode(startTime=0.0)
+    f.exitInitializationMode()
+    for k in range(5):
+        f.doStep(k * COMM, COMM)
+    state = f.getFMUState()
+    blob = f.serializeFMUState(state)
+    f.freeFMUState(state)
+    vrs = [s.vr["phi1_out"], s.vr["omega2_out"]]
+    for k in range(5, 15):
+        f.doStep(k * COMM, COMM)
+    first = f.getFloat64(vrs)
+    state = f.deserializeFMUState(blob)
+    f.setFMUState(state)
+    for k in range(5, 15):
+        f.doStep(k * COMM, COMM)
+    assert f.getFloat64(vrs) == first
+    f.freeFMUState(state)
+
+
+def test_misuse_is_refused_with_a_log(fmus, instances):
+    s = instances(fmus["two_mass_force", 3].path, "cs")
+    f = s.fmu
+    x1 = s.vr["x1"]
+    vr1 = (ctypes.c_uint32 * 1)(x1)
+    val = (ctypes.c_double * 1)()
+    # step before initialization: state machine
+    assert s.do_step(0.0, 0.1)[0] == ERROR
+    assert "fmi3DoStep must not be called in state Instantiated" in s.errors()[-1]
+    # event mode without eventModeUsed, update discrete states in the wrong state
+    f.enterInitializationMode(startTime=0.0, stopTime=1.0)
+    f.exitInitializationMode()
+    assert s.raw("fmi3EnterEventMode") == ERROR
+    assert "eventModeUsed = false" in s.errors()[-1]
+    b = [fmi3Boolean() for _ in range(5)]
+    assert s.raw("fmi3UpdateDiscreteStates", *(ctypes.byref(x) for x in b),
+                 ctypes.byref(fmi3Float64())) == ERROR
+    assert "StepMode" in s.errors()[-1]
+    # arrays: nValues != nValueReferences, NULL, unknown vr, wrong type
+    assert s.raw("fmi3GetFloat64", vr1, 1, val, 2) == ERROR
+    assert "nValues = 2" in s.errors()[-1]
+    assert s.raw("fmi3GetFloat64", None, 1, val, 1) == ERROR
+    assert s.raw("fmi3GetFloat64", (ctypes.c_uint32 * 1)(10 ** 6), 1, val, 1) == ERROR
+    assert s.raw("fmi3GetBoolean", vr1, 1, (fmi3Boolean * 1)(), 1) == ERROR
+    assert "no variables of type Boolean" in s.errors()[-1]
+    assert s.raw("fmi3GetInt32", (ctypes.c_uint32 * 1)(s.vr["solver"]), 1,
+                 (ctypes.c_int32 * 1)(), 1) == ERROR
+    assert "Enumeration" in s.errors()[-1]
+    # a parameter after initialization, NaN input: refused, nothing changed
+    assert s.raw("fmi3SetFloat64", (ctypes.c_uint32 * 1)(s.vr["m1"]), 1,
+                 (ctypes.c_double * 1)(2.0), 1) == ERROR
+    assert s.raw("fmi3SetFloat64", (ctypes.c_uint32 * 1)(s.vr["x2_in"]), 1,
+                 (ctypes.c_double * 1)(float("nan")), 1) == ERROR
+    # NULL out-arguments, bad steps
+    assert s.raw("fmi3DoStep", 0.0, 0.1, True, None, None, None, None) == ERROR
+    assert s.do_step(0.5, 0.1)[0] == ERROR      # not at the FMU's time
+    assert s.do_step(0.0, -0.1)[0] == ERROR
+    assert s.do_step(0.0, float("nan"))[0] == ERROR
+    assert s.do_step(0.0, 2.0)[0] == ERROR      # past stopTime
+    assert s.do_step(0.0, 0.1)[0] == OK         # still usable
+    # model exchange functions on a co-simulation instance; absent features
+    assert s.raw("fmi3SetTime", 0.1) == ERROR
+    assert s.raw("fmi3GetAdjointDerivative", None, 0, None, 0, None, 0, None, 0) == ERROR
+    assert s.raw("fmi3GetClock", None, 0, None) == ERROR
+    # FMU states: a pointer not made here, a short buffer
+    assert s.raw("fmi3SetFMUState", ctypes.c_void_p(1234)) == ERROR
+    state = f.getFMUState()
+    assert s.raw("fmi3SerializeFMUState", state, (ctypes.c_uint8 * 8)(), 8) == ERROR
+    assert s.raw("fmi3DeserializeFMUState", (ctypes.c_uint8 * 64)(), 64,
+                 ctypes.byref(ctypes.c_void_p())) == OK  # copied; refused when set
+    f.freeFMUState(state)
+    assert all(str(1e6) not in m for m in s.errors())
+    # every refusal logged with the function's name
+    assert len(s.errors()) >= 18
+    f.terminate()
+    assert s.do_step(0.1, 0.1)[0] == ERROR
+    assert "state Terminated" in s.errors()[-1]
+
+
+def test_me_misuse_is_refused_with_a_log(fmus, instances):
+    s = instances(fmus["backrest", 3].path, "me")
+    f = s.fmu
+    nx = sum(1 for v in s.md.modelVariables if v.derivative)
+    x = (ctypes.c_double * nx)()
+    n = ctypes.c_size_t()
+    assert s.raw("fmi3GetNumberOfContinuousStates", ctypes.byref(n)) == OK and n.value == nx
+    assert s.raw("fmi3GetNumberOfContinuousStates", None) == ERROR
+    assert s.raw("fmi3SetContinuousStates", x, nx) == ERROR
+    assert "fmi3SetContinuousStates must not be called in state Instantiated" in s.errors()[-1]
+    f.enterInitializationMode(startTime=0.0)
+    f.exitInitializationMode()
+    flags = [fmi3Boolean() for _ in range(2)]
+    assert s.raw("fmi3CompletedIntegratorStep", True, *(ctypes.byref(b) for b in flags)) == ERROR
+    assert "state EventMode" in s.errors()[-1]
+    assert s.do_step(0.0, 0.01)[0] == ERROR
+    assert s.raw("fmi3EnterStepMode") == ERROR
+    assert "fmi3InstantiateModelExchange" in s.errors()[-1]
+    f.updateDiscreteStates()
+    f.enterContinuousTimeMode()
+    assert s.raw("fmi3GetContinuousStates", x, nx) == OK
+    assert s.raw("fmi3SetContinuousStates", x, nx + 1) == ERROR
+    bad = (ctypes.c_double * nx)(*x)
+    bad[0] = float("nan")
+    assert s.raw("fmi3SetContinuousStates", bad, nx) == ERROR
+    assert s.raw("fmi3GetContinuousStateDerivatives", x, nx - 1) == ERROR
+    assert s.raw("fmi3GetContinuousStates", None, nx) == ERROR
+    assert s.raw("fmi3UpdateDiscreteStates", *(ctypes.byref(fmi3Boolean()) for _ in range(5)),
+                 ctypes.byref(fmi3Float64())) == ERROR
+    assert "state ContinuousTimeMode" in s.errors()[-1]
+    # still usable: time, states, derivatives
+    assert s.raw("fmi3SetTime", 0.001) == OK
+    assert s.raw("fmi3SetContinuousStates", x, nx) == OK
+    assert s.raw("fmi3GetContinuousStateDerivatives", x, nx) == OK
+    assert all(np.isfinite(list(x)))
+
+
+def test_instantiation_refusals(fmus):
+    """A wrong token, an empty name, an interface the FMU does not declare:
+    NULL with a log."""
+    path = fmus["two_mass_force", 3].path
+    md = read_model_description(str(path))
+    log = []
+
+    def logger(env, status, category, message):
+        log.append(message.decode())
+
+    for token, name in (("{not-the-token}", "a"), (md.instantiationToken, "")):
+        f = FMU3Slave(guid=token, unzipDirectory=extract(str(path)),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+        with pytest.raises(Exception, match="Failed to instantiate"):
+            f.instantiate(logMessage=logger)
+    f = FMU3Model(guid=md.instantiationToken, unzipDirectory=extract(str(path)),
+                  modelIdentifier=md.coSimulation.modelIdentifier, instanceName="me")
+    with pytest.raises(Exception, match="Failed to instantiate"):
+        f.instantiate(logMessage=logger)
+    assert "instantiationToken does not match" in log[0]
+    assert "instanceName is NULL or empty" in log[1]
+    assert "does not declare model exchange" in log[2]
