@@ -1,0 +1,402 @@
+"""FMI 2.0 model exchange (lf_me.c, lf_fmi2_me.c): the importer integrates.
+
+Every FMU here is built as FMI 2.0 "both" (co-simulation and model exchange
+in one binary) or "me", validated by FMPy, and run through FMPy's CVode
+(fmi_type="ModelExchange") against our own co-simulation run of the same
+FMU.  The backrest's stick-slip switch times in model exchange agree with
+co-simulation's to FMPy's event location; the drive's delays run when the
+importer completes its steps at most tau apart, and are refused (fmi2Discard
+with a log) when the history does not reach back far enough; validity
+conditions end the simulation (terminateSimulation); misuse gives fmi2Error.
+
+The full matrix of the 11 models (builds take minutes) runs with
+``python tests/test_me.py [fraction-of-default-stop-time] [models...]``.
+"""
+from __future__ import annotations
+
+import ctypes
+import math
+import re
+import sys
+import time
+
+import fmpy
+import numpy as np
+import pytest
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import (FMU2Model, FMU2Slave, fmi2CallbackAllocateMemoryTYPE,
+                       fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
+                       fmi2CallbackLoggerTYPE, fmi2EventInfo)
+
+from fmpy import calloc, free
+
+from loomfmu import build_fmu, load_model
+from loomfmu.declare import Model
+
+OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
+T_STAR = math.acos(-0.5) / 2.0  # the spring's x = cos(2 t) reaches -0.5
+
+
+def _spring() -> Model:
+    """x'' = -4 x, x(0) = 1, with the validity condition x + 0.5 >= 0."""
+    m = Model("spring_me", description="mass on a spring", stop_time=2.0, step_size=0.01)
+    k = m.parameter("k", 4.0, unit="N/m", description="stiffness per unit mass",
+                    source="assumption: test oracle")
+    x = m.state("x", 1.0, unit="m", description="position")
+    v = m.state("v", 0.0, unit="m/s", description="velocity")
+    m.eq(m.der(x), v)
+    m.eq(m.der(v), -k * x)
+    xo = m.output("x_out", x, unit="m", description="position")
+    m.require("taut", xo + 0.5, "string in compression")
+    return m
+
+
+@pytest.fixture(scope="module")
+def fmus(tmp_path_factory):
+    out = tmp_path_factory.mktemp("me")
+    built = {name: build_fmu(load_model(name), out_dir=out, interface="both")
+             for name in ("two_mass_force", "backrest", "drive")}
+    built["spring_me"] = build_fmu(_spring(), out_dir=out, interface="me")
+    return built
+
+
+class Instance:
+    """One FMU instance (ME or CS) driven call by call, its log captured."""
+
+    def __init__(self, path, me=True):
+        self.md = read_model_description(str(path))
+        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.log: list[tuple[int, str]] = []
+
+        def logger(env, instance, status, category, message):
+            self.log.append((status, message.decode()))
+
+        self._cb = fmi2CallbackFunctions()
+        self._cb.logger = fmi2CallbackLoggerTYPE(logger)
+        self._cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        self._cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        iface = self.md.modelExchange if me else self.md.coSimulation
+        cls = FMU2Model if me else FMU2Slave
+        self.fmu = cls(guid=self.md.guid, unzipDirectory=extract(str(path)),
+                       modelIdentifier=iface.modelIdentifier, instanceName="inst")
+        self.fmu.instantiate(callbacks=self._cb)
+        self.nx = self.md.numberOfContinuousStates
+        self.ne = self.md.numberOfEventIndicators
+
+    def raw(self, fn, *args):
+        """The status of fmi2<fn>(component, *args), no exception."""
+        f = self.fmu._functions.get("fmi2" + fn)
+        if f is None:  # a function of the other interface: from the library
+            f = getattr(self.fmu.dll, "fmi2" + fn)
+            f.argtypes = [ctypes.c_void_p] + [type(a) for a in args]
+            f.restype = ctypes.c_int
+        return f(self.fmu.component, *args)
+
+    def start(self, **reals):
+        self.fmu.setupExperiment(startTime=0.0)
+        if reals:
+            self.fmu.setReal([self.vr[k] for k in reals], list(reals.values()))
+        self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+
+    def to_continuous(self):
+        info = fmi2EventInfo()
+        assert self.raw("NewDiscreteStates", ctypes.byref(info)) == OK
+        self.fmu.enterContinuousTimeMode()
+        return info
+
+    def states(self):
+        x = (ctypes.c_double * max(self.nx, 1))()
+        self.fmu.getContinuousStates(x, self.nx)
+        return np.array(x[:self.nx])
+
+    def derivatives(self):
+        dx = (ctypes.c_double * max(self.nx, 1))()
+        self.fmu.getDerivatives(dx, self.nx)
+        return np.array(dx[:self.nx])
+
+    def set_states(self, x):
+        self.fmu.setContinuousStates((ctypes.c_double * self.nx)(*x), self.nx)
+
+    def euler(self, t0, t1, n):
+        """Explicit Euler from t0 to t1 in n steps, each completed."""
+        h = (t1 - t0) / n
+        for i in range(n):
+            self.fmu.setTime(t0 + i * h)
+            x = self.states() + h * self.derivatives()
+            self.fmu.setTime(t0 + (i + 1) * h)
+            self.set_states(x)
+            self.fmu.completedIntegratorStep()
+
+    def messages(self, status=None):
+        return [m for s, m in self.log if status is None or s == status]
+
+    def close(self):
+        self.fmu.freeInstance()
+
+
+def _simulate(path, kind, stop, interval, rtol, logger=None, **start):
+    kw = dict(start_values=start) if start else {}
+    if logger is not None:
+        kw.update(debug_logging=True, logger=logger)
+    return fmpy.simulate_fmu(str(path), stop_time=stop, output_interval=interval,
+                             fmi_type=kind, relative_tolerance=rtol, **kw)
+
+
+def compare(path, stop, interval, rtol=1e-8):
+    """Largest difference of any output between FMPy's CVode (model
+    exchange) and our co-simulation run, relative to the output's largest
+    magnitude."""
+    cs = _simulate(path, "CoSimulation", stop, interval, rtol,
+                   solver_rtol=rtol, solver_atol=rtol * 1e-2)
+    me = _simulate(path, "ModelExchange", stop, interval, rtol)
+    worst = (0.0, "")
+    for n in cs.dtype.names[1:]:
+        diff = np.max(np.abs(np.interp(cs["time"], me["time"], me[n]) - cs[n]))
+        worst = max(worst, (diff / (np.max(np.abs(cs[n])) + 1e-12), n))
+    return worst
+
+
+def test_me_fmus_validate(fmus):
+    for name, built in fmus.items():
+        assert built.problems == [], name
+        md = read_model_description(str(built.path))
+        assert md.modelExchange is not None, name
+        assert md.modelExchange.needsCompletedIntegratorStep, name
+
+
+@pytest.mark.parametrize("name, stop, interval", [
+    ("two_mass_force", 1.0, 0.01),   # inputs held, no events
+    ("backrest", 0.5, 0.01),         # stick-slip modes, reinit at events
+    ("drive", 1.5, 0.01),            # delay tau = 0.5 s; steps <= interval < tau
+])
+def test_me_agrees_with_cs(fmus, name, stop, interval):
+    worst, which = compare(fmus[name].path, stop, interval)
+    assert worst < 1e-4, (which, worst)
+
+
+def _switches(log):
+    return [(float(a), n, int(float(q))) for a, n, q in
+            (re.match(r"t = (\S+): mode (\S+): \S+ -> (\S+)", m).groups()
+             for m in log if ": mode " in m)]
+
+
+def test_backrest_switch_times_agree_in_me(fmus):
+    """The stick-slip switches (mode changes, from the logEvents lines) of
+    FMPy's CVode with its root finding, against co-simulation's located
+    events; the gap shrinks with the tolerance (CVode's event location
+    follows its state error)."""
+    path = fmus["backrest"].path
+    logs = {}
+    for kind, rtol in (("CoSimulation", 1e-10), ("ModelExchange", 1e-7),
+                       ("ModelExchange", 1e-10)):
+        log = []
+        _simulate(path, kind, 1.0, 0.01, rtol,
+                  logger=lambda env, i, s, c, m, log=log: log.append(m.decode()),
+                  **({"solver_rtol": 1e-10, "solver_atol": 1e-12}
+                     if kind == "CoSimulation" else {}))
+        logs[kind, rtol] = _switches(log)
+    cs = logs["CoSimulation", 1e-10]
+    assert len(cs) > 10  # genuinely stick-slip
+    gaps = []
+    for rtol in (1e-7, 1e-10):
+        me = logs["ModelExchange", rtol]
+        assert [s[1:] for s in me] == [s[1:] for s in cs]
+        gaps.append(max(abs(a[0] - b[0]) for a, b in zip(me, cs)))
+    assert gaps[0] < 1e-5 and gaps[1] < 1e-8 and gaps[1] < gaps[0] / 10, gaps
+
+
+def test_drive_refuses_a_step_longer_than_the_history(fmus):
+    """Without completed steps the history ends at the start: a derivative
+    at t > tau would need an extrapolated delayed value, and is refused with
+    fmi2Discard and a log saying what the importer must do."""
+    s = Instance(fmus["drive"].path)
+    try:
+        s.start()
+        s.to_continuous()
+        tau = 0.5
+        s.fmu.setTime(0.9 * tau)
+        s.derivatives()  # t - tau < 0: the history before the start
+        s.fmu.setTime(1.5 * tau)
+        with pytest.raises(FMICallException) as e:
+            s.derivatives()
+        assert e.value.status == DISCARD
+        msg = s.messages(DISCARD)[-1]
+        assert "history ends at t = 0" in msg and "completed integrator step" in msg
+        assert "tau = 0.5" in msg
+        vr_out = s.vr["u_delayed"]
+        with pytest.raises(FMICallException):  # outputs need the delayed value too
+            s.fmu.getReal([vr_out])
+        with pytest.raises(FMICallException):  # and so does completing that step
+            s.fmu.completedIntegratorStep()
+    finally:
+        s.close()
+
+
+def test_drive_history_from_completed_steps(fmus):
+    """With completed steps every 0.05 s (< tau) the delayed output follows
+    the signal tau earlier (the history's Hermite interpolation)."""
+    s = Instance(fmus["drive"].path)
+    try:
+        s.start()
+        s.to_continuous()
+        u = {}
+        for i in range(1, 31):  # Euler to 1.5 s, the signal recorded
+            s.euler((i - 1) * 0.05, i * 0.05, 5)
+            u[i] = s.fmu.getReal([s.vr["u"]])[0]
+        # at t = 1.5 the delayed signal is the signal at 1.0 (both from our states)
+        assert s.fmu.getReal([s.vr["u_delayed"]])[0] == pytest.approx(u[20], rel=1e-9)
+    finally:
+        s.close()
+
+
+def test_validity_condition_terminates_me(fmus):
+    """The spring's condition fails at T_STAR: the completed step after it
+    says terminateSimulation, FMPy stops, the log names the condition."""
+    log = []
+    res = _simulate(fmus["spring_me"].path, "ModelExchange", 2.0, 0.01, 1e-8,
+                    logger=lambda env, i, s, c, m: log.append(m.decode()))
+    assert T_STAR - 0.01 - 1e-9 < res["time"][-1] < T_STAR
+    assert any("taut: string in compression" in m and "terminateSimulation" in m
+               for m in log)
+
+
+def test_der_x_by_get_real_equals_get_derivatives(fmus):
+    s = Instance(fmus["two_mass_force"].path)
+    try:
+        s.start()
+        s.to_continuous()
+        s.fmu.setTime(0.3)
+        s.set_states([0.01, -0.2])
+        der_vrs = [v.valueReference for v in s.md.modelVariables
+                   if v.name.startswith("der(")]
+        assert len(der_vrs) == s.nx
+        assert s.fmu.getReal(der_vrs) == pytest.approx(list(s.derivatives()), rel=1e-15)
+        with pytest.raises(FMICallException):
+            s.fmu.setReal(der_vrs[:1], [1.0])  # calculated
+        assert "cannot be set" in s.messages(ERROR)[-1]
+    finally:
+        s.close()
+
+
+def test_me_fmu_state_restores_the_trajectory(fmus):
+    """get/set and (de)serialize the FMU state in model exchange: the same
+    Euler steps from a restored state give the same states, modes and
+    history (backrest: modes; drive: delays)."""
+    for name, t1, t2 in (("backrest", 0.05, 0.1), ("drive", 0.6, 1.2)):
+        s = Instance(fmus[name].path)
+        try:
+            s.start()
+            s.to_continuous()
+            s.euler(0.0, t1, 40)
+            state = s.fmu.getFMUstate()
+            blob = s.fmu.serializeFMUstate(state)
+            s.euler(t1, t2, 40)
+            first = s.states()
+            s.fmu.setFMUstate(s.fmu.deSerializeFMUstate(blob))
+            s.fmu.setTime(t1)
+            s.euler(t1, t2, 40)
+            assert np.array_equal(s.states(), first), name
+            s.fmu.freeFMUstate(state)
+        finally:
+            s.close()
+
+
+def test_me_misuse_is_refused(fmus):
+    """Calls out of order, on the wrong interface, NULL arrays, a wrong
+    number of states, non-finite states or time: fmi2Error and a log line,
+    nothing changed, never a crash."""
+    path = fmus["backrest"].path
+    s = Instance(path)
+    dbl = ctypes.c_double
+    try:
+        x = (dbl * s.nx)()
+        info = fmi2EventInfo()
+        # instantiated: no continuous-time calls yet
+        assert s.raw("SetTime", dbl(0.1)) == ERROR
+        assert "fmi2SetTime must not be called in state Instantiated" in s.messages()[-1]
+        s.start()
+        # event mode after initialization: states are set in continuous-time mode only
+        assert s.raw("SetContinuousStates", x, s.nx) == ERROR
+        assert "state EventMode" in s.messages()[-1]
+        assert s.raw("CompletedIntegratorStep", 1, None, None) == ERROR
+        assert s.raw("DoStep", dbl(0.0), dbl(0.1), ctypes.c_int(1)) == ERROR  # a co-simulation call
+        assert s.raw("NewDiscreteStates", None) == ERROR
+        s.to_continuous()
+        assert s.raw("NewDiscreteStates", ctypes.byref(info)) == ERROR
+        assert "ContinuousTimeMode" in s.messages()[-1]
+        x0 = s.states()
+        # arrays: NULL, wrong size, non-finite
+        assert s.raw("SetContinuousStates", None, s.nx) == ERROR
+        assert s.raw("SetContinuousStates", x, s.nx + 1) == ERROR
+        assert "nx = %d, expected %d" % (s.nx + 1, s.nx) in s.messages()[-1]
+        assert s.raw("GetDerivatives", x, s.nx - 1) == ERROR
+        assert s.raw("GetEventIndicators", None, s.ne) == ERROR
+        assert s.raw("GetEventIndicators", x, s.ne + 3) == ERROR
+        assert s.raw("GetNominalsOfContinuousStates", None, s.nx) == ERROR
+        bad = (dbl * s.nx)(*([float("nan")] + [0.0] * (s.nx - 1)))
+        assert s.raw("SetContinuousStates", bad, s.nx) == ERROR
+        assert "is not finite" in s.messages()[-1]
+        for t in (float("nan"), float("inf"), -1.0):
+            assert s.raw("SetTime", dbl(t)) == ERROR
+        assert np.array_equal(s.states(), x0)  # nothing changed
+        assert s.raw("CompletedIntegratorStep", 1, None, None) == ERROR
+        s.fmu.terminate()
+        assert s.raw("EnterEventMode") == ERROR
+    finally:
+        s.close()
+    # a model-exchange call on a co-simulation instance
+    cs = Instance(path, me=False)
+    try:
+        x = (dbl * cs.nx)()
+        cs.fmu.setupExperiment(startTime=0.0)
+        cs.fmu.enterInitializationMode()
+        assert cs.raw("GetDerivatives", x, ctypes.c_size_t(cs.nx)) == ERROR
+        assert "is a model-exchange function" in cs.messages()[-1]
+        cs.fmu.exitInitializationMode()
+        assert cs.raw("GetDerivatives", x, ctypes.c_size_t(cs.nx)) == ERROR
+        assert "state StepComplete" in cs.messages()[-1]
+    finally:
+        cs.close()
+
+
+def test_an_undeclared_interface_is_not_instantiated(fmus):
+    """spring_me declares model exchange only: a co-simulation instance is
+    refused (NULL) with a log line."""
+    md = read_model_description(str(fmus["spring_me"].path))
+    assert md.coSimulation is None
+    s = Instance(fmus["spring_me"].path)
+    try:
+        comp = s.fmu._functions["fmi2Instantiate"](
+            b"cs", 1, md.guid.encode(), b"", ctypes.byref(s._cb), 0, 0)
+        assert comp is None
+        assert "declares model exchange only" in s.messages()[-1]
+    finally:
+        s.close()
+
+
+def matrix(frac: float, names: list[str]) -> None:
+    """Every model as FMI 2.0 "both": CVode (ME) against our CS run over
+    `frac` of the default stop time; prints one line per model."""
+    import tempfile
+    from loomfmu.registry import MODELS
+    out = tempfile.mkdtemp()
+    for name in names or list(MODELS):
+        t0 = time.perf_counter()
+        built = build_fmu(load_model(name), out_dir=out, interface="both")
+        md = read_model_description(str(built.path))
+        stop = float(md.defaultExperiment.stopTime) * frac
+        t1 = time.perf_counter()
+        try:
+            worst, which = compare(built.path, stop, stop / 100)
+            print(f"{name}: nx={md.numberOfContinuousStates} "
+                  f"ne={md.numberOfEventIndicators} problems={len(built.problems)} "
+                  f"stop={stop:g} s worst={worst:.2e} ({which}) build={t1 - t0:.1f} s "
+                  f"runs={time.perf_counter() - t1:.2f} s", flush=True)
+        except Exception as e:  # report and go on with the next model
+            print(f"{name}: FAILED {type(e).__name__}: {str(e)[:300]}", flush=True)
+
+
+if __name__ == "__main__":
+    matrix(float(sys.argv[1]) if len(sys.argv) > 1 else 0.1, sys.argv[2:])
