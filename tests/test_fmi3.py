@@ -349,3 +349,39 @@ def test_instantiation_refusals(fmus):
     assert "instantiationToken does not match" in log[0]
     assert "instanceName is NULL or empty" in log[1]
     assert "does not declare model exchange" in log[2]
+
+
+def test_fmi3_only_values(fmus, instances):
+    """Values FMI 2 co-simulation does not have, checked against exact
+    relations: time, der(x) (der(omega1) is omega1's rate: its finite
+    difference over a short step), event indicators (equal to
+    fmi3GetEventIndicators), output derivatives (d(phi1_out)/dt = omega1)."""
+    s = instances(fmus["backrest", 3].path, "cs")
+    f, vr = s.fmu, s.vr
+    f.enterInitializationMode(startTime=0.0)
+    f.exitInitializationMode()
+    f.doStep(0.0, 0.05)
+    t, w0, dw = f.getFloat64([vr["time"], vr["omega1"], vr["der(omega1)"]])
+    assert t == 0.05
+    h = 1e-6
+    f.doStep(0.05, h)
+    (w1,) = f.getFloat64([vr["omega1"]])
+    assert (w1 - w0) / h == pytest.approx(dw, rel=1e-3)
+    (dphi,) = f.getOutputDerivatives([vr["phi1_out"]], [1])
+    assert dphi == pytest.approx(f.getFloat64([vr["omega1_out"]])[0], rel=1e-12, abs=1e-15)
+    evt = [v.name for v in s.md.modelVariables if v.name.startswith("event_indicator.")]
+    assert len(evt) == 2
+    values = f.getFloat64([vr[n] for n in evt])
+    assert all(np.isfinite(values))
+
+    m = instances(fmus["backrest", 3].path, "me")
+    m.fmu.enterInitializationMode(startTime=0.0)
+    m.fmu.exitInitializationMode()
+    m.fmu.updateDiscreteStates()
+    m.fmu.enterContinuousTimeMode()
+    e = (ctypes.c_double * 2)()
+    assert m.raw("fmi3GetEventIndicators", e, 2) == OK
+    assert m.fmu.getFloat64([m.vr[n] for n in evt]) == list(e)
+    assert (s.raw("fmi3SetFloat64", (ctypes.c_uint32 * 1)(vr["time"]), 1,
+                  (ctypes.c_double * 1)(1.0), 1) == ERROR)
+    assert "time, the independent variable" in s.errors()[-1]
