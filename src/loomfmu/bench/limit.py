@@ -149,7 +149,8 @@ def row(c: dict, f: dict | None) -> dict:
          "comm_steps": n_comm,
          # where the run's CPU time goes, from the counters and the per-call times
          "rhs_share": c["rhs"] * c["rhs_s"] / c["cpu_s"],
-         "jac_share": c["jac"] * c["jac_s"] / c["cpu_s"]}
+         "jac_share": c["jac"] * c["jac_s"] / c["cpu_s"],
+         "out_share": n_comm * c["out_s"] / c["cpu_s"]}
     if f is not None:
         r["fmpy"] = f
         r["fmpy_ratio"] = f["cpu_s"] / c["cpu_s"]
@@ -228,9 +229,12 @@ outputs equal FMPy's bit for bit (`tests/test_bench_limit.py`).
   after events and input changes, the LU factorizations and solves, event
   location, outputs and the step loop are all above the limit.
 * **ratio** = C run ÷ limit (the issue's target: ≤ 2).
-* **RHS share**: RHS × RHS µs ÷ C run, the part of the run spent in the
-  right-hand side (the rest: Jacobians, linear algebra, step loop, events,
-  outputs).
+* **RHS, Jac, out share**: RHS × RHS µs ÷ C run, the part of the run spent
+  in the right-hand side; Jac × Jac µs ÷ C run; communication steps × the
+  time of one evaluation of the outputs (`lf_update_outputs`, which ends
+  every `fmi2DoStep`: the unknowns w and the generated output function) ÷
+  C run. The rest: the LU factorizations and solves, event indicators and
+  event location, the step loop and the FMI calls.
 * **FMPy**: CPU time of `fmpy.simulate_fmu` of the same run on the unzipped
   FMU, the model description parsed once (median); FMPy ÷ C: how many times
   the C run; the Python side's cost per communication step is
@@ -243,8 +247,8 @@ def _f(v, fmt: str, scale: float = 1.0) -> str:
 
 def table_md(rows) -> str:
     head = ("| model | solver | nx | comm. steps | steps (rej.) | RHS | Jac | LU | events | "
-            "RHS µs | Jac µs | C run ms | limit ms | ratio | RHS share | FMPy ms | FMPy ÷ C |"
-            "\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
+            "RHS µs | Jac µs | C run ms | limit ms | ratio | RHS / Jac / out share | FMPy ms | "
+            "FMPy ÷ C |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
     lines = []
     for r in rows:
         f = r.get("fmpy")
@@ -253,7 +257,8 @@ def table_md(rows) -> str:
             f"{r['steps']} ({r['rejected']}) | {r['rhs']} | {r['jac']} | {r['lu']} | "
             f"{r['events']} | {r['rhs_s'] * 1e6:.3g} | {r['jac_s'] * 1e6:.3g} | "
             f"{r['cpu_s'] * 1e3:.3g} | {_f(r['limit_s'], '.3g', 1e3)} | "
-            f"{_f(r['ratio'], '.2f')} | {r['rhs_share'] * 100:.0f} % | "
+            f"{_f(r['ratio'], '.2f')} | {r['rhs_share'] * 100:.0f} / "
+            f"{r['jac_share'] * 100:.0f} / {r['out_share'] * 100:.0f} % | "
             f"{_f(f and f['cpu_s'], '.3g', 1e3)} | {_f(r.get('fmpy_ratio'), '.1f')} |")
     return head + "\n".join(lines) + "\n"
 

@@ -14,8 +14,8 @@
  * the instance (fmi2Component is the LfInstance), reads the solver's
  * counters and times one call of the right-hand side the solver integrates
  * (lf_ode_of(c).rhs: `wsol`, or `res` + Newton for implicit models) and of
- * its Jacobian at the run's final state, each in a tight loop, the best
- * batch of `best of`.
+ * its Jacobian at the run's final state, and of the outputs (what every
+ * fmi2DoStep ends with), each in a tight loop, the best batch of `best of`.
  *
  * Prints one JSON object on stdout; errors go to stderr, exit status 1
  * (a failed FMI call, non-finite results) or 2 (bad arguments).
@@ -234,10 +234,34 @@ static double time_call(LfOde ode, double t, const double *x, int jac, int best_
     return best;
 }
 
+/* Seconds per evaluation of the outputs at the instance's current point
+ * (lf_update_outputs, as after every fmi2DoStep: the unknowns w and the
+ * generated output function), best of `best_of` batches; < 0 on failure. */
+static double time_outputs(LfInstance *c, int best_of) {
+    double best = INFINITY;
+    long calls = 1, i;
+    int b;
+    for (b = 0; b < best_of; b++) {
+        Clock t0, t1;
+        for (;;) {
+            t0 = now();
+            for (i = 0; i < calls; i++) {
+                c->outputs_valid = 0;
+                if (lf_update_outputs(c) != LF_OK) return -1.0;
+            }
+            t1 = now();
+            if (t1.cpu - t0.cpu >= MIN_BATCH_S) break;
+            calls *= 2;
+        }
+        if ((t1.cpu - t0.cpu) / (double)calls < best) best = (t1.cpu - t0.cpu) / (double)calls;
+    }
+    return best;
+}
+
 int main(int argc, char **argv) {
     Args a;
     fmi2CallbackFunctions cb;
-    double cpu[MAX_REPEATS], wall[MAX_REPEATS], x[LF_DIM(LF_NX)], t_rhs, t_jac, t;
+    double cpu[MAX_REPEATS], wall[MAX_REPEATS], x[LF_DIM(LF_NX)], t_rhs, t_jac, t_out, t;
     LfInstance *c = NULL;
     LfOde ode;
     int r;
@@ -277,11 +301,13 @@ int main(int argc, char **argv) {
         ode = lf_ode_of(c);
         t_rhs = time_call(ode, t, x, 0, a.best_of);
         t_jac = time_call(ode, t, x, 1, a.best_of);
-        if (t_rhs < 0 || t_jac < 0) {
-            fprintf(stderr, "right-hand side or Jacobian failed at t = %.17g\n", t);
+        t_out = time_outputs(c, a.best_of);
+        if (t_rhs < 0 || t_jac < 0 || t_out < 0) {
+            fprintf(stderr, "right-hand side, Jacobian or outputs failed at t = %.17g\n", t);
             return 1;
         }
-        printf(" \"rhs_s\": %.6e, \"jac_s\": %.6e, \"t_end\": %.17g,\n", t_rhs, t_jac, t);
+        printf(" \"rhs_s\": %.6e, \"jac_s\": %.6e, \"out_s\": %.6e, \"t_end\": %.17g,\n",
+               t_rhs, t_jac, t_out, t);
         fmi2Terminate(comp);
         fmi2FreeInstance(comp);
     }
