@@ -132,8 +132,12 @@ def test_cs_equals_fmi2_cs(fmus, name, event_mode):
     assert np.array_equal(t3[at_grid], r2["time"])
     if event_mode and name == "backrest":
         assert len(r3) > len(r2)  # stopped at events inside the steps
+    # step mode: bit for bit; early returns: the step after one ends an ulp off
+    # the grid point (t_event + (t_next - t_event)), dopri5's result moves by
+    # ~1e-11 relative (engineer R's measurement on the runtime)
+    tol = 1e-10 if event_mode else 1e-14
     for n in names:
-        np.testing.assert_allclose(r3[n][at_grid], r2[n], rtol=1e-12, atol=1e-12, err_msg=n)
+        np.testing.assert_allclose(r3[n][at_grid], r2[n], rtol=tol, atol=tol, err_msg=n)
 
 
 def test_me_agrees_with_fmi2_cs(fmus):

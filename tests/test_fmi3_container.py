@@ -150,4 +150,4 @@ def test_container_runs_the_two_mass_scene(builds, order):
     zs = np.array(zs)
     for j, (key, name) in enumerate(OUTPUTS[:4]):
         y = res[f"{key}.{name}"]
-        assert np.max(np.abs(y - zs[:, j])) < 1e-8 * np.max(np.abs(zs[:, j])), name
+        assert np.max(np.abs(y - zs[:, j])) < 1e-10 * np.max(np.abs(zs[:, j])), name
