@@ -20,7 +20,7 @@ the order of ``ModelVariables`` in the model description::
 
 The Enumeration ``solver`` has Integer value reference 0, the modes (Integer
 outputs) 1, 2, ..., then ``delay_interpolation`` (models with delays) and
-``solver_index`` (the solver as a plain Integer; fmi2_xml.SOLVER_INDEX).
+``solver_index`` (the solver as a plain Integer; fmi_xml.SOLVER_INDEX).
 """
 from __future__ import annotations
 
@@ -134,19 +134,29 @@ def model_guid(model: Model, dae: DaeForm) -> str:
 
 #: The generated functions in the order of the runtime's LfFunctionId.
 FUNCTIONS = ("wsol", "wjac", "res", "rjac", "out", "evt", "valid", "reinit", "init",
-             "hist", "tau", "cons", "djac", "yder", "vld")
+             "hist", "tau", "cons", "djac", "yder", "vld", "pre")
 
 #: Names of the generated functions' arguments, in order (the runtime fills
-#: c->arg[] in this order, lf_eval_fn).
-ARGUMENTS = ("t", "x", "w", "u", "p", "q", "d", "u_rate", "d_rate")
+#: c->arg[] in this order, lf_eval_fn).  k: the folded parameter-only
+#: subexpressions (output of ``pre``, kept by the runtime).
+ARGUMENTS = ("t", "x", "w", "u", "p", "q", "d", "u_rate", "d_rate", "k")
 
 
-def casadi_functions(dae: DaeForm) -> list[ca.Function]:
+def casadi_functions(dae: DaeForm, *, fold: bool = True) -> list[ca.Function]:
     """The functions the runtime calls, all with arguments ARGUMENTS:
-    (t, x, w, u, p, q, d, u_rate, d_rate) (d: the delayed values; u_rate:
+    (t, x, w, u, p, q, d, u_rate, d_rate, k) (d: the delayed values; u_rate:
     the inputs' time derivatives, from fmi2SetRealInputDerivatives, zero
     for held inputs; d_rate: the delayed values' time derivatives, passed
-    to ``yder`` only).
+    to ``yder`` only; k: the parameter-only subexpressions, from ``pre``).
+
+    Parameter folding (``fold``, the default): every subexpression of the
+    functions' outputs that depends on the parameters p only is taken out
+    once, over all functions together (a subexpression shared between
+    functions is folded once; CasADi's ``extract_parametric``), and becomes
+    an entry of k; ``pre`` -> k computes them from p, and the runtime calls
+    it at initialization and after a parameter changes (lf_eval_fn).  With
+    ``fold=False`` k is empty and every function computes everything (the
+    reference for tests and the before/after benchmark).
 
     Every partial time derivative the runtime uses is taken with the
     inputs moving at u_rate: d/dt + (d/du) u_rate (rodas4's df/dt, the
@@ -165,9 +175,39 @@ def casadi_functions(dae: DaeForm) -> list[ca.Function]:
     entries (structural zeros included: e.g. dg/dt of a delayed input).
     """
     name = dae.model.name
-    nw, nx = dae.w.numel(), dae.nx
     ud = ca.SX.sym("u_rate", dae.u.numel())
     dd = ca.SX.sym("d_rate", dae.d.numel())
+    outs = _function_outputs(dae, ud, dd)
+    names = [f for f in FUNCTIONS if f != "pre"]
+    flat = [ca.densify(e) for f in names for e in outs[f][0]]
+    if fold and dae.p.numel() and flat:
+        flat, ks, kexprs = ca.extract_parametric(flat, dae.p)
+    else:
+        ks, kexprs = [], []
+    k = ca.vertcat(*ks) if ks else ca.SX(0, 1)
+    outs["pre"] = ([ca.vertcat(*kexprs) if kexprs else ca.SX(0, 1)], ["k_value"])
+    pos = 0
+    for f in names:
+        n = len(outs[f][0])
+        outs[f] = (flat[pos:pos + n], outs[f][1])
+        pos += n
+    # Every output dense: CasADi's generated C writes only an output's
+    # structural nonzeros (a structural zero entry is never written, and the
+    # entries after it land in its place), while the runtime reads every
+    # output as a dense column-major array.
+    return [ca.Function(f"{name}_{f}", [*dae.args, ud, dd, k],
+                        [ca.densify(e) for e in outs[f][0]], list(ARGUMENTS), outs[f][1])
+            for f in FUNCTIONS]
+
+
+def n_folded(fns: list[ca.Function]) -> int:
+    """How many parameter-only subexpressions ``pre`` computes (the length of k)."""
+    return fns[FUNCTIONS.index("pre")].numel_out(0)
+
+
+def _function_outputs(dae: DaeForm, ud: ca.SX, dd: ca.SX) -> dict:
+    """Per generated function (but ``pre``): its output expressions and names."""
+    nw, nx = dae.w.numel(), dae.nx
 
     def d_dt(e: ca.SX) -> ca.SX:  # partial time derivative, inputs moving at u_rate
         return ca.densify(ca.jacobian(e, dae.t) + ca.jacobian(e, dae.u) @ ud)
@@ -182,7 +222,7 @@ def casadi_functions(dae: DaeForm) -> list[ca.Function]:
         F = ca.SX.zeros(nw)
         rjac = [ca.SX.zeros(nw, nw), ca.SX.zeros(nw, nx), ca.SX.zeros(nw)]
     zloc = dae.w[nx:, 0]
-    outs = {
+    return {
         "wsol": ([wsol], ["w_sol"]), "wjac": (wjac, ["dw_dx", "dw_dt"]),
         "res": ([F], ["F"]), "rjac": (rjac, ["dF_dw", "dF_dx", "dF_dt"]),
         "out": ([ca.vertcat(dae.y, zloc)], ["y"]), "evt": ([dae.e], ["e"]),
@@ -197,13 +237,6 @@ def casadi_functions(dae: DaeForm) -> list[ca.Function]:
         "yder": (_output_rates(dae, ud, dd), ["y_rate", "dy_dw", "w_rate"]),
         "vld": ([_validity(dae)], ["v"]),
     }
-    # Every output dense: CasADi's generated C writes only an output's
-    # structural nonzeros (a structural zero entry is never written, and the
-    # entries after it land in its place), while the runtime reads every
-    # output as a dense column-major array.
-    return [ca.Function(f"{name}_{f}", [*dae.args, ud, dd],
-                        [ca.densify(e) for e in outs[f][0]], list(ARGUMENTS), outs[f][1])
-            for f in FUNCTIONS]
 
 
 def _validity(dae: DaeForm) -> ca.SX:
@@ -236,12 +269,63 @@ def _output_rates(dae: DaeForm, ud: ca.SX, dd: ca.SX) -> list[ca.SX]:
     return [y_part + ca.jtimes(y, dae.w, w_rate), ca.SX.zeros(1, 1), ca.SX.zeros(1, 1)]
 
 
+#: Levels of :func:`clock_states` and :func:`event_time_only`.
+CLOCK_NONE, CLOCK_PARAMETERS, CLOCK_HELD_INPUTS = 0, 1, 2
+
+
+def clock_states(dae: DaeForm) -> list[int]:
+    """Per state, whether it advances linearly in time, x_j(t) = x_j(t0) +
+    der(x_j) (t - t0) exactly (a phase at a fixed speed):
+
+    * 1 (CLOCK_PARAMETERS): der(x_j) depends on the parameters only;
+    * 2 (CLOCK_HELD_INPUTS): on parameters and inputs only, so x_j is
+      linear while the inputs are held (within a communication step whose
+      inputs have no time derivatives set);
+    * 0: it depends on t, x, w, q or d.
+
+    Explicit models: from the closed form.  Implicit models: where one
+    equation F_i involves no unknown but der(x_j), linearly, besides
+    parameters (and inputs)."""
+    nx = dae.nx
+    moving = ca.vertcat(dae.t, dae.x, dae.q, dae.d)
+
+    def level(e: ca.SX) -> int:
+        if ca.depends_on(e, moving):
+            return CLOCK_NONE
+        return CLOCK_HELD_INPUTS if ca.depends_on(e, dae.u) else CLOCK_PARAMETERS
+
+    if not dae.implicit:
+        return [CLOCK_NONE if ca.depends_on(dae.wsol[j], dae.w) else level(dae.wsol[j])
+                for j in range(nx)]
+    clock = [CLOCK_NONE] * nx
+    for i in range(dae.F.numel()):
+        Fi = dae.F[i]
+        used = [j for j in range(dae.w.numel()) if ca.depends_on(Fi, dae.w[j])]
+        if len(used) == 1 and used[0] < nx and \
+                not ca.depends_on(ca.jacobian(Fi, dae.w[used[0]]), dae.w):
+            clock[used[0]] = level(Fi)
+    return clock
+
+
 def event_time_only(dae: DaeForm) -> list[int]:
-    """Per event indicator: 1 where it depends only on time and the parameters
-    (not on x, w, u, q, d), so that its zeros are known in advance and the
-    step loop can land a step on them; 0 otherwise."""
-    moving = ca.vertcat(dae.x, dae.w, dae.u, dae.q, dae.d)
-    return [0 if ca.depends_on(dae.e[k], moving) else 1 for k in range(dae.e.numel())]
+    """Per event indicator, whether its zeros are known ahead of a step:
+
+    * 1: it depends on time, the parameters and clock states of level 1
+      only (:func:`clock_states`): predictable at any time;
+    * 2: also on inputs or clock states of level 2: predictable while the
+      inputs are held (advance the clock states linearly, inputs fixed);
+    * 0: it depends on other states, w, q or d.
+
+    The step loop can then land a step on such an indicator's zeros instead
+    of rejecting steps across them."""
+    clock = clock_states(dae)
+    others = [dae.x[j] for j, c in enumerate(clock) if c == CLOCK_NONE]
+    held = [dae.x[j] for j, c in enumerate(clock) if c == CLOCK_HELD_INPUTS]
+    moving = ca.vertcat(*others, dae.w, dae.q, dae.d)
+    inputs = ca.vertcat(*held, dae.u)
+    return [CLOCK_NONE if ca.depends_on(dae.e[k], moving) else
+            CLOCK_HELD_INPUTS if ca.depends_on(dae.e[k], inputs) else CLOCK_PARAMETERS
+            for k in range(dae.e.numel())]
 
 
 def _c_double(v: float | None) -> str:
@@ -266,7 +350,8 @@ _KIND_C = {"setting": "LF_KIND_SETTING", "parameter": "LF_KIND_PARAMETER",
            "algebraic": "LF_KIND_LOCAL"}
 
 
-def declaration_header(model: Model, dae: DaeForm) -> str:
+def declaration_header(model: Model, dae: DaeForm, n_k: int = 0) -> str:
+    """model_decl.h: the counts; n_k: the length of k (:func:`n_folded`)."""
     n = {k: len(model.of_kind(k)) for k in ("parameter", "state", "input", "output",
                                             "algebraic")}
     lines = [
@@ -287,6 +372,7 @@ def declaration_header(model: Model, dae: DaeForm) -> str:
         f"#define LF_NC {len(model.constraints)}",
         f"#define LF_NV {len(model.validity)}",
         f"#define LF_N_SOLVERS {len(SOLVERS)}",
+        f"#define LF_NK {n_k}",
     ]
     lines += [f"#define {s.macro} {i}" for i, s in enumerate(SETTINGS)]
     cats = ", ".join(_c_str(name) for name, _ in LOG_CATEGORIES)
@@ -320,6 +406,7 @@ def declaration_source(model: Model, dae: DaeForm, guid: str) -> str:
         str(mode_index.get(model.event_modes.get(e.name), -1)) for e in model.events]))
     out.append(_c_array("int", "event_time_only",
                         [str(v) for v in event_time_only(dae)]))
+    out.append(_c_array("int", "clock_state", [str(v) for v in clock_states(dae)]))
     out.append(_c_array("double", "delay_max", [repr(v.max_delay) for v in model.delays]))
     out.append(_c_array("int", "x_computed", ["1" if v.name in model.initials else "0"
                                               for v in model.of_kind("state")]))
@@ -335,7 +422,7 @@ def declaration_source(model: Model, dae: DaeForm, guid: str) -> str:
     {_c_str(guid)},
     {len(rows)},
     real_names, real_start, real_min, real_max, real_kind,
-    event_names, event_mode, event_time_only,
+    event_names, event_mode, event_time_only, clock_state,
     mode_names, mode_start, mode_value_offset, mode_values,
     delay_names, delay_max,
     constraint_messages, x_computed,
@@ -362,10 +449,11 @@ def generate_sources(model: Model, dae: DaeForm, outdir: Path) -> tuple[list[str
     cname = f"{model.name}_casadi"
     cg = ca.CodeGenerator(f"{cname}.c", {"with_header": True, "casadi_int": "long long int",
                                          "casadi_real": "double", "with_export": False})
-    for f in casadi_functions(dae):
+    fns = casadi_functions(dae)
+    for f in fns:
         cg.add(f)
     cg.generate(str(outdir) + "/")
-    (outdir / "model_decl.h").write_text(declaration_header(model, dae))
+    (outdir / "model_decl.h").write_text(declaration_header(model, dae, n_folded(fns)))
     (outdir / "lf_prefix.h").write_text(prefix_header(model))
     (outdir / "model_decl.c").write_text(declaration_source(model, dae, guid))
     return [f"{cname}.c", f"{cname}.h", "model_decl.h", "model_decl.c", "lf_prefix.h"], guid

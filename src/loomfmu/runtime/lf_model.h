@@ -1,7 +1,7 @@
 /* loomfmu shared runtime: the contract a generated model fulfils.
  *
  * A model contributes CasADi-generated functions with the fixed argument
- * list (t, x, w, u, p, q, d, u_rate, d_rate) and one `const LfModel lf_model` (model_decl.c),
+ * list (t, x, w, u, p, q, d, u_rate, d_rate, k) and one `const LfModel lf_model` (model_decl.c),
  * both written by loomfmu.codegen from the Python declaration.  Nothing here
  * is written by hand per model.
  *
@@ -52,7 +52,8 @@ enum {
     LF_FN_DJAC = 12,  /* -> dw/dd (explicit) or dF/dd (implicit), dg/dx, dg/dt */
     LF_FN_YDER = 13,  /* -> output rates (explicit: complete; implicit: parts) */
     LF_FN_VLD = 14,   /* -> validity conditions (Model.require), each >= 0 */
-    LF_N_FN = 15
+    LF_FN_PRE = 15,   /* -> k, the parameter-only subexpressions (from p) */
+    LF_N_FN = 16
 };
 
 /* Real value references are laid out as
@@ -83,8 +84,16 @@ typedef struct {
     const LfKind *real_kind;
     const char *const *event_names;
     const int *event_mode;           /* mode re-chosen at each event, -1: none */
-    const int *event_time_only;      /* 1: indicator depends on t and p only (its
-                                        zeros are known ahead), 0: on x, w, u, q, d */
+    /* known breaks (codegen.clock_states, codegen.event_time_only):
+     * clock_state[j] (LF_NX): 1 where der(x_j) depends on the parameters only,
+     *   2 on parameters and inputs only (x_j is linear in t while the inputs
+     *   are held), 0 otherwise;
+     * event_time_only[k] (LF_NE): 1 where indicator k depends on t, p and
+     *   level-1 clock states only (its zeros known at any time), 2 also on
+     *   inputs or level-2 clock states (known while the inputs are held),
+     *   0 on other states, w, q or d */
+    const int *event_time_only;
+    const int *clock_state;
     const char *const *mode_names;
     const int *mode_start;
     const int *mode_value_offset;    /* values of mode k: [offset[k], offset[k+1]) */

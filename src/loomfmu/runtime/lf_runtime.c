@@ -87,6 +87,7 @@ void lf_reset_values(LfInstance *c) {
     lf_inputs_reset(c, 0.0);
     c->n_events = 0;
     c->max_steps = (long)lf_model.real_start[LF_SET_MAX_STEPS];
+    c->k_stale = 1;
     if (c->solver_ready) {
         lf_solver_free(&c->solver, &c->alloc);
         c->solver_ready = 0;
@@ -119,12 +120,31 @@ LfInstance *lf_instantiate(const char *name, LfLogFn log, void *log_env,
 
 /* ---- evaluating the generated functions ------------------------------- */
 
+/* k := pre(p): the parameter-only subexpressions (parameter folding). */
+static LfStatus fold_parameters(LfInstance *c) {
+    int i, bad;
+    for (i = 0; i < 10; i++) c->arg[i] = NULL; /* pre reads p only */
+    c->arg[4] = &c->r[LF_VR_P0];
+    c->res[0] = c->k;
+    if (lf_model.fn[LF_FN_PRE].eval(c->arg, c->res, c->iw, c->w, 0)) return LF_ERROR;
+    /* a non-finite k is not an error by itself (e.g. a term of a branch not
+     * taken); the functions that use it report their own non-finite results */
+    bad = lf_first_nonfinite(c->k, LF_NK);
+    if (bad >= 0)
+        lf_log(c, LF_OK, LF_LOG_SOLVER, "t = %.17g: parameter-only subexpression %d is %g",
+               c->t, bad, c->k[bad]);
+    c->k_stale = 0;
+    return LF_OK;
+}
+
 /* Call generated function `fn` at (t, x, w) with the instance's inputs at t
- * (held, or their polynomials) and their rates, p, q and the delayed values
- * at t. */
+ * (held, or their polynomials) and their rates, p, q, the delayed values
+ * at t and the folded parameter subexpressions k (recomputed first when a
+ * parameter changed: every call of a generated function passes here). */
 LfStatus lf_eval_fn(LfInstance *c, int fn, double t, const double *x, const double *w,
                         double *out0, double *out1, double *out2) {
     const double *u, *u_rate;
+    if (LF_NK > 0 && c->k_stale && fold_parameters(c) != LF_OK) return LF_ERROR;
     if (LF_ND > 0 && fn != LF_FN_HIST && fn != LF_FN_TAU && lf_delayed_values(c, t, x) != LF_OK)
         return LF_ERROR;
     lf_inputs_at(c, t, &u, &u_rate);
@@ -137,6 +157,7 @@ LfStatus lf_eval_fn(LfInstance *c, int fn, double t, const double *x, const doub
     c->arg[5] = c->q;
     c->arg[7] = u_rate;
     c->arg[8] = c->d_rate;
+    c->arg[9] = c->k;
     c->res[0] = out0; /* functions with fewer outputs do not read the rest */
     c->res[1] = out1;
     c->res[2] = out2;
@@ -230,6 +251,7 @@ LfStatus lf_set_real(LfInstance *c, unsigned vr, double value) {
         return LF_OK;
     }
     if (kind == LF_KIND_STATE) c->x_set[vr - LF_VR_X0] = 1;
+    if (kind == LF_KIND_PARAMETER && c->r[vr] != value) c->k_stale = 1;
     c->r[vr] = value;
     c->outputs_valid = 0;
     return LF_OK;

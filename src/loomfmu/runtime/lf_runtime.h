@@ -120,6 +120,8 @@ typedef struct {
 
     /* Fields added by one concern each (append only, inside your block). */
     /* -- codegen: parameter folding, directional derivatives -- */
+    double k[LF_DIM(LF_NK)];      /* parameter-only subexpressions: `pre` of r[LF_VR_P0..] */
+    int k_stale;                  /* k does not match the parameters: lf_eval_fn recomputes */
     /* -- step loop: early return at events, known breaks -- */
     /* early return (lf_step.h): with stop_at_events set (by the facade; not
      * part of the FMU state) lf_do_step ends at the first event located in
