@@ -10,7 +10,8 @@ with a log) when the history does not reach back far enough; validity
 conditions end the simulation (terminateSimulation); misuse gives fmi2Error.
 
 The full matrix of the 11 models (builds take minutes) runs with
-``python tests/test_me.py [fraction-of-default-stop-time] [models...]``.
+``python tests/test_me.py [fraction-of-default-stop-time] [models...]``, the
+switch-time gaps per tolerance with ``python tests/test_me.py switches``.
 """
 from __future__ import annotations
 
@@ -182,28 +183,31 @@ def _switches(log):
              for m in log if ": mode " in m)]
 
 
-def test_backrest_switch_times_agree_in_me(fmus):
-    """The stick-slip switches (mode changes, from the logEvents lines) of
-    FMPy's CVode with its root finding, against co-simulation's located
-    events; the gap shrinks with the tolerance (CVode's event location
-    follows its state error)."""
-    path = fmus["backrest"].path
-    logs = {}
-    for kind, rtol in (("CoSimulation", 1e-10), ("ModelExchange", 1e-7),
-                       ("ModelExchange", 1e-10)):
+def switch_gaps(path, rtols=(1e-7, 1e-10)):
+    """The backrest's stick-slip switches (mode changes, from the logEvents
+    lines) of FMPy's CVode with its root finding at each relative tolerance,
+    against co-simulation's located events (solver_rtol 1e-10): the number of
+    switches and the largest time gap per tolerance."""
+    def switches(kind, rtol, **start):
         log = []
         _simulate(path, kind, 1.0, 0.01, rtol,
-                  logger=lambda env, i, s, c, m, log=log: log.append(m.decode()),
-                  **({"solver_rtol": 1e-10, "solver_atol": 1e-12}
-                     if kind == "CoSimulation" else {}))
-        logs[kind, rtol] = _switches(log)
-    cs = logs["CoSimulation", 1e-10]
-    assert len(cs) > 10  # genuinely stick-slip
+                  logger=lambda env, i, s, c, m: log.append(m.decode()), **start)
+        return _switches(log)
+
+    cs = switches("CoSimulation", 1e-10, solver_rtol=1e-10, solver_atol=1e-12)
     gaps = []
-    for rtol in (1e-7, 1e-10):
-        me = logs["ModelExchange", rtol]
+    for rtol in rtols:
+        me = switches("ModelExchange", rtol)
         assert [s[1:] for s in me] == [s[1:] for s in cs]
         gaps.append(max(abs(a[0] - b[0]) for a, b in zip(me, cs)))
+    return len(cs), gaps
+
+
+def test_backrest_switch_times_agree_in_me(fmus):
+    """Same switches in the same order; the gap shrinks with the tolerance
+    (CVode's event location follows its state error)."""
+    n, gaps = switch_gaps(fmus["backrest"].path)
+    assert n > 10  # genuinely stick-slip
     assert gaps[0] < 1e-5 and gaps[1] < 1e-8 and gaps[1] < gaps[0] / 10, gaps
 
 
@@ -247,6 +251,38 @@ def test_drive_history_from_completed_steps(fmus):
             u[i] = s.fmu.getReal([s.vr["u"]])[0]
         # at t = 1.5 the delayed signal is the signal at 1.0 (both from our states)
         assert s.fmu.getReal([s.vr["u_delayed"]])[0] == pytest.approx(u[20], rel=1e-9)
+    finally:
+        s.close()
+
+
+def test_drive_history_jumps_are_time_events_tau_later(fmus):
+    """A jump of the history (the start: the history before it is constant;
+    an input set in event mode) reaches the equations tau later, announced
+    as the next time event; after the last one none is pending."""
+    s = Instance(fmus["drive"].path)
+
+    def event(t):
+        s.fmu.enterEventMode()
+        info = fmi2EventInfo()
+        assert s.raw("NewDiscreteStates", ctypes.byref(info)) == OK
+        s.fmu.enterContinuousTimeMode()
+        return info.nextEventTime if info.nextEventTimeDefined else None
+
+    try:
+        s.start()
+        info = s.to_continuous()
+        assert info.nextEventTimeDefined and info.nextEventTime == pytest.approx(0.5, abs=1e-15)
+        s.euler(0.0, 0.2, 10)
+        s.fmu.enterEventMode()
+        s.fmu.setReal([s.vr["u_ext"]], [1.0])  # a step of the input at 0.2
+        info = fmi2EventInfo()
+        assert s.raw("NewDiscreteStates", ctypes.byref(info)) == OK
+        s.fmu.enterContinuousTimeMode()
+        assert info.nextEventTime == pytest.approx(0.5, abs=1e-15)  # the earliest pending
+        s.euler(0.2, 0.5, 15)
+        assert event(0.5) == pytest.approx(0.7, abs=1e-12)
+        s.euler(0.5, 0.7, 10)
+        assert event(0.7) is None
     finally:
         s.close()
 
@@ -399,4 +435,13 @@ def matrix(frac: float, names: list[str]) -> None:
 
 
 if __name__ == "__main__":
-    matrix(float(sys.argv[1]) if len(sys.argv) > 1 else 0.1, sys.argv[2:])
+    if sys.argv[1:2] == ["switches"]:  # python tests/test_me.py switches
+        import tempfile
+        built = build_fmu(load_model("backrest"), out_dir=tempfile.mkdtemp(), interface="both")
+        rtols = (1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
+        n, gaps = switch_gaps(built.path, rtols)
+        print(f"backrest: {n} switches in 1 s; largest |t_ME - t_CS| per CVode rtol:")
+        for rtol, gap in zip(rtols, gaps):
+            print(f"  rtol {rtol:g}: {gap:.2e} s")
+    else:
+        matrix(float(sys.argv[1]) if len(sys.argv) > 1 else 0.1, sys.argv[2:])

@@ -48,20 +48,6 @@ static const char *const state_names[] = {"Instantiated", "InitializationMode",
                                           "Error", "EventMode", "ContinuousTimeMode"};
 #define N_STATE_NAMES ((int)(sizeof state_names / sizeof state_names[0]))
 
-/* the names of the states in `mask`, comma separated */
-static void state_list(int mask, char *buf, size_t size) {
-    int i;
-    size_t used = 0;
-    buf[0] = '\0';
-    for (i = 0; i < N_STATE_NAMES; i++) {
-        int n;
-        if (!(mask & (1 << i))) continue;
-        n = snprintf(buf + used, size - used, "%s%s", used ? ", " : "", state_names[i]);
-        if (n < 0 || (size_t)n >= size - used) return;
-        used += (size_t)n;
-    }
-}
-
 int lf_fmi2_state_bits(const LfInstance *inst) {
     if (ENV(inst)->me && inst->state == LF_ST_STEP_COMPLETE)
         return ENV(inst)->me_cont ? M2_CONT : M2_EVENT;
@@ -70,17 +56,9 @@ int lf_fmi2_state_bits(const LfInstance *inst) {
 
 int lf_fmi2_allowed(fmi2Component c, const char *fn, int mask) {
     LfInstance *inst = lf_fmi2_live(c);
-    char now[64], allowed[200];
-    int bits;
     if (!inst) return 0; /* NULL, freed or not an instance: nothing to log through */
-    bits = lf_fmi2_state_bits(inst);
-    if (bits & mask) return 1;
-    state_list(bits, now, sizeof now);
-    state_list(mask, allowed, sizeof allowed);
-    lf_log(inst, LF_ERROR, LF_LOG_ERROR,
-           "t = %.17g: %s must not be called in state %s; allowed in: %s", inst->t, fn,
-           now[0] ? now : "unknown", allowed);
-    return 0;
+    return lf_check_state(inst, fn, lf_fmi2_state_bits(inst), mask, state_names,
+                          N_STATE_NAMES);
 }
 
 
@@ -94,38 +72,11 @@ fmi2Status lf_fmi2_null_arg(LfInstance *c, const char *fn, const char *arg) {
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char *fmi2GetVersion(void) { return fmi2Version; }
 
-static int category_index(const char *name) {
-    int k;
-    for (k = 0; name && k < LF_N_LOG; k++)
-        if (strcmp(name, lf_log_category_names[k]) == 0) return k;
-    return -1;
-}
-
 fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t n,
                                const fmi2String categories[]) {
-    LfInstance *inst = (LfInstance *)c;
-    size_t i;
-    int k;
     CHECK("fmi2SetDebugLogging", ANY_STATE);
-    if (n == 0) {
-        for (k = 0; k < LF_N_LOG; k++) inst->log_on[k] = loggingOn;
-        return fmi2OK;
-    }
-    if (!categories) return lf_fmi2_null_arg(inst, "fmi2SetDebugLogging", "categories (with n > 0)");
-    if (n > LF_N_LOG * 16) {
-        lf_log(inst, LF_ERROR, LF_LOG_ERROR, "fmi2SetDebugLogging: nCategories = %lu, expected "
-               "at most %d (the FMU has %d categories)", (unsigned long)n, LF_N_LOG * 16,
-               LF_N_LOG);
-        return fmi2Error;
-    }
-    for (i = 0; i < n; i++) /* all known, or nothing changes */
-        if (category_index(categories[i]) < 0) {
-            lf_log(inst, LF_ERROR, LF_LOG_ERROR, "fmi2SetDebugLogging: unknown category %s",
-                   categories[i] ? categories[i] : "(null)");
-            return fmi2Error;
-        }
-    for (i = 0; i < n; i++) inst->log_on[category_index(categories[i])] = loggingOn;
-    return fmi2OK;
+    return (fmi2Status)lf_set_debug_logging((LfInstance *)c, "fmi2SetDebugLogging", loggingOn,
+                                            n, categories);
 }
 
 static void instantiate_error(const fmi2CallbackFunctions *f, const char *name,

@@ -9,6 +9,7 @@
 #include "fmi2Functions.h"
 #include "lf_runtime.h"
 #include "lf_facade.h"
+#include "lf_facade_ops.h"
 
 /* The interfaces this FMU declares (lf_build.h, written by the builder);
  * without it: co-simulation only. */

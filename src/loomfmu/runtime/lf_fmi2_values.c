@@ -88,10 +88,7 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        const fmi2Real value[]) {
     LfInstance *inst = (LfInstance *)c;
-    LfSetUndo u;
     size_t i;
-    int rtol_set = 0;
-    fmi2Status worst = fmi2OK;
     CHECK("fmi2SetReal", SET_STATES);
     if (!lf_fmi2_check_vrs(inst, "fmi2SetReal", vr, nvr, value, F2_N_REAL)) return fmi2Error;
     for (i = 0; i < nvr; i++)
@@ -102,15 +99,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
                    lf_model.real_names[LF_VR_X0 + vr[i] - LF_NREAL]);
             return fmi2Error;
         }
-    lf_undo_save(inst, &u);
-    for (i = 0; i < nvr; i++) {
-        LfStatus st = lf_set_real(inst, vr[i], value[i]);
-        if (st > LF_WARNING) return undo(inst, &u);
-        if (st == LF_WARNING) worst = fmi2Warning;
-        if (vr[i] == LF_SET_RTOL) rtol_set = 1;
-    }
-    if (rtol_set) ENV(inst)->rtol_set = 1;
-    return worst;
+    return (fmi2Status)lf_set_reals(inst, vr, nvr, value, &ENV(inst)->rtol_set);
 }
 
 fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,

@@ -11,7 +11,7 @@
  * state): set at the start, at every completed step without a sign change,
  * after an event update and on entering continuous-time mode.  An event
  * update chooses again the mode of every indicator whose sign differs from
- * the reference.
+ * the reference (lf_event_update of lf_events.c, as co-simulation does).
  *
  * The solver of co-simulation is not used, but kept at (t, x) so that an
  * FMU state taken in model exchange is consistent (lf_state.c checks it). */
@@ -230,33 +230,33 @@ LfStatus lf_me_completed_step(LfInstance *c, const char *fn, int *enter_event_mo
     /* a sign change keeps the reference: the event update looks for it */
     if (!*enter_event_mode && LF_NE > 0) memcpy(c->e_old, e, sizeof(double) * LF_NE);
     c->last_successful_time = c->t;
+    c->inputs_changed = 0; /* inputs set between steps change continuously */
     return LF_OK;
 }
 
 LfStatus lf_me_event_update(LfInstance *c, const char *fn, LfMeEventInfo *info) {
     double e[LF_DIM(LF_NE)], x[LF_DIM(LF_NX)];
-    int k, any = 0, jump = 0, is_bp = 0;
+    int k, any = 0, touched = 0, jump, is_bp = 0;
     LfStatus st;
     memset(info, 0, sizeof *info);
     st = indicators_at(c, fn, &c->r[LF_VR_X0], e);
     if (st != LF_OK) return st;
     if (LF_NX > 0) memcpy(x, &c->r[LF_VR_X0], sizeof(double) * LF_NX);
-    /* the mode of each indicator that changed sign, chosen again (then every
-     * mode made consistent, as after an event in co-simulation) */
+    /* the mode of each indicator that changed sign, chosen again, then every
+     * mode made consistent: lf_event_update, as at an event in co-simulation */
     for (k = 0; k < LF_NE; k++) {
-        int mode = lf_model.event_mode[k];
         if (!crossed(c->e_old[k], e[k])) continue;
         lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: %s: event %s", c->t, fn,
                lf_model.event_names[k]);
         any = 1;
-        if (mode < 0) continue;
-        jump = 1;
-        st = lf_consistent_modes(c, c->t, x, mode);
+        if (lf_model.event_mode[k] < 0) continue;
+        touched = 1;
+        st = lf_event_update(c, k, c->t, x, NULL);
         if (st != LF_OK) return st;
     }
     if (any) c->n_events++;
-    if (!jump && LF_NQ > 0) { /* an input set in event mode may call for other modes */
-        st = lf_consistent_modes(c, c->t, x, -1);
+    if (!touched) { /* an input set in event mode may call for other modes */
+        st = lf_event_update(c, -1, c->t, x, NULL);
         if (st != LF_OK) return st;
     }
     for (k = 0; k < LF_NX; k++)
@@ -264,6 +264,10 @@ LfStatus lf_me_event_update(LfInstance *c, const char *fn, LfMeEventInfo *info) 
     if (LF_NX > 0) memcpy(&c->r[LF_VR_X0], x, sizeof(double) * LF_NX);
     c->outputs_valid = 0;
     sync_solver(c);
+    /* the history jumps here (a breakpoint tau later) where a mode was chosen
+     * again (states reinitialized) or an input was set in event mode */
+    jump = touched || c->inputs_changed;
+    c->inputs_changed = 0;
     if (LF_ND > 0) {
         /* the point, unless a completed step gave it already and nothing jumped */
         int have = 0;
