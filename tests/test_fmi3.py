@@ -389,3 +389,22 @@ def test_fmi3_only_values(fmus, instances):
     assert (s.raw("fmi3SetFloat64", (ctypes.c_uint32 * 1)(vr["time"]), 1,
                   (ctypes.c_double * 1)(1.0), 1) == ERROR)
     assert "time, the independent variable" in s.errors()[-1]
+
+
+def test_null_and_freed_instances_are_refused(fmus):
+    """A NULL or freed instance: fmi3Error (nothing to log through), never a
+    crash; fmi3FreeInstance twice is harmless."""
+    s = Inst3(fmus["two_mass_force", 3].path, "cs")
+    dll, c = s.fmu.dll, s.c
+    dll.fmi3FreeInstance(c)  # (fmpy's freeInstance would unload the library)
+    dll.fmi3FreeInstance(c)  # twice: ignored
+    for inst in (None, c):
+        for fn in ("fmi3EnterStepMode", "fmi3Terminate", "fmi3Reset",
+                   "fmi3ExitInitializationMode", "fmi3EnterEventMode",
+                   "fmi3EnterContinuousTimeMode"):
+            assert getattr(dll, fn)(inst) == ERROR, fn
+        assert dll.fmi3DoStep(inst, 0.0, 0.1, True, None, None, None, None) == ERROR
+        assert dll.fmi3GetFloat64(inst, None, 0, None, 0) == ERROR
+        assert dll.fmi3SetFMUState(inst, None) == ERROR
+    assert s.log == []
+    s.fmu.freeLibrary()

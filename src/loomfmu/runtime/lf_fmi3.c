@@ -124,7 +124,6 @@ LfInstance *lf_fmi3_new(const char *fn, F3Interface kind, fmi3String name, fmi3S
     LfInstance *c;
     Fmi3Env *e;
     int k;
-    (void)kind;
     if (!name || !name[0]) {
         instantiate_error(log_message, env, fn, "instanceName is NULL or empty (FMI 3.0 "
                           "requires a non-empty name)");
