@@ -136,6 +136,9 @@ typedef struct {
     double ev_t_ok;
     double ev_x_ok[LF_DIM(LF_NX)];
     double ev_q_ok[LF_DIM(LF_NQ)];
+    /* delays: where the last history lookup of each delay ended (a hint for
+     * the next one, checked before use; not part of the FMU state) */
+    long hist_cursor[LF_DIM(LF_ND)];
     /* -- model exchange -- */
     /* -- FMI 3.0 facade -- */
     /* -- solvers and statistics -- */
