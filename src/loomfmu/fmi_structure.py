@@ -5,8 +5,10 @@ them as indices or value references).
 Each entry maps an unknown to the names it depends on, or to None (depends
 on everything known, no ``dependencies`` attribute):
 
-* outputs: an output on the inputs (direct feedthrough); a mode on nothing
-  (discrete: changes only at events);
+* outputs: an output on the inputs (direct feedthrough) and, in model
+  exchange (where the importer sets the states), on the states (FMI 2.0
+  section 3.3.2: the knowns of model exchange are the inputs and states); a
+  mode on nothing (discrete: changes only at events);
 * derivatives (model exchange): der(x_k) on the states and inputs;
 * initial: outputs, and in model exchange the states with a computed start
   and every der(x), on the parameters, the states with an exact start and
@@ -77,7 +79,10 @@ def model_structure(model: Model, dae: DaeForm, *, interface: str = "cs",
     modes = [v.name for v in model.of_kind("mode")]
     s = Structure()
     y = resolved(dae, dae.y)
-    s.outputs = dict(zip(names["output"], _named(y, dae.u, names["input"])))
+    xu = ca.vertcat(dae.x, dae.u)
+    xu_names = names["state"] + names["input"]
+    s.outputs = dict(zip(names["output"], _named(y, xu, xu_names) if me
+                         else _named(y, dae.u, names["input"])))
     s.outputs.update({m: [] for m in modes})
     # at initialization, states with a computed start are unknowns: their
     # start expressions stand in for them
@@ -91,8 +96,6 @@ def model_structure(model: Model, dae: DaeForm, *, interface: str = "cs",
     s.initial.update({m: None for m in modes})
     if not me:
         return s
-    xu = ca.vertcat(dae.x, dae.u)
-    xu_names = names["state"] + names["input"]
     der = resolved(dae, dae.w[: dae.nx, 0])
     der_names = [f"der({x})" for x in names["state"]]
     s.derivatives = dict(zip(der_names, _named(der, xu, xu_names)))

@@ -18,8 +18,9 @@ Value references::
              Integer vr, time = LF_NREAL + LF_NX + LF_N_INTEGER, event indicator j
              (model exchange) = that + 1 + j
 
-Dependencies: an output lists the inputs it depends on directly (Outputs); a
-state derivative the states and inputs (Derivatives / ContinuousStateDerivative);
+Dependencies: an output lists the inputs it depends on directly (Outputs; in
+model exchange the states too); a state derivative the states and inputs
+(Derivatives / ContinuousStateDerivative);
 an initial unknown the parameters, states with an exact start and inputs.
 """
 from __future__ import annotations
