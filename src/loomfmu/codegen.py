@@ -134,7 +134,7 @@ def model_guid(model: Model, dae: DaeForm) -> str:
 
 #: The generated functions in the order of the runtime's LfFunctionId.
 FUNCTIONS = ("wsol", "wjac", "res", "rjac", "out", "evt", "valid", "reinit", "init",
-             "hist", "tau", "cons", "djac", "yder", "vld", "pre")
+             "hist", "tau", "cons", "djac", "yder", "vld", "pre", "dirw", "diry")
 
 #: Names of the generated functions' arguments, in order (the runtime fills
 #: c->arg[] in this order, lf_eval_fn).  k: the folded parameter-only
@@ -170,6 +170,11 @@ def casadi_functions(dae: DaeForm, *, fold: bool = True) -> list[ca.Function]:
 
     djac -> (dw/dd or dF/dd, dg/dx, dg/dt): the chain-rule term of the
     Jacobian for zero delays, where d = g(t, x) now (g taken at fixed w).
+
+    Directional derivatives (lf_dirder.c), with y = [outputs; algebraic
+    locals]: dirw -> (dw/du or dF/du, dg/du, dy/dd), diry -> (dy/dx, dy/dw,
+    dy/du), partials at fixed w; the runtime chains them with wjac/rjac and
+    djac.
 
     Every output is densified, so that the generated C writes all of its
     entries (structural zeros included: e.g. dg/dt of a delayed input).
@@ -222,10 +227,11 @@ def _function_outputs(dae: DaeForm, ud: ca.SX, dd: ca.SX) -> dict:
         F = ca.SX.zeros(nw)
         rjac = [ca.SX.zeros(nw, nw), ca.SX.zeros(nw, nx), ca.SX.zeros(nw)]
     zloc = dae.w[nx:, 0]
+    yz = ca.vertcat(dae.y, zloc)
     return {
         "wsol": ([wsol], ["w_sol"]), "wjac": (wjac, ["dw_dx", "dw_dt"]),
         "res": ([F], ["F"]), "rjac": (rjac, ["dF_dw", "dF_dx", "dF_dt"]),
-        "out": ([ca.vertcat(dae.y, zloc)], ["y"]), "evt": ([dae.e], ["e"]),
+        "out": ([yz], ["y"]), "evt": ([dae.e], ["e"]),
         "valid": ([dae.valid], ["valid"]), "reinit": ([dae.reinit], ["x_new"]),
         "init": ([dae.init], ["x_start"]),
         "hist": ([dae.g, dae.gdot + ca.jacobian(dae.g, dae.u) @ ud], ["g", "g_dot"]),
@@ -236,6 +242,11 @@ def _function_outputs(dae: DaeForm, ud: ca.SX, dd: ca.SX) -> dict:
                  ["dW_dd", "dg_dx", "dg_dt"]),
         "yder": (_output_rates(dae, ud, dd), ["y_rate", "dy_dw", "w_rate"]),
         "vld": ([_validity(dae)], ["v"]),
+        "dirw": ([ca.jacobian(F if dae.implicit else wsol, dae.u),
+                  ca.jacobian(dae.g, dae.u), ca.jacobian(yz, dae.d)],
+                 ["dW_du", "dg_du", "dy_dd"]),
+        "diry": ([ca.jacobian(yz, v) for v in (dae.x, dae.w, dae.u)],
+                 ["dy_dx", "dy_dw", "dy_du"]),
     }
 
 

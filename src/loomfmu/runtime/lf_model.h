@@ -53,7 +53,9 @@ enum {
     LF_FN_YDER = 13,  /* -> output rates (explicit: complete; implicit: parts) */
     LF_FN_VLD = 14,   /* -> validity conditions (Model.require), each >= 0 */
     LF_FN_PRE = 15,   /* -> k, the parameter-only subexpressions (from p) */
-    LF_N_FN = 16
+    LF_FN_DIRW = 16,  /* -> dw/du (explicit) or dF/du (implicit), dg/du, dy/dd */
+    LF_FN_DIRY = 17,  /* -> dy/dx, dy/dw, dy/du (y: outputs and algebraic locals) */
+    LF_N_FN = 18
 };
 
 /* Real value references are laid out as
