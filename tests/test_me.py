@@ -238,6 +238,18 @@ def test_drive_refuses_a_step_longer_than_the_history(fmus):
         s.close()
 
 
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+def test_fmpy_with_output_points_further_apart_than_tau_is_refused(fmus):
+    """FMPy's CVode completes a step only at output points: 1 s apart, more
+    than tau = 0.5 s, the run fails (CVode gives up after the discards)
+    instead of returning extrapolated values, and the log says why."""
+    log = []
+    with pytest.raises(Exception):
+        _simulate(fmus["drive"].path, "ModelExchange", 3.0, 1.0, 1e-7,
+                  logger=lambda env, i, st, c, m: log.append((st, m.decode())))
+    assert any(st == DISCARD and "history ends at t = 0 " in m for st, m in log)
+
+
 def test_drive_history_from_completed_steps(fmus):
     """With completed steps every 0.05 s (< tau) the delayed output follows
     the signal tau earlier (the history's Hermite interpolation)."""
@@ -352,7 +364,13 @@ def test_me_misuse_is_refused(fmus):
         # instantiated: no continuous-time calls yet
         assert s.raw("SetTime", dbl(0.1)) == ERROR
         assert "fmi2SetTime must not be called in state Instantiated" in s.messages()[-1]
-        s.start()
+        s.fmu.setupExperiment(startTime=0.0)
+        s.fmu.enterInitializationMode()
+        vr = (ctypes.c_uint * 1)(s.vr["warp_pull"])
+        assert s.raw("SetRealInputDerivatives", vr, ctypes.c_size_t(1),
+                     (ctypes.c_int * 1)(1), (dbl * 1)(1.0)) == ERROR
+        assert "is a co-simulation function" in s.messages()[-1]
+        s.fmu.exitInitializationMode()
         # event mode after initialization: states are set in continuous-time mode only
         assert s.raw("SetContinuousStates", x, s.nx) == ERROR
         assert "state EventMode" in s.messages()[-1]

@@ -21,12 +21,21 @@
 #define SET_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | LF_ST_STEP_COMPLETE)
 #define OUT_DER_STATES (RUNNING | LF_ST_TERMINATED)
 
+/* input and output derivatives are co-simulation functions */
+static int cs_only(LfInstance *inst, const char *fn) {
+    if (!ENV(inst)->me) return 1;
+    lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s is a co-simulation function; this "
+           "instance was instantiated as fmi2ModelExchange", inst->t, fn);
+    return 0;
+}
+
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
                                        size_t nvr, const fmi2Integer order[],
                                        const fmi2Real value[]) {
     LfInstance *inst = (LfInstance *)c;
     size_t i;
     CHECK("fmi2SetRealInputDerivatives", SET_STATES);
+    if (!cs_only(inst, "fmi2SetRealInputDerivatives")) return fmi2Error;
     if (nvr > 0 && !order)
         return lf_fmi2_null_arg(inst, "fmi2SetRealInputDerivatives", "order (with nvr > 0)");
     if (!lf_fmi2_check_vrs(inst, "fmi2SetRealInputDerivatives", vr, nvr, value, LF_NREAL))
@@ -44,6 +53,7 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
     LfInstance *inst = (LfInstance *)c;
     size_t i;
     CHECK("fmi2GetRealOutputDerivatives", OUT_DER_STATES);
+    if (!cs_only(inst, "fmi2GetRealOutputDerivatives")) return fmi2Error;
     if (nvr > 0 && !order)
         return lf_fmi2_null_arg(inst, "fmi2GetRealOutputDerivatives", "order (with nvr > 0)");
     if (!lf_fmi2_check_vrs(inst, "fmi2GetRealOutputDerivatives", vr, nvr, value, LF_NREAL))
