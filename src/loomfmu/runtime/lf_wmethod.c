@@ -19,17 +19,26 @@
  *   a = A Gamma^-1, c = -Gamma^-1 off the diagonal, x_new = x + sum m_j u_j,
  * computed from the table above (the order-3 conditions then hold to 2e-16).
  *
- * A W-method keeps its order for ANY matrix W, not only W = df/dx.  That is
- * what allows the reuse: the factorization of E = I/(h0*gamma) - J0, made at
- * some earlier point with step h0, is E = I/(h*gamma) - W for the step h in
- * use with W = J0 + (1/h - 1/h0)/gamma I; only stability (not the order)
- * depends on W being close to df/dx.  So J0 and the factors are kept while
- * h/h0 stays in [WM_RATIO_LO, WM_RATIO_HI], for at most WM_MAX_AGE accepted
- * steps, across restarts (input changes: the old W stays a good
- * approximation), and a step rejected with an old J is retried with a fresh
- * J and factorization.  The error estimate (embedded 2nd-order W-method)
- * guards the accuracy whatever W is.  Dense output: cubic Hermite from x
- * and f at both ends (f at the new point is the next step's f0).
+ * A W-method keeps its order for ANY matrix W, not only W = df/dx (tested:
+ * order 3 with W != J, where rodas4 falls to order 1).  That allows the
+ * reuse: J0 (and df/dt) evaluated at an earlier point and the factors of
+ * E = I/(h0*gamma) - J0 serve every step of size h0 (W = J0, only older):
+ *  - a proposed step with WM_SNAP_LO <= h/h0 <= WM_SNAP_HI is taken as h0
+ *    (the controller's wish to grow a little is declined, as in RADAU5);
+ *  - the steps left to t_bound are made equal (wm_even_split), so that a
+ *    communication interval, and the next one of the same length, needs no
+ *    remainder step of another size;
+ *  - J0 and the factors survive restarts (input changes: the old W stays a
+ *    good approximation) and are renewed when h leaves that band, after
+ *    WM_MAX_AGE accepted steps, and when a step with an older J0 is
+ *    rejected.
+ * Measured on the spindle run-up: a shifted W = J0 + (1/h - 1/h0)/gamma I
+ * for h < h0 (also a W-method) costs more rejections than it saves
+ * factorizations (the error estimate of the stiff, lightly damped modes
+ * is sensitive to it), so the band below h0 is empty by default.  The
+ * embedded 2nd-order W-method guards the accuracy whatever W is.  Dense
+ * output: cubic Hermite from x and f at both ends (f at the new point is
+ * the next step's f0).
  */
 #include "lf_solver_impl.h"
 #include "lf_linalg.h"
@@ -62,9 +71,8 @@
 #define WM_E3 1.7726301276675507
 #define WM_E4 0.5
 
-/* reuse policy: a proposed step h with WM_SNAP_LO <= h/h0 <= WM_SNAP_HI is
- * taken as h0 (W = J0, only older); a step shortened to reach t_bound keeps
- * the factors while h/h0 >= WM_RATIO_LO (W = J0 + (1/h - 1/h0)/gamma I) */
+/* reuse policy (see above); the factors serve a step h with
+ * WM_RATIO_LO <= h/h0 <= 1 + 1e-9 (below 1: W = J0 + (1/h - 1/h0)/gamma I) */
 #ifndef WM_SNAP_HI
 #define WM_SNAP_HI 1.5
 #endif
@@ -72,7 +80,7 @@
 #define WM_SNAP_LO 1.0
 #endif
 #ifndef WM_RATIO_LO
-#define WM_RATIO_LO 1.0
+#define WM_RATIO_LO (1.0 - 1e-9)
 #endif
 #ifndef WM_MAX_AGE
 #define WM_MAX_AGE 50
@@ -124,7 +132,7 @@ static LfStatus wm_jacobian(LfSolver *s) {
 static int wm_matrix(LfSolver *s, double h, int renew) {
     double *p = LF_PRIV(s), r = p[WM_JOK] != 0.0 ? h / p[WM_H0] : 0.0;
     LfStatus st;
-    if (!renew && r >= WM_RATIO_LO && r <= 1.0) return LF_OK;
+    if (!renew && r >= WM_RATIO_LO && r <= 1.0 + 1e-9) return LF_OK;
     if (p[WM_JOK] == 0.0 || p[WM_AGE] > 0.0) {
         p[WM_JOK] = 0.0;
         st = wm_jacobian(s);
@@ -136,6 +144,17 @@ static int wm_matrix(LfSolver *s, double h, int renew) {
     p[WM_JOK] = 1.0;
     p[WM_H0] = h;
     return LF_OK;
+}
+
+/* The k = ceil(rem/h) steps left to t_bound made equal (rem/k <= h): as
+ * many steps as k-1 steps of h and a remainder, but one step size, and the
+ * same one in the next communication interval of the same length, so that
+ * one factorization serves them all. */
+static double wm_even_split(double h, double rem) {
+    double k;
+    if (!(h > 0.0) || !(rem > h)) return h;
+    k = ceil(rem / h * (1.0 - 1e-12));
+    return k > 1e6 ? h : rem / k;
 }
 
 static LfStatus wm_step(LfSolver *s, double t_bound) {
@@ -165,8 +184,10 @@ static LfStatus wm_step(LfSolver *s, double t_bound) {
         double h_prop = h, t_new, hmin, err, fac, hnew, hd, c1, c2, c3;
         int last;
         if (++attempts > LF_MAX_ATTEMPTS) return lf_sv_give_up(s, h, 0.0, cause, 1);
-        if (!renew && p[WM_JOK] != 0.0 && h >= WM_SNAP_LO * p[WM_H0] && h <= WM_SNAP_HI * p[WM_H0])
+        if (!renew && !rejected && p[WM_JOK] != 0.0 && h >= WM_SNAP_LO * p[WM_H0] &&
+            h <= WM_SNAP_HI * p[WM_H0])
             h = p[WM_H0];
+        h = wm_even_split(h, t_bound - t);
         if (lf_sv_plan_step(s, t_bound, &h, &t_new, &last, &hmin)) return lf_sv_give_up(s, h, hmin, cause, 0);
 
         mst = wm_matrix(s, h, renew);
