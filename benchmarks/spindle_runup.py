@@ -21,20 +21,34 @@ integrates the ramp instead of a staircase, at communication steps
 scene above).  Oracle: the interpolated run at ``DT`` (the exact ramp to the
 solver's tolerance); error: max over the common communication points of
 |r_top - r_top,oracle| / max r_top,oracle.
+
+    python benchmarks/spindle_runup.py --counters [--model spindle]
+        [--solvers rodas4 ros34pw2] [--repeats 3]
+        [--out docs/spindle_runup_counters.json]
+
+The same scene at ``DT`` driven without Python: the FMU's own sources plus
+benchmarks/spindle_runup_driver.c, compiled with gcc into one program that
+calls the FMI 2.0 functions and reads the solver's counters (accepted and
+rejected steps, RHS and Jacobian calls, factorizations) from the instance;
+CPU time (median of ``--repeats``) / simulated time, with the staircase and
+with input derivatives, and max r_top of each run.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import statistics
+import subprocess
 import tempfile
 import time
+import zipfile
 from pathlib import Path
 
 import fmpy
 import numpy as np
 
 from loomfmu import build_fmu, load_model
+from loomfmu.builder import fmi_headers_dir
 from loomfmu.codegen import SOLVERS
 
 RAMP, HOLD, DT, TOP_RPM, ECC = 1.0, 0.25, 2e-4, 16000.0, 5e-6
@@ -147,6 +161,74 @@ def main_interp(args) -> int:
 
 
 DEFAULT_OUT = ROOT / "docs" / "spindle_runup.json"
+DRIVER = Path(__file__).resolve().with_name("spindle_runup_driver.c")
+
+
+def compile_driver(fmu: Path, tmp: Path) -> Path:
+    """The FMU's sources/ plus the driver, compiled into one program."""
+    src = tmp / "sources"
+    with zipfile.ZipFile(fmu) as z:
+        for name in z.namelist():
+            if name.startswith("sources/"):
+                z.extract(name, tmp)
+    exe = tmp / "runup"
+    probe = ["-DLF_PROBE_SCHUR"] if (src / "lf_schur.c").exists() else []
+    cmd = ["gcc", "-std=c99", "-O2", *probe, "-I", str(src), "-I", str(fmi_headers_dir()),
+           *map(str, sorted(src.glob("*.c"))), str(DRIVER), "-lm", "-o", str(exe)]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"gcc failed: {proc.stderr[-2000:]}")
+    return exe
+
+
+def run_counters(exe: Path, fmu: Path, solver: str, rtol: float, interp: bool,
+                 repeats: int) -> dict:
+    md = fmpy.read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    args = [SOLVERS.index(solver) + 1, rtol, 1e-12, DT, int(interp), RAMP, HOLD, TOP_RPM, ECC,
+            repeats] + [vr[k] for k in ("solver", "solver_atol", "n_rpm", "e_b", "e_w", "r_top")] \
+        + [md.guid]
+    proc = subprocess.run([str(exe), *map(str, args)], capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"driver failed: {proc.stderr[-2000:]}")
+    out = {k: float(v) for k, v in (ln.split() for ln in proc.stdout.splitlines())}
+    return out
+
+
+def main_counters(args) -> int:
+    sim = RAMP + HOLD
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        opts = {"n_modes": args.n_modes} if args.model == "spindle_modal" else {}
+        fmu = build_fmu(load_model(args.model, **opts), out_dir=tmp, validate=False).path
+        exe = compile_driver(fmu, Path(tmp))
+        for solver in args.solvers:
+            for interp in (False, True):
+                r = run_counters(exe, fmu, solver, args.rtol, interp, args.repeats)
+                rows.append({"solver": solver,
+                             "inputs": "derivatives" if interp else "staircase",
+                             "cpu_s": r["cpu_s"], "rtf": r["cpu_s"] / sim,
+                             **{k: int(r[k]) for k in ("steps", "rejected", "rhs", "jac", "lu")},
+                             "steps_per_lu": r["steps"] / max(r["lu"], 1.0),
+                             "eliminated": int(r.get("eliminated", 0)),
+                             "r_top_max": r["r_top_max"], "r_top_end": r["r_top_end"]})
+    ref = rows[0]["r_top_max"]
+    for r in rows:
+        r["r_top_max_rel_diff"] = abs(r["r_top_max"] - ref) / ref
+    result = {"scene": {"model": args.model, "ramp_s": RAMP, "hold_s": HOLD, "dt_s": DT,
+                        "top_rpm": TOP_RPM, "rtol": args.rtol, "atol": 1e-12,
+                        "repeats": args.repeats, "timing": "CPU time of the C driver, median"},
+              "rows": rows}
+    print(f"{'solver':<10}{'inputs':<13}{'cpu s':>8}{'cpu/sim':>9}{'steps':>8}{'rej':>7}"
+          f"{'rhs':>9}{'jac':>8}{'lu':>8}{'st/lu':>7}{'dmax r_top':>12}")
+    for r in rows:
+        print(f"{r['solver']:<10}{r['inputs']:<13}{r['cpu_s']:>8.3f}{r['rtf']:>9.3f}"
+              f"{r['steps']:>8}{r['rejected']:>7}{r['rhs']:>9}{r['jac']:>8}{r['lu']:>8}"
+              f"{r['steps_per_lu']:>7.2f}{r['r_top_max_rel_diff']:>12.2e}")
+    out = args.out if args.out != DEFAULT_OUT else ROOT / "docs" / "spindle_runup_counters.json"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=1))
+    return 0
 
 
 def main(argv=None) -> int:
@@ -164,9 +246,15 @@ def main(argv=None) -> int:
                     help="communication steps of the staircase runs, DT divided by these")
     ap.add_argument("--model", default="spindle", choices=("spindle", "spindle_modal"))
     ap.add_argument("--n-modes", type=int, default=4)
+    ap.add_argument("--counters", action="store_true", help="C driver without Python: "
+                    "solver counters and CPU time (writes docs/spindle_runup_counters.json)")
+    ap.add_argument("--solvers", nargs="*", default=[s for s in ("rodas4", "ros34pw2")
+                                                     if s in SOLVERS], choices=SOLVERS)
     args = ap.parse_args(argv)
     if args.interp:
         return main_interp(args)
+    if args.counters:
+        return main_counters(args)
     sim_time = RAMP + HOLD
     with tempfile.TemporaryDirectory() as tmp:
         full = build_fmu(load_model("spindle"), out_dir=tmp, validate=False).path
