@@ -16,7 +16,6 @@ switch-time gaps per tolerance with ``python tests/test_me.py switches``.
 from __future__ import annotations
 
 import ctypes
-import math
 import re
 import sys
 import time
@@ -33,24 +32,9 @@ from fmpy.fmi2 import (FMU2Model, FMU2Slave, fmi2CallbackAllocateMemoryTYPE,
 from fmpy import calloc, free
 
 from loomfmu import build_fmu, load_model
-from loomfmu.declare import Model
+from test_validity import T_STAR, _spring  # the spring x = cos(2 t), fails at T_STAR
 
 OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
-T_STAR = math.acos(-0.5) / 2.0  # the spring's x = cos(2 t) reaches -0.5
-
-
-def _spring() -> Model:
-    """x'' = -4 x, x(0) = 1, with the validity condition x + 0.5 >= 0."""
-    m = Model("spring_me", description="mass on a spring", stop_time=2.0, step_size=0.01)
-    k = m.parameter("k", 4.0, unit="N/m", description="stiffness per unit mass",
-                    source="assumption: test oracle")
-    x = m.state("x", 1.0, unit="m", description="position")
-    v = m.state("v", 0.0, unit="m/s", description="velocity")
-    m.eq(m.der(x), v)
-    m.eq(m.der(v), -k * x)
-    xo = m.output("x_out", x, unit="m", description="position")
-    m.require("taut", xo + 0.5, "string in compression")
-    return m
 
 
 @pytest.fixture(scope="module")
@@ -58,7 +42,8 @@ def fmus(tmp_path_factory):
     out = tmp_path_factory.mktemp("me")
     built = {name: build_fmu(load_model(name), out_dir=out, interface="both")
              for name in ("two_mass_force", "backrest", "drive")}
-    built["spring_me"] = build_fmu(_spring(), out_dir=out, interface="me")
+    # x'' = -4 x, x(0) = 1, condition x + 0.5 >= 0 (test_validity's oracle)
+    built["spring_me"] = build_fmu(_spring(True, "spring_me"), out_dir=out, interface="me")
     return built
 
 
