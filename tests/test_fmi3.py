@@ -408,3 +408,63 @@ def test_null_and_freed_instances_are_refused(fmus):
         assert dll.fmi3SetFMUState(inst, None) == ERROR
     assert s.log == []
     s.fmu.freeLibrary()
+
+
+def _dirder(s, unknowns, knowns, seed):
+    n, m = len(unknowns), len(knowns)
+    out = (ctypes.c_double * n)()
+    st = s.raw("fmi3GetDirectionalDerivative", (ctypes.c_uint32 * n)(*unknowns), n,
+               (ctypes.c_uint32 * m)(*knowns), m, (ctypes.c_double * m)(*seed), m, out, n)
+    return st, list(out)
+
+
+def test_directional_derivatives(fmus, instances):
+    """Co-simulation: the force's feedthrough is linear, dF_c/dx2_in = -kc and
+    dF_c/dv2_in = -dc exactly.  Model exchange (backrest, nonlinear): the
+    Jacobian of der(x) with respect to the states, column by column, against
+    central finite differences through fmi3SetContinuousStates."""
+    s = instances(fmus["two_mass_force", 3].path, "cs")
+    f, vr = s.fmu, s.vr
+    f.enterInitializationMode(startTime=0.0)
+    f.exitInitializationMode()
+    f.doStep(0.0, 0.01)
+    kc, dc = f.getFloat64([vr["kc"], vr["dc"]])
+    for known, expected in (("x2_in", -kc), ("v2_in", -dc)):
+        st, (d,) = _dirder(s, [vr["F_c"]], [vr[known]], [1.0])
+        assert st == OK and d == pytest.approx(expected, rel=1e-14)
+    st, _ = _dirder(s, [vr["F_c"]], [vr["kc"]], [1.0])  # a parameter is no known
+    assert st == ERROR
+    st = s.raw("fmi3GetDirectionalDerivative", (ctypes.c_uint32 * 1)(vr["F_c"]), 1,
+               (ctypes.c_uint32 * 1)(vr["x2_in"]), 1, (ctypes.c_double * 1)(1.0), 1,
+               (ctypes.c_double * 2)(), 2)
+    assert st == ERROR and "nSensitivity = 2" in s.errors()[-1]
+
+    m = instances(fmus["backrest", 3].path, "me")
+    g = m.fmu
+    g.enterInitializationMode(startTime=0.0)
+    g.exitInitializationMode()
+    g.updateDiscreteStates()
+    g.enterContinuousTimeMode()
+    states = [v for v in m.md.modelVariables if v.derivative is not None]
+    x_vr = [v.derivative.valueReference for v in states]
+    der_vr = [v.valueReference for v in states]
+    nx = len(states)
+    x0 = (ctypes.c_double * nx)()
+    assert m.raw("fmi3GetContinuousStates", x0, nx) == OK
+    x0 = np.array(x0)
+
+    def der(x):
+        dx = (ctypes.c_double * nx)()
+        assert m.raw("fmi3SetContinuousStates", (ctypes.c_double * nx)(*x), nx) == OK
+        assert m.raw("fmi3GetContinuousStateDerivatives", dx, nx) == OK
+        return np.array(dx)
+
+    for j in range(nx):
+        e = np.zeros(nx)
+        e[j] = 1.0
+        der(x0)
+        st, exact = _dirder(m, der_vr, x_vr, e)
+        assert st == OK
+        h = 1e-6 * max(1.0, abs(x0[j]))
+        fd = (der(x0 + h * e) - der(x0 - h * e)) / (2 * h)
+        np.testing.assert_allclose(exact, fd, rtol=1e-5, atol=1e-6 * np.max(np.abs(fd)))

@@ -209,15 +209,3 @@ fmi3Status fmi3GetOutputDerivatives(fmi3Instance c, const fmi3ValueReference vr[
         if (lf_output_derivative(inst, vr[i], &values[i]) != LF_OK) return fmi3Error;
     return fmi3OK;
 }
-
-/* ---- directional derivatives ------------------------------------------------ */
-
-fmi3Status fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference unknowns[],
-                                        size_t nUnknowns, const fmi3ValueReference knowns[],
-                                        size_t nKnowns, const fmi3Float64 seed[], size_t nSeed,
-                                        fmi3Float64 sensitivity[], size_t nSensitivity) {
-    (void)unknowns; (void)nUnknowns; (void)knowns; (void)nKnowns; (void)seed; (void)nSeed;
-    (void)sensitivity; (void)nSensitivity;
-    return lf_fmi3_unsupported(c, "fmi3GetDirectionalDerivative",
-                               "providesDirectionalDerivatives is false");
-}
