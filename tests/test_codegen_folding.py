@@ -169,3 +169,16 @@ def test_fmpy_start_values_reach_the_folded_terms(decay_fmu):
         r = simulate_fmu(str(decay_fmu), stop_time=0.5, output_interval=0.05,
                          start_values={"a": a}, output=["x_out"])
         assert r["x_out"][-1] == pytest.approx(math.exp(-(a * a + 1) * 0.5), rel=1e-5)
+
+
+def test_fmu_state_from_other_parameters_recomputes_k(decay_fmu, slave_factory):
+    """A state serialized by an instance with a = 2, set into one that ran with
+    a = 0.5: the restored parameters' folded terms drive the rest of the run."""
+    a, b = slave_factory(decay_fmu, "a"), slave_factory(decay_fmu, "b")
+    _run(a, 2.0, t_end=0.25)
+    blob = a.fmu.serializeFMUstate(a.fmu.getFMUstate())
+    _run(b, 0.5, t_end=0.25)  # b evaluated its model: k from a = 0.5
+    b.fmu.setFMUstate(b.fmu.deSerializeFMUstate(blob))
+    for k in range(5):
+        b.fmu.doStep(0.25 + 0.05 * k, 0.05)
+    assert b.get("x_out")[0] == pytest.approx(math.exp(-5.0 * 0.5), rel=1e-5)
