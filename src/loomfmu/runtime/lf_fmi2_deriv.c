@@ -1,5 +1,6 @@
 /* loomfmu shared runtime: FMI 2.0 co-simulation input and output
- * derivatives (canInterpolateInputs="true", maxOutputDerivativeOrder="1").
+ * derivatives (canInterpolateInputs="true", maxOutputDerivativeOrder="1"),
+ * and directional derivatives (co-simulation and model exchange).
  *
  * fmi2SetRealInputDerivatives: orders 1 and 2 of Real inputs, set with
  * respect to the current communication point (lf_inputs.c); allowed where
@@ -16,6 +17,7 @@
 #include <stddef.h>
 
 #include "fmi2Functions.h"
+#include "lf_dirder.h"
 #include "lf_fmi2_internal.h"
 
 #define SET_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | LF_ST_STEP_COMPLETE)
@@ -82,9 +84,23 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
 
 /* ---- directional derivatives ------------------------------------------------ */
 
-fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference u[],
-                                        size_t nu, const fmi2ValueReference z[], size_t nz,
-                                        const fmi2Real dv[], fmi2Real dz[]) {
-    (void)u; (void)nu; (void)z; (void)nz; (void)dv; (void)dz;
-    return lf_fmi2_unsupported(c, "fmi2GetDirectionalDerivative");
+/* Exact (CasADi's Jacobians, lf_dirder.c) at the current time and states:
+ * unknowns der(x_k) (vr LF_NREAL + k), outputs and algebraic locals; knowns
+ * states and inputs.  From initialization mode on, in co-simulation and
+ * model exchange (where the delayed values must be known from the history,
+ * as for fmi2GetDerivatives). */
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[],
+                                        size_t nUnknown, const fmi2ValueReference vKnown_ref[],
+                                        size_t nKnown, const fmi2Real dvKnown[],
+                                        fmi2Real dvUnknown[]) {
+    LfInstance *inst = (LfInstance *)c;
+    const char *fn = "fmi2GetDirectionalDerivative";
+    LfStatus st;
+    CHECK(fn, LF_ST_INIT | RUNNING | ME_RUNNING | LF_ST_TERMINATED);
+    if (ENV(inst)->me && (inst->state & LF_ST_STEP_COMPLETE) &&
+        (st = lf_me_delays_known(inst, fn)) != LF_OK)
+        return (fmi2Status)st;
+    st = lf_directional_derivative(inst, vUnknown_ref, nUnknown, vKnown_ref, nKnown, dvKnown,
+                                   dvUnknown);
+    return (fmi2Status)st;
 }
