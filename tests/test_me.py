@@ -248,6 +248,10 @@ def test_drive_history_from_completed_steps(fmus):
             u[i] = s.fmu.getReal([s.vr["u"]])[0]
         # at t = 1.5 the delayed signal is the signal at 1.0 (both from our states)
         assert s.fmu.getReal([s.vr["u_delayed"]])[0] == pytest.approx(u[20], rel=1e-9)
+        s.fmu.setTime(1.4)  # back in time without restoring a state: refused
+        with pytest.raises(FMICallException) as e:
+            s.fmu.completedIntegratorStep()
+        assert e.value.status == ERROR and "history already ends at t = 1.5" in s.messages()[-1]
     finally:
         s.close()
 

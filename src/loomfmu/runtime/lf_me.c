@@ -59,6 +59,26 @@ static double hist_last_time(const LfInstance *c, int k) {
     return c->hist[((size_t)k * LF_HIST_CAP + (size_t)i) * 3];
 }
 
+/* the end of the history (the last point any delay > 0 holds), or -inf */
+static double hist_end(const LfInstance *c) {
+    double end = -INFINITY;
+    int k;
+    for (k = 0; k < LF_ND; k++)
+        if (c->tau[k] > 0 && c->hist_count[k] > 0) end = fmax(end, hist_last_time(c, k));
+    return end;
+}
+
+/* A point the history can take: not before its end (the importer went back
+ * in time without restoring an FMU state) */
+static LfStatus history_point(LfInstance *c, const char *fn) {
+    double end = hist_end(c);
+    if (!(c->t < end)) return LF_OK;
+    lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: the delays' history already ends at "
+           "t = %.17g; a step completed at an earlier time needs the FMU state of that time "
+           "(fmi2SetFMUstate) first; nothing done", c->t, fn, end);
+    return LF_ERROR;
+}
+
 LfStatus lf_me_delays_known(LfInstance *c, const char *fn) {
     int k;
     for (k = 0; k < LF_ND; k++) {
@@ -218,7 +238,8 @@ LfStatus lf_me_completed_step(LfInstance *c, const char *fn, int *enter_event_mo
     st = lf_me_delays_known(c, fn);
     if (st != LF_OK) return st;
     if (LF_ND > 0) {
-        st = lf_hist_push(c, c->t, &c->r[LF_VR_X0], 0);
+        st = history_point(c, fn);
+        if (st == LF_OK) st = lf_hist_push(c, c->t, &c->r[LF_VR_X0], 0);
         if (st != LF_OK) return st;
     }
     st = check_validity(c, fn, terminate);
@@ -239,6 +260,7 @@ LfStatus lf_me_event_update(LfInstance *c, const char *fn, LfMeEventInfo *info) 
     int k, any = 0, touched = 0, jump, is_bp = 0;
     LfStatus st;
     memset(info, 0, sizeof *info);
+    if (LF_ND > 0 && (st = history_point(c, fn)) != LF_OK) return st;
     st = indicators_at(c, fn, &c->r[LF_VR_X0], e);
     if (st != LF_OK) return st;
     if (LF_NX > 0) memcpy(x, &c->r[LF_VR_X0], sizeof(double) * LF_NX);
@@ -270,10 +292,7 @@ LfStatus lf_me_event_update(LfInstance *c, const char *fn, LfMeEventInfo *info) 
     c->inputs_changed = 0;
     if (LF_ND > 0) {
         /* the point, unless a completed step gave it already and nothing jumped */
-        int have = 0;
-        for (k = 0; k < LF_ND; k++)
-            if (c->tau[k] > 0 && c->hist_count[k] > 0) have = hist_last_time(c, k) == c->t;
-        st = jump || !have ? lf_hist_push(c, c->t, &c->r[LF_VR_X0], jump) : LF_OK;
+        st = jump || hist_end(c) != c->t ? lf_hist_push(c, c->t, &c->r[LF_VR_X0], jump) : LF_OK;
         if (st != LF_OK) return st;
         /* a jump of a delayed value: a time event for the importer */
         info->next_time = lf_next_breakpoint(c, c->t, INFINITY, &is_bp);
