@@ -146,7 +146,7 @@ def row(c: dict, f: dict | None) -> dict:
     lim = limit_seconds(c)
     n_comm = round(c["stop"] / c["step"])
     r = {**c, "limit_s": lim, "ratio": c["cpu_s"] / lim if lim else None,
-         "comm_steps": n_comm,
+         "comm_steps": n_comm, "realtime_x": c["stop"] / c["cpu_s"],
          # where the run's CPU time goes, from the counters and the per-call times
          "rhs_share": c["rhs"] * c["rhs_s"] / c["cpu_s"],
          "jac_share": c["jac"] * c["jac_s"] / c["cpu_s"],
@@ -187,7 +187,18 @@ def limit(models=None, solvers=SOLVERS, *, repeats: int = 5, best_of: int = 5,
             if on_model:
                 on_model(name, got)
     return {"rows": rows, "wall_seconds": time.perf_counter() - t0, "repeats": repeats,
-            "best_of": best_of, "fmpy_repeats": fmpy_repeats, "cpus": os.cpu_count()}
+            "best_of": best_of, "fmpy_repeats": fmpy_repeats, "cpus": os.cpu_count(),
+            "commit": _commit()}
+
+
+def _commit() -> str | None:
+    """The source tree's git commit (None outside a git checkout)."""
+    try:
+        proc = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
+                              text=True, cwd=Path(__file__).parent, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return proc.stdout.strip() or None if proc.returncode == 0 else None
 
 
 def _measure_c_only(name, solvers, work: Path, repeats, best_of) -> list[dict]:
@@ -229,6 +240,7 @@ outputs equal FMPy's bit for bit (`tests/test_bench_limit.py`).
   after events and input changes, the LU factorizations and solves, event
   location, outputs and the step loop are all above the limit.
 * **ratio** = C run ÷ limit (the issue's target: ≤ 2).
+* **× real time** = simulated time ÷ C run (above 1: faster than real time).
 * **RHS, Jac, out share**: RHS × RHS µs ÷ C run, the part of the run spent
   in the right-hand side; Jac × Jac µs ÷ C run; communication steps × the
   time of one evaluation of the outputs (`lf_update_outputs`, which ends
@@ -245,10 +257,16 @@ def _f(v, fmt: str, scale: float = 1.0) -> str:
     return "–" if v is None else format(v * scale, fmt)
 
 
+def _x(v: float) -> str:
+    """A factor: 3 significant digits, whole numbers from 1000 on."""
+    return f"{v:.0f}" if v >= 1000 else f"{v:.3g}"
+
+
 def table_md(rows) -> str:
     head = ("| model | solver | nx | comm. steps | steps (rej.) | RHS | Jac | LU | events | "
-            "RHS µs | Jac µs | C run ms | limit ms | ratio | RHS / Jac / out share | FMPy ms | "
-            "FMPy ÷ C |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
+            "RHS µs | Jac µs | C run ms | limit ms | ratio | RHS / Jac / out share | × real time "
+            "| FMPy ms | FMPy ÷ C |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+            "---|---|---|\n")
     lines = []
     for r in rows:
         f = r.get("fmpy")
@@ -259,7 +277,27 @@ def table_md(rows) -> str:
             f"{r['cpu_s'] * 1e3:.3g} | {_f(r['limit_s'], '.3g', 1e3)} | "
             f"{_f(r['ratio'], '.2f')} | {r['rhs_share'] * 100:.0f} / "
             f"{r['jac_share'] * 100:.0f} / {r['out_share'] * 100:.0f} % | "
+            f"{_x(r['realtime_x'])} | "
             f"{_f(f and f['cpu_s'], '.3g', 1e3)} | {_f(r.get('fmpy_ratio'), '.1f')} |")
+    return head + "\n".join(lines) + "\n"
+
+
+def summary_md(rows) -> str:
+    """Per model: the ratio to the limit of each solver, the fastest C run
+    (its solver), its speed against real time and FMPy's time of that run."""
+    solvers = list(dict.fromkeys(r["solver"] for r in rows))
+    head = ("| model | " + " | ".join(f"ratio {s}" for s in solvers)
+            + " | fastest C run ms (solver) | × real time | FMPy ms |\n|---|"
+            + "---|" * (len(solvers) + 3) + "\n")
+    lines = []
+    for model in dict.fromkeys(r["model"] for r in rows):
+        mine = {r["solver"]: r for r in rows if r["model"] == model}
+        best = min(mine.values(), key=lambda r: r["cpu_s"])
+        f = best.get("fmpy")
+        lines.append(f"| {model} | " + " | ".join(
+            _f(mine[s]["ratio"], ".2f") if s in mine else "–" for s in solvers)
+            + f" | {best['cpu_s'] * 1e3:.3g} ({best['solver']}) | {_x(best['realtime_x'])} | "
+            f"{_f(f and f['cpu_s'], '.3g', 1e3)} |")
     return head + "\n".join(lines) + "\n"
 
 
@@ -268,10 +306,14 @@ def page_md(result: dict, cmd: str) -> str:
     over = [r for r in rows if r["ratio"] is not None and r["ratio"] > 2]
     lines = ["# The C-level benchmark: how far each run is from its limit", "",
              DEFINITION, "",
-             f"**Table** (from `{cmd}`, {result['wall_seconds'] / 60:.1f} min on this "
+             f"**Table** (from `{cmd}`"
+             + (f" at commit {result['commit']}" if result.get("commit") else "")
+             + f", {result['wall_seconds'] / 60:.1f} min on this "
              f"machine, {result['cpus']} cores shared with other work: medians of "
              f"{result['repeats']} C runs and {result['fmpy_repeats']} FMPy runs, per-call "
-             f"times the best of {result['best_of']} batches):", "", table_md(rows),
+             f"times the best of {result['best_of']} batches).", "",
+             "Summary: C run ÷ limit per solver, and the fastest run:", "", summary_md(rows),
+             "", "Every run:", "", table_md(rows),
              f"{len(rows) - len(over)} of {len(rows)} runs are within 2× of their limit.",
              "", f"Every number is in `docs/limit.json`. Regenerate: `{cmd}`.", ""]
     return "\n".join(lines)
