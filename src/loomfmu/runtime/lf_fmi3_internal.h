@@ -1,7 +1,8 @@
 /* loomfmu shared runtime: what the FMI 3.0 facade's files share
  * (lf_fmi3.c: inquiry, life cycle, state machine; lf_fmi3_values.c: getters
  * and setters by type; lf_fmi3_cs.c: co-simulation and event mode;
- * lf_fmi3_me.c: model exchange; lf_fmi3_state.c: FMU states).
+ * lf_fmi3_me.c: model exchange; lf_fmi3_state.c: FMU states;
+ * lf_fmi3_dirder.c: directional derivatives).
  *
  * Value references (the model description's convention): Float64 vr = the
  * runtime's Real vr (lf_model.h), der(x_k) = LF_NREAL + k, the Integers
