@@ -115,17 +115,18 @@ def _worst(res: dict) -> tuple[str, dict]:
 
 
 def summary(reports: dict[str, dict]) -> str:
-    lines = [f"{'model':<22}{'solver':<8}{'worst output':<14}{'max abs err':>13}"
+    w = max([22, *(len(name) + 2 for name in reports)])  # FMU names: e.g. backrest_fmi3_me
+    lines = [f"{'model':<{w}}{'solver':<8}{'worst output':<14}{'max abs err':>13}"
              f"{'rel. to range':>15}{'FMU s':>9}{'scipy s':>9}{'problems':>10}"]
     for name, rep in reports.items():
         for solver, res in rep.get("solvers", {}).items():
             worst, e = _worst(res)
-            lines.append(f"{name:<22}{solver:<8}{worst:<14}{e['max_abs']:>13.3e}"
+            lines.append(f"{name:<{w}}{solver:<8}{worst:<14}{e['max_abs']:>13.3e}"
                          f"{e['max_rel_range']:>15.3e}{res['wall_seconds']:>9.3f}"
                          f"{rep['reference_wall_seconds']:>9.3f}"
                          f"{len(rep['validation_problems']):>10d}")
         if "solvers" not in rep:
-            lines.append(f"{name:<22}{'-':<8}{'not verified':<14}{'':>13}{'':>15}"
+            lines.append(f"{name:<{w}}{'-':<8}{'not verified':<14}{'':>13}{'':>15}"
                          f"{'':>9}{'':>9}{len(rep['validation_problems']):>10d}")
     return "\n".join(lines)
 

@@ -286,13 +286,17 @@ def _interfaces(model: Model, md: ET.Element) -> str:
                          "; with event mode enabled the importer is told of them"
                          if v.startswith("3") else "")))
     if md.find("ModelExchange") is not None:
-        rows.append(("Model Exchange", "the importer's solver integrates the states from "
-                     "their derivatives; the FMU solves its algebraic loops itself (Newton), "
-                     "gives event indicators for the stick/slip and dwell events and updates "
-                     "its modes in event mode. The importer must call completedIntegratorStep "
-                     "after every accepted step" + (
-                         ": the delay history is built from those steps only"
-                         if model.delays else "")))
+        events = ", ".join(f"<code>{_e(e.name)}</code>" for e in model.events)
+        modes = ", ".join(f"<code>{_e(q.name)}</code>" for q in model.of_kind("mode"))
+        rows.append(("Model Exchange", "the importer's solver integrates the "
+                     f"{_count(len(model.of_kind('state')), 'state')} from their derivatives"
+                     + "; the FMU solves its algebraic equations itself (closed form or "
+                       "Newton, as in co-simulation)"
+                     + (f"; event indicators: {events}" if events else "; no event indicators")
+                     + (f"; the modes {modes} change in event mode" if modes else "")
+                     + ". The importer must call completedIntegratorStep after every "
+                       "accepted step" + (": the delay history is built from those steps only"
+                                          if model.delays else "")))
     body = "".join(f"<tr><td>{_e(n)}</td><td>{d}</td></tr>" for n, d in rows)
     return (f"<p>FMI {_e(v)}. One declaration builds four variants: <code>loomfmu build "
             f"{_e(model.name)} --fmi-version 2|3 --interface cs|me|both</code> writes "
