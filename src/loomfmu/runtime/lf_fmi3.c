@@ -277,67 +277,30 @@ fmi3Status fmi3ExitConfigurationMode(fmi3Instance c) {
                                "parameters");
 }
 
-fmi3Status fmi3GetClock(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                        fmi3Clock values[]) {
-    (void)vr; (void)nvr; (void)values;
-    return lf_fmi3_unsupported(c, "fmi3GetClock", NO_CLOCKS);
-}
+/* The clock and interval functions: the FMU has no clocks (fmi3Error, logged). */
+#define NO_CLOCK_FUNCTION(name, params, ...)                                          \
+    fmi3Status name params {                                                          \
+        (void)vr, (void)nvr, __VA_ARGS__;                                             \
+        return lf_fmi3_unsupported(c, #name, NO_CLOCKS);                              \
+    }
+#define VRS fmi3Instance c, const fmi3ValueReference vr[], size_t nvr
 
-fmi3Status fmi3SetClock(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                        const fmi3Clock values[]) {
-    (void)vr; (void)nvr; (void)values;
-    return lf_fmi3_unsupported(c, "fmi3SetClock", NO_CLOCKS);
-}
-
-fmi3Status fmi3GetIntervalDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                                  fmi3Float64 intervals[], fmi3IntervalQualifier q[]) {
-    (void)vr; (void)nvr; (void)intervals; (void)q;
-    return lf_fmi3_unsupported(c, "fmi3GetIntervalDecimal", NO_CLOCKS);
-}
-
-fmi3Status fmi3GetIntervalFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                                   fmi3UInt64 counters[], fmi3UInt64 resolutions[],
-                                   fmi3IntervalQualifier q[]) {
-    (void)vr; (void)nvr; (void)counters; (void)resolutions; (void)q;
-    return lf_fmi3_unsupported(c, "fmi3GetIntervalFraction", NO_CLOCKS);
-}
-
-fmi3Status fmi3GetShiftDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                               fmi3Float64 shifts[]) {
-    (void)vr; (void)nvr; (void)shifts;
-    return lf_fmi3_unsupported(c, "fmi3GetShiftDecimal", NO_CLOCKS);
-}
-
-fmi3Status fmi3GetShiftFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                                fmi3UInt64 counters[], fmi3UInt64 resolutions[]) {
-    (void)vr; (void)nvr; (void)counters; (void)resolutions;
-    return lf_fmi3_unsupported(c, "fmi3GetShiftFraction", NO_CLOCKS);
-}
-
-fmi3Status fmi3SetIntervalDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                                  const fmi3Float64 intervals[]) {
-    (void)vr; (void)nvr; (void)intervals;
-    return lf_fmi3_unsupported(c, "fmi3SetIntervalDecimal", NO_CLOCKS);
-}
-
-fmi3Status fmi3SetIntervalFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                                   const fmi3UInt64 counters[],
-                                   const fmi3UInt64 resolutions[]) {
-    (void)vr; (void)nvr; (void)counters; (void)resolutions;
-    return lf_fmi3_unsupported(c, "fmi3SetIntervalFraction", NO_CLOCKS);
-}
-
-fmi3Status fmi3SetShiftDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                               const fmi3Float64 shifts[]) {
-    (void)vr; (void)nvr; (void)shifts;
-    return lf_fmi3_unsupported(c, "fmi3SetShiftDecimal", NO_CLOCKS);
-}
-
-fmi3Status fmi3SetShiftFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
-                                const fmi3UInt64 counters[], const fmi3UInt64 resolutions[]) {
-    (void)vr; (void)nvr; (void)counters; (void)resolutions;
-    return lf_fmi3_unsupported(c, "fmi3SetShiftFraction", NO_CLOCKS);
-}
+NO_CLOCK_FUNCTION(fmi3GetClock, (VRS, fmi3Clock values[]), (void)values)
+NO_CLOCK_FUNCTION(fmi3SetClock, (VRS, const fmi3Clock values[]), (void)values)
+NO_CLOCK_FUNCTION(fmi3GetIntervalDecimal, (VRS, fmi3Float64 intervals[],
+                                           fmi3IntervalQualifier q[]), (void)intervals, (void)q)
+NO_CLOCK_FUNCTION(fmi3GetIntervalFraction, (VRS, fmi3UInt64 counters[], fmi3UInt64 res[],
+                                            fmi3IntervalQualifier q[]),
+                  (void)counters, (void)res, (void)q)
+NO_CLOCK_FUNCTION(fmi3GetShiftDecimal, (VRS, fmi3Float64 shifts[]), (void)shifts)
+NO_CLOCK_FUNCTION(fmi3GetShiftFraction, (VRS, fmi3UInt64 counters[], fmi3UInt64 res[]),
+                  (void)counters, (void)res)
+NO_CLOCK_FUNCTION(fmi3SetIntervalDecimal, (VRS, const fmi3Float64 intervals[]), (void)intervals)
+NO_CLOCK_FUNCTION(fmi3SetIntervalFraction, (VRS, const fmi3UInt64 counters[],
+                                            const fmi3UInt64 res[]), (void)counters, (void)res)
+NO_CLOCK_FUNCTION(fmi3SetShiftDecimal, (VRS, const fmi3Float64 shifts[]), (void)shifts)
+NO_CLOCK_FUNCTION(fmi3SetShiftFraction, (VRS, const fmi3UInt64 counters[],
+                                         const fmi3UInt64 res[]), (void)counters, (void)res)
 
 fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance c) {
     return lf_fmi3_unsupported(c, "fmi3EvaluateDiscreteStates", NO_CLOCKS);
