@@ -103,3 +103,29 @@ def test_importer_tolerance_overriding_solver_rtol_is_logged(driver, slave_facto
     assert len(lines) == 1 and "1e-08" in lines[0] and "1e-06" in lines[0], lines
     assert run(False, 1e-6) == []      # solver_rtol not set: nothing overridden
     assert run(True, None) == []       # no importer tolerance: solver_rtol is used
+
+
+def test_model_exchange_misuse_under_the_sanitizers(tmp_path):
+    """tests/c/misuse_me.c, compiled with the backrest's "both" sources
+    (stick-slip events) under the sanitizers: an importer's Euler run with
+    events and an FMU state, then every model-exchange misuse refused with
+    one error line, no crash, no leak, no undefined behaviour."""
+    import os
+    import zipfile
+    from loomfmu import build_fmu
+    from loomfmu.builder import fmi_headers_dir
+    fmu = build_fmu(load_model("backrest"), out_dir=tmp_path, interface="both",
+                    validate=False).path
+    with zipfile.ZipFile(fmu) as z:
+        z.extractall(tmp_path / "fmu", [n for n in z.namelist() if n.startswith("sources/")])
+    src = tmp_path / "fmu" / "sources"
+    exe = tmp_path / "misuse_me"
+    subprocess.run(["gcc", "-std=c99", *misuse.SANITIZE, "-I", str(src), "-I",
+                    str(fmi_headers_dir()), *sorted(map(str, src.glob("*.c"))),
+                    str(ROOT / "tests" / "c" / "misuse_me.c"), "-lm", "-o", str(exe)],
+                   check=True)
+    r = subprocess.run([str(exe)], capture_output=True, text=True, timeout=300,
+                       env={**os.environ, **misuse.SANITIZER_ENV})
+    assert r.returncode == 0, r.stdout + r.stderr
+    events = int(r.stdout.split()[1])
+    assert events > 5 and r.stdout.split()[3] == "0", r.stdout  # stick-slip, all as expected
