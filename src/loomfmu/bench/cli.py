@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from ..progress import Progress
-from . import classic, failures, report
+from . import classic, failures, limit, report
 from .scenes import BENCH, load_scene_model
 from .sweep import Plan, prepare, work_precision
 
@@ -19,14 +19,15 @@ MAX_WORKERS = 64
 
 def charts(models, *, quick: bool, out: Path, readme: Path | None, failures_on: bool,
            cmd: str, dask: dict | None = None, plan: Plan | None = None,
-           only=None) -> dict:
+           only=None, c_level: bool = False) -> dict:
     """Every chart, the CSV and the summary for ``models`` (scene names).
 
     dask: None (serial) or the keyword arguments of
     :func:`loomfmu.sweep.bench.work_precision_dask` (workers, scheduler): one
     dask task per (model, method) sweep. plan: the sweeps' settings (default
     ``Plan.make(quick)``); only: the (family, method) pairs to sweep (None:
-    all)."""
+    all); c_level: also time our FMU's points at C level (family "fmu-c",
+    :func:`loomfmu.bench.limit.speed_points`)."""
     wall = time.perf_counter()
     plan = plan or Plan.make(quick)
     out.mkdir(parents=True, exist_ok=True)
@@ -36,7 +37,7 @@ def charts(models, *, quick: bool, out: Path, readme: Path | None, failures_on: 
             Progress(total=len(models) + n_studies, desc="bench charts") as bar:
         if dask is not None:
             cases = _charts_dask(models, plan, quick, out, Path(tmp), infos, rows, tasks, bar,
-                                 dask, only, failures_on)
+                                 dask, only, failures_on, c_level)
         for name in models if dask is None else ():
             bar.stage(f"{name}: work-precision sweep")
             model = load_scene_model(name)
@@ -48,6 +49,9 @@ def charts(models, *, quick: bool, out: Path, readme: Path | None, failures_on: 
             cases[name] = case
             infos[name] = _info(case.scene, case.grid, case.ref_note, case.casadi_note)
             pts = work_precision(case, plan, only)
+            if c_level:
+                pts += limit.speed_points(name, pts, quick=quick,
+                                          work=Path(tmp) / "c" / name)
             rows += pts
             report.wp_chart(rows, name, infos[name], out / f"{name}_wp.png")
             bar.advance(f"{name}: {len(pts)} work-precision points, "
@@ -88,7 +92,7 @@ def _info(scene, grid, ref_note: str, casadi_note: str) -> dict:
 
 
 def _charts_dask(models, plan, quick, out, tmp, infos, rows, tasks, bar, dask, only,
-                 failures_on) -> dict:
+                 failures_on, c_level=False) -> dict:
     """The work-precision sweeps on dask (loomfmu.sweep.bench); fills infos,
     rows and tasks, draws the charts; returns the scenes prepared here (from
     the workers' grids and references) for the failure studies."""
@@ -102,6 +106,9 @@ def _charts_dask(models, plan, quick, out, tmp, infos, rows, tasks, bar, dask, o
         grid, ref, note, casadi_note = got["known"][name]
         infos[name] = _info(BENCH[name], grid, note, casadi_note)
         rows += got["rows"][name]
+        if c_level:
+            rows += limit.speed_points(name, got["rows"][name], quick=quick,
+                                       work=tmp / "c" / name)
         report.wp_chart(rows, name, infos[name], out / f"{name}_wp.png")
         if failures_on:
             cases[name] = prepare(name, BENCH[name], load_scene_model(name), plan, quick, tmp,
@@ -130,6 +137,9 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
                          "--out is the default)")
     ap.add_argument("--quick", action="store_true", help="charts: coarse sweeps")
     ap.add_argument("--no-failures", action="store_true", help="charts: skip failure studies")
+    ap.add_argument("--no-c-level", action="store_true",
+                    help="charts: do not time our FMU's points again at C level (the fmu-c "
+                         "lines, by the driver of bench limit)")
     ap.add_argument("--dask", action="store_true",
                     help="charts: one dask task per (model, method) sweep, on a local "
                          "cluster (--workers) or --scheduler")
@@ -180,12 +190,12 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
     charts(args.models, quick=args.quick, out=out, readme=readme,
            failures_on=not args.no_failures, cmd="loomfmu bench charts" + (
                " --dask" if args.dask else ""),
-           dask={"workers": args.workers, "scheduler": args.scheduler} if args.dask else None)
+           dask={"workers": args.workers, "scheduler": args.scheduler} if args.dask else None,
+           c_level=not args.no_c_level)
     return 0
 
 
 def _main_limit(ap, args) -> int:
-    from . import limit
     from ..codegen import SOLVERS
     from ..registry import MODELS
     models = args.models or list(MODELS)

@@ -48,6 +48,9 @@ RTOL, ATOL = 1e-6, 1e-9
 def compile_driver(fmu: Path, work: Path, cc: str = "gcc") -> Path:
     """The FMU's ``sources/`` plus the driver, compiled (our code with the
     builder's strict flags, CasADi's with its own) into ``work/limit_driver``."""
+    if not DRIVER.is_file():
+        raise RuntimeError(f"{DRIVER} is missing: this installation does not ship the C "
+                           "driver (package data loomfmu/bench/*.c)")
     src = work / "sources"
     with zipfile.ZipFile(fmu) as z:
         for name in z.namelist():
@@ -327,3 +330,38 @@ def write(result: dict, json_path: Path | None, page: Path | None, cmd: str) -> 
     if page is not None:
         page.parent.mkdir(parents=True, exist_ok=True)
         page.write_text(page_md(result, cmd))
+
+
+# -- the speed table at C level ------------------------------------------------------
+def speed_points(name: str, rows: list[dict], *, quick: bool, work: Path,
+                 repeats: int = 3) -> list[dict]:
+    """Our FMU's work-precision points of scene ``name`` (``rows``: the charts'
+    CSV rows, family "fmu") timed again at C level: the same FMU, settings and
+    communication grid driven by the C driver (median CPU seconds of
+    ``repeats``).  The trajectory is the same (same code, same calls; the
+    final outputs are compared with FMPy's, tests/test_bench_limit.py), so
+    each point keeps the FMPy point's errors.  Family "fmu-c"."""
+    from .scenes import BENCH, load_scene_model
+    scene, model = BENCH[name], load_scene_model(name)
+    mine = [r for r in rows if r["model"] == name and r["family"] == "fmu"
+            and r["study"] == "wp" and r["status"] == "ok"]
+    if model is None or not mine:
+        return []
+    work.mkdir(parents=True, exist_ok=True)
+    exe = compile_driver(build_fmu(model, out_dir=work, validate=False).path, work)
+    stop = (scene.quick_stop if quick and scene.quick_stop else scene.stop) or model.stop_time
+    step = scene.interval or model.step_size
+    out = []
+    for r in mine:
+        values = dict(scene.values)
+        if r["method"] == "rk4":
+            values["solver_h_fixed"] = r["h"]
+            rtol, atol = 1e-6, 1e-9
+        else:
+            rtol = r["rtol"]
+            atol = rtol * scene.atol_scale
+        c = run_driver(exe, stop=stop, step=step, solver=r["method"], rtol=rtol, atol=atol,
+                       repeats=repeats, best_of=1, values=values)
+        out.append({**r, "family": "fmu-c", "seconds": c["cpu_s"], "n_rhs": c["rhs"],
+                    "note": f"C driver; {c['steps']} steps, {c['rejected']} rejected"})
+    return out

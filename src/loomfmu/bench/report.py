@@ -26,6 +26,10 @@ TARGETS = (1e-4, 1e-6)
 TARGET = TARGETS[-1]
 COLUMNS = ("model", "study", "family", "method", "rtol", "h", "param", "value", "seconds",
            "err_final", "err_max", "n_rhs", "status", "note")
+#: our FMU's solvers: one colour each, shared by the FMPy (solid) and C-level
+#: (dotted) lines of the same solver
+FMU_COLORS = {"dopri5": "#1a9850", "rodas4": "#762a83", "rk4": "#d73027",
+              "ros34pw2": "#2166ac"}
 PEERS = ("scipy RK45", "scipy DOP853", "scipy Radau", "scipy BDF", "scipy LSODA",
          "casadi cvodes", "casadi idas")
 
@@ -50,20 +54,22 @@ def _curves(rows, model, norm="err_max") -> dict[str, list[tuple[float, float]]]
 
 
 def wp_chart(rows, model: str, info: dict, path: Path) -> None:
-    fig, ax = plt.subplots(1, 2, figsize=(12, 4.8), sharey=True)
+    fig, ax = plt.subplots(1, 2, figsize=(13.5, 4.8), sharey=True)
     for a, norm, title in ((ax[0], "err_max", "max over the communication grid"),
                            (ax[1], "err_final", "at the final time")):
         for i, (label, pts) in enumerate(sorted(_curves(rows, model, norm).items())):
             pts = sorted(pts, key=lambda p: p[1])
             fmu = label.startswith("fmu")
-            a.loglog([p[0] for p in pts], [p[1] for p in pts],
-                     "o-" if fmu else ("s--" if label.startswith("scipy") else "^-."),
-                     lw=2.2 if fmu else 1, ms=5, label=label, color=f"C{i % 10}")
+            style = "o-" if label.startswith("fmu ") else "o:" if fmu else (
+                "s--" if label.startswith("scipy") else "^-.")
+            a.loglog([p[0] for p in pts], [p[1] for p in pts], style,
+                     lw=2.2 if fmu else 1, ms=5, label=label,
+                     color=FMU_COLORS.get(label.split()[1], "k") if fmu else f"C{i % 10}")
         a.axvline(TARGET, color="k", lw=0.6, ls=":")
         a.set(xlabel=f"achieved error / range ({title})", title=f"{model}: {title}")
         a.grid(True, which="both", alpha=0.3)
     ax[0].set_ylabel("CPU time (s), median of repeats")
-    ax[1].legend(fontsize=7, loc="upper right")
+    ax[1].legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
     fig.suptitle(f"{model}, {info['t_end']:g} s; reference: {info['ref']}", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -87,24 +93,37 @@ def speed_table(rows, models) -> list[dict]:
     for model, target in ((m, t) for m in models for t in TARGETS):
         at = {label: time_to_reach(pts, target)
               for label, pts in _curves(rows, model).items()}
-        fmu = {k: v for k, v in at.items() if k.startswith("fmu") and v}
+        fmu = {k: v for k, v in at.items() if k.startswith("fmu ") and v}
         best = min(fmu, key=fmu.get) if fmu else None
+        # the same FMU runs timed at C level (loomfmu.bench.limit.speed_points)
+        c_level = {k: v for k, v in at.items() if k.startswith("fmu-c ") and v}
+        c_best = min(c_level, key=c_level.get) if c_level else None
+        cvodes = at.get("casadi cvodes")
         table.append({"model": model, "target": target, "fmu_method": best,
                       "fmu_seconds": fmu.get(best) if best else None,
                       "ratio": {p: (at[p] / fmu[best] if at.get(p) and best else None)
-                                for p in PEERS}, "seconds": at})
+                                for p in PEERS}, "seconds": at,
+                      "fmu_c_method": c_best,
+                      "fmu_c_seconds": c_level.get(c_best) if c_best else None,
+                      "cvodes_ratio_c": (cvodes / c_level[c_best] if cvodes and c_best
+                                         else None)})
     return table
 
 
 def speed_table_md(table) -> str:
-    head = ("| model | error | our FMU ms (solver) | " + " | ".join(PEERS) + " |\n|---|---|---|"
-            + "---|" * len(PEERS) + "\n")
+    head = ("| model | error | our FMU ms (solver) | " + " | ".join(PEERS)
+            + " | our FMU at C level ms (solver) | casadi cvodes ÷ C level |\n|---|---|---|"
+            + "---|" * (len(PEERS) + 2) + "\n")
     lines = []
     for t in table:
         fmu = (f"{t['fmu_seconds'] * 1e3:.1f} ({t['fmu_method'].split()[1]})"
                if t["fmu_seconds"] else "–")
         cells = [f"{t['ratio'][p]:.3g}×" if t["ratio"][p] else "–" for p in PEERS]
-        lines.append(f"| {t['model']} | {t['target']:g} | {fmu} | " + " | ".join(cells) + " |")
+        c_sec = t.get("fmu_c_seconds")
+        c_level = (f"{c_sec * 1e3:.2f} ({t['fmu_c_method'].split()[1]})" if c_sec else "–")
+        cv = t.get("cvodes_ratio_c")
+        lines.append(f"| {t['model']} | {t['target']:g} | {fmu} | " + " | ".join(cells)
+                     + f" | {c_level} | {f'{cv:.3g}×' if cv else '–'} |")
     return head + "\n".join(lines) + "\n"
 
 
@@ -119,6 +138,13 @@ line (equal achieved error), never at equal tolerance. Our FMU is timed
 through FMPy as a user would run it (instantiate to free); scipy's time is
 its integration only, with a Python right-hand side from the same
 declaration (`loomfmu.reference`); CasADi's is the integrator call only.
+The dotted "fmu-c" lines are the same FMU runs (same settings, same
+communication grid, the same trajectory: final outputs equal bit for bit)
+driven by the C program of `loomfmu bench limit` without Python: our FMU's
+own time, without FMPy's (its Python side costs about 6 µs per
+communication step and 1.5 ms per run, `python
+benchmarks/master_overhead.py`), the fair match for CasADi's integrator
+call.
 Models with friction modes or delays have no CasADi points (its integrators
 support neither); the regularized backrest is CasADi's stand-in."""
 
@@ -131,7 +157,8 @@ def summary_md(table, verdicts: dict, infos: dict, cmd: str, wall: float) -> str
              f"{' and '.join(f'{t:g}' for t in TARGETS)}), the least time at which each "
              "curve is at or below that error (interpolated log-log where it crosses); "
              "– : the sweep did not reach it (scipy sweeps stop after the first run "
-             "slower than 5 s).",
+             "slower than 5 s). Last two columns: our FMU's fastest solver timed at C "
+             "level (the dotted fmu-c lines) and CasADi cvodes' time ÷ that.",
              "", speed_table_md(table), "| model | key outputs | length | reference |",
              "|---|---|---|---|"]
     lines += [f"| {m} | {', '.join(i['outputs'])} | {i['t_end']:g} s | {i['ref']} |"
