@@ -18,6 +18,9 @@
 
 #define NOUT (LF_NY + LF_NZ)
 #define VR_DER0 ((unsigned)LF_NREAL)
+/* most unknowns or knowns in one call (a value reference may repeat): the
+ * getters' bound, checked before any array is read */
+#define DIRDER_N_LIMIT (16 * (size_t)(LF_NREAL + LF_NX) + 16)
 
 /* y += A v, A m x n column-major */
 static void gemv_add(const double *a, size_t m, size_t n, const double *v, double *y) {
@@ -32,6 +35,13 @@ static LfStatus check_args(LfInstance *c, const unsigned *unknown_vr, size_t nu,
                            const unsigned *known_vr, size_t nk, const double *seed,
                            const double *out) {
     size_t i;
+    if (nu > DIRDER_N_LIMIT || nk > DIRDER_N_LIMIT) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: directional derivative: %zu unknowns and "
+               "%zu knowns; allowed: at most %zu each (the model has %d Real variables and "
+               "%d state derivatives); nothing read", c->t, nu, nk, DIRDER_N_LIMIT,
+               LF_NREAL, LF_NX);
+        return LF_ERROR;
+    }
     if (nu > 0 && (!unknown_vr || !out)) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: directional derivative: %s is NULL with "
                "%zu unknowns; allowed: an array of %zu", c->t, unknown_vr ? "dvUnknown" :

@@ -24,7 +24,8 @@
  * A known listed twice adds its seeds.
  *
  * LF_ERROR with a log naming the bad argument and the allowed ranges, out
- * untouched: any other vr, NULL arrays with n > 0, a non-finite seed.
+ * untouched: any other vr, NULL arrays with n > 0, a non-finite seed, nu or
+ * nk above 16 (LF_NREAL + LF_NX) + 16 (the getters' bound; nothing read).
  * LF_DISCARD with a log and the time: the equations cannot be solved at
  * this point (Newton fails, dF/dw singular) or a derivative is not finite.
  * Before initialization the point is the start values (as for outputs).
