@@ -341,7 +341,8 @@ def test_instantiation_refusals(fmus):
     def logger(env, status, category, message):
         log.append(message.decode())
 
-    for token, name in (("{not-the-token}", "a"), (md.instantiationToken, "")):
+    for token, name in (("{not-the-token}", "a"), (md.instantiationToken, ""),
+                        (md.instantiationToken, " \t")):
         f = FMU3Slave(guid=token, unzipDirectory=extract(str(path)),
                       modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
         with pytest.raises(Exception, match="Failed to instantiate"):
@@ -351,8 +352,9 @@ def test_instantiation_refusals(fmus):
     with pytest.raises(Exception, match="Failed to instantiate"):
         f.instantiate(logMessage=logger)
     assert "instantiationToken does not match" in log[0]
-    assert "instanceName is NULL or empty" in log[1]
-    assert "does not declare model exchange" in log[2]
+    assert "instanceName is NULL, empty or only white space" in log[1]
+    assert "only white space" in log[2]
+    assert "does not declare model exchange" in log[3]
 
 
 def test_fmi3_only_values(fmus, instances):
@@ -468,3 +470,28 @@ def test_directional_derivatives(fmus, instances):
         h = 1e-6 * max(1.0, abs(x0[j]))
         fd = (der(x0 + h * e) - der(x0 - h * e)) / (2 * h)
         np.testing.assert_allclose(exact, fd, rtol=1e-5, atol=1e-6 * np.max(np.abs(fd)))
+
+
+def test_validity_failure_is_a_discard_not_an_early_return(fmus, instances):
+    """Backrest with early return: at the first event the importer pulls the
+    letoff so far that the warp goes slack (a validity condition of the
+    model): the simulation must end with terminateSimulation, and a step
+    that fails so is a Discard with earlyReturn = false (FMI 3.0: an early
+    return is not an error)."""
+    s = instances(fmus["backrest", 3].path, "cs", eventModeUsed=True, earlyReturnAllowed=True)
+    f = s.fmu
+    f.enterInitializationMode(startTime=0.0)
+    f.exitInitializationMode()
+    f.updateDiscreteStates()
+    f.enterStepMode()
+    st, (event, terminate, early), t_event = s.do_step(0.0, 0.05)
+    assert st == OK and event and early and t_event < 0.05
+    f.enterEventMode()
+    f.setFloat64([s.vr["letoff"]], [0.3])
+    _, terminate, _, _, _, _ = f.updateDiscreteStates()
+    if not terminate:
+        f.enterStepMode()
+        st, (event, terminate, early), last = s.do_step(t_event, 0.05 - t_event)
+        assert st == DISCARD and terminate and not early
+        assert t_event <= last < 0.05
+    assert any("warp" in m for _, _, m in s.log)

@@ -56,6 +56,11 @@ int lf_fmi3_allowed(fmi3Instance c, const char *fn, int mask) {
     return lf_check_state(inst, fn, lf_fmi3_state(inst), mask, state_names, N_STATE_NAMES);
 }
 
+int lf_fmi3_cs_instance(fmi3Instance c, const char *fn, int mask) {
+    LfInstance *inst = lf_fmi3_live(c);
+    return inst && lf_fmi3_interface(inst, fn, F3_CS) && lf_fmi3_allowed(c, fn, mask);
+}
+
 int lf_fmi3_interface(LfInstance *inst, const char *fn, F3Interface kind) {
     if (ENV3(inst)->kind == kind) return 1;
     lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s is a %s function, but the instance "
@@ -124,9 +129,10 @@ LfInstance *lf_fmi3_new(const char *fn, F3Interface kind, fmi3String name, fmi3S
     LfInstance *c;
     Fmi3Env *e;
     int k;
-    if (!name || !name[0]) {
-        instantiate_error(log_message, env, fn, "instanceName is NULL or empty (FMI 3.0 "
-                          "requires a non-empty name)");
+    if (!name || !name[strspn(name, " \t\n\r\f\v")]) {
+        instantiate_error(log_message, env, fn, "instanceName is NULL, empty or only white "
+                          "space (FMI 3.0 requires a name with a character that is not white "
+                          "space)");
         return NULL;
     }
     if (!token || strcmp(token, lf_model.guid) != 0) {

@@ -127,8 +127,7 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *discreteStatesN
 
 fmi3Status fmi3EnterStepMode(fmi3Instance c) {
     LfInstance *inst = (LfInstance *)c;
-    CHECK3("fmi3EnterStepMode", F3_EVENT);
-    if (!lf_fmi3_interface(inst, "fmi3EnterStepMode", F3_CS)) return fmi3Error;
+    if (!lf_fmi3_cs_instance(c, "fmi3EnterStepMode", F3_EVENT)) return fmi3Error;
     ENV3(inst)->in_event_mode = 0;
     return fmi3OK;
 }
@@ -144,8 +143,7 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h,
     Fmi3Env *e;
     LfStatus st;
     (void)noSetFMUStatePriorToCurrentPoint;
-    CHECK3(fn, F3_STEP);
-    if (!lf_fmi3_interface(inst, fn, F3_CS)) return fmi3Error;
+    if (!lf_fmi3_cs_instance(c, fn, F3_STEP)) return fmi3Error;
     if (!eventHandlingNeeded) return lf_fmi3_null_arg(inst, fn, "eventHandlingNeeded");
     if (!terminateSimulation) return lf_fmi3_null_arg(inst, fn, "terminateSimulation");
     if (!earlyReturn) return lf_fmi3_null_arg(inst, fn, "earlyReturn");
@@ -163,9 +161,11 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h,
     st = lf_do_step(inst, t, h);
     *lastSuccessfulTime = inst->last_successful_time;
     *terminateSimulation = inst->wants_terminate ? fmi3True : fmi3False;
-    /* an early return: at a pending event, or where a validity condition failed */
-    *earlyReturn = inst->stop_at_events && inst->last_successful_time < t + h &&
-                   (inst->event_pending || inst->wants_terminate) ? fmi3True : fmi3False;
+    /* an early return: at a pending event (a step that ends early because it
+     * failed, e.g. a validity condition, is a Discard, not an early return:
+     * fmi-standard #1845) */
+    *earlyReturn = st == LF_OK && inst->stop_at_events && inst->event_pending &&
+                   inst->last_successful_time < t + h ? fmi3True : fmi3False;
     *eventHandlingNeeded = e->event_mode_used && (inst->event_pending ||
                                                   inst->n_events > e->events_seen)
                                ? fmi3True : fmi3False;
@@ -185,8 +185,7 @@ fmi3Status fmi3GetOutputDerivatives(fmi3Instance c, const fmi3ValueReference vr[
     LfInstance *inst = (LfInstance *)c;
     const char *fn = "fmi3GetOutputDerivatives";
     size_t i;
-    CHECK3(fn, OUT_DER_STATES);
-    if (!lf_fmi3_interface(inst, fn, F3_CS)) return fmi3Error;
+    if (!lf_fmi3_cs_instance(c, fn, OUT_DER_STATES)) return fmi3Error;
     if (nvr > 0 && !orders) return lf_fmi3_null_arg(inst, fn, "orders (with nValueReferences > 0)");
     if (!lf_fmi3_check_vrs(inst, fn, vr, nvr, values, nValues, 0, LF_NREAL)) return fmi3Error;
     for (i = 0; i < nvr; i++) {

@@ -72,6 +72,9 @@ LfInstance *lf_fmi3_live(fmi3Instance c);
 int lf_fmi3_state(LfInstance *inst);
 /* 1 if `c` is live and in one of the states of `mask`; else logs and gives 0. */
 int lf_fmi3_allowed(fmi3Instance c, const char *fn, int mask);
+/* 1 if `c` is a live co-simulation instance in one of `mask`'s states; else
+ * logs (the interface first, then the state) and gives 0. */
+int lf_fmi3_cs_instance(fmi3Instance c, const char *fn, int mask);
 /* 1 if the instance is of `kind` (co-simulation, model exchange); else logs. */
 int lf_fmi3_interface(LfInstance *inst, const char *fn, F3Interface kind);
 /* Logs that argument `arg` of `fn` is NULL; fmi3Error. */

@@ -38,13 +38,13 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName,
                        instantiationToken, loggingOn, instanceEnvironment, logMessage);
 }
 
-/* The instance if `c` is live, in one of `mask`'s states and a
- * model-exchange instance; else NULL (logged). */
+/* The instance if `c` is a live model-exchange instance in one of `mask`'s
+ * states; else NULL (logged: the interface first, then the state). */
 static LfInstance *me_instance(fmi3Instance c, const char *fn, int mask) {
-    LfInstance *inst;
-    if (!lf_fmi3_allowed(c, fn, mask)) return NULL;
-    inst = (LfInstance *)c;
-    return lf_fmi3_interface(inst, fn, F3_ME) ? inst : NULL;
+    LfInstance *inst = lf_fmi3_live(c);
+    if (!inst || !lf_fmi3_interface(inst, fn, F3_ME) || !lf_fmi3_allowed(c, fn, mask))
+        return NULL;
+    return inst;
 }
 
 /* LF_DISCARD keeps the mode (the importer may retry with a smaller step);

@@ -184,6 +184,14 @@ static fmi3Status set_integers(LfInstance *c, const char *fn, const fmi3ValueRef
         long long v = enumeration ? (long long)((const fmi3Int64 *)values)[i]
                                   : (long long)((const fmi3Int32 *)values)[i];
         unsigned ivr = (unsigned)vr[i] - F3_VR_INT0;
+        if (ivr >= LF_VR_Q0 && ivr < LF_VR_Q0 + LF_NQ) {
+            lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: valueReferences[%lu] = %u (%s) is "
+                   "a mode, an output chosen by the model, and cannot be set; no value written",
+                   c->t, fn, (unsigned long)i, (unsigned)vr[i],
+                   lf_model.mode_names[ivr - LF_VR_Q0]);
+            lf_undo_restore(c, &u);
+            return fmi3Error;
+        }
         if (v < -2147483647LL || v > 2147483647LL) {
             lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: values[%lu] = %lld for %u is "
                    "outside the range of the variable; no value written", c->t, fn,
