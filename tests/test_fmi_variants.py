@@ -203,10 +203,12 @@ BUILT = (("heald_frame_rigid", 2, "me"), ("heald_frame_rigid", 3, "cs"), ("backr
 PLATFORM = {2: "linux64", 3: "x86_64-linux"}
 #: functions the shared library must export per (version, interface)
 EXPORTS = {(2, "me"): ("fmi2Instantiate", "fmi2GetDerivatives", "fmi2GetEventIndicators",
-                       "fmi2CompletedIntegratorStep"),
-           (3, "cs"): ("fmi3InstantiateCoSimulation", "fmi3DoStep", "fmi3EnterStepMode"),
+                       "fmi2CompletedIntegratorStep", "fmi2GetDirectionalDerivative"),
+           (3, "cs"): ("fmi3InstantiateCoSimulation", "fmi3DoStep", "fmi3EnterStepMode",
+                       "fmi3GetDirectionalDerivative"),
            (3, "me"): ("fmi3InstantiateModelExchange", "fmi3GetContinuousStateDerivatives",
-                       "fmi3GetEventIndicators", "fmi3CompletedIntegratorStep")}
+                       "fmi3GetEventIndicators", "fmi3CompletedIntegratorStep",
+                       "fmi3GetDirectionalDerivative")}
 
 
 @pytest.fixture(scope="module")
@@ -244,6 +246,11 @@ def test_built_variant_validates_and_has_its_layout(built, key, tmp_path):
                         capture_output=True, text=True, check=True).stdout
     exported = {ln.split()[-1] for ln in nm.splitlines()}
     assert set(EXPORTS[v, i]) <= exported, sorted(set(EXPORTS[v, i]) - exported)
+    with zipfile.ZipFile(res.path) as z:  # declared where the function works
+        root = etree.fromstring(z.read("modelDescription.xml"))
+    flag = "providesDirectionalDerivative" + ("s" if v == 3 else "")
+    kinds = root.findall("CoSimulation") + root.findall("ModelExchange")
+    assert kinds and all(k.get(flag) == "true" for k in kinds)
 
 
 def test_value_reference_convention_matches_the_c_declaration(built, tmp_path):

@@ -55,14 +55,14 @@ FMI2_CS = {"needsExecutionTool": "false", "canHandleVariableCommunicationStepSiz
            "canInterpolateInputs": "true", "maxOutputDerivativeOrder": "1",
            "canRunAsynchronuously": "false", "canBeInstantiatedOnlyOncePerProcess": "false",
            "canNotUseMemoryManagementFunctions": "false", "canGetAndSetFMUstate": "true",
-           "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false"}
+           "canSerializeFMUstate": "true", "providesDirectionalDerivative": "true"}
 FMI2_ME = {"needsExecutionTool": "false", "completedIntegratorStepNotNeeded": "false",
            "canBeInstantiatedOnlyOncePerProcess": "false",
            "canNotUseMemoryManagementFunctions": "false", "canGetAndSetFMUstate": "true",
-           "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false"}
+           "canSerializeFMUstate": "true", "providesDirectionalDerivative": "true"}
 FMI3_COMMON = {"needsExecutionTool": "false", "canBeInstantiatedOnlyOncePerProcess": "false",
                "canGetAndSetFMUState": "true", "canSerializeFMUState": "true",
-               "providesDirectionalDerivatives": "false", "providesAdjointDerivatives": "false"}
+               "providesDirectionalDerivatives": "true", "providesAdjointDerivatives": "false"}
 FMI3_CS = {**FMI3_COMMON, "canHandleVariableCommunicationStepSize": "true",
            "maxOutputDerivativeOrder": "1", "providesIntermediateUpdate": "false",
            "mightReturnEarlyFromDoStep": "true",
