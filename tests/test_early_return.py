@@ -26,10 +26,12 @@ DRIVER = Path(__file__).parent / "c" / "early_return.c"
 STRICT = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic"]
 
 
-def _driver(model: str, out: Path) -> Path:
-    """The driver linked with the sources of `model`'s FMU (runtime files
-    with strict warnings, CasADi's code without -Werror)."""
-    fmu = build_fmu(load_model(model), out_dir=out / "fmu", validate=False).path
+def _driver(model, out: Path) -> Path:
+    """The driver linked with the sources of the FMU of `model` (a name or
+    a Model; runtime files with strict warnings, CasADi's code without
+    -Werror)."""
+    model = load_model(model) if isinstance(model, str) else model
+    fmu = build_fmu(model, out_dir=out / "fmu", validate=False).path
     src = out / "src"
     with zipfile.ZipFile(fmu) as z:
         z.extractall(src, [n for n in z.namelist() if n.startswith("sources/")])
@@ -61,6 +63,7 @@ class Run:
         self.steps = [int(v) for v in lines[-1].split()[1:]]
         self.events = [float(t) for t in
                        re.findall(r"t = (\S+): event \S+, solver restarted", proc.stderr)]
+        self.log = proc.stderr
 
 
 @pytest.fixture(scope="module")

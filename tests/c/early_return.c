@@ -15,7 +15,7 @@
  *   name=value   a Real by name (lf_model.real_names), or solver=<id>
  * Output (stdout): per grid point "t <t> <every Real, %.17g>"; per early
  * return "early <t> <indicator> <values_changed>"; at the end
- * "steps <accepted> <rejected> <rhs> <events>".  Log lines go to stderr.
+ * "steps <accepted> <rejected> <rhs> <events> <known breaks crossed>".  Log lines go to stderr.
  * Exit status 0, or 1 with the reason on stderr. */
 #include <math.h>
 #include <stdio.h>
@@ -180,8 +180,8 @@ int main(int argc, char **argv) {
         t = c->t;
         if (strcmp(mode, "quiet") != 0 || i == n) print_point(c);
     }
-    printf("steps %ld %ld %ld %ld\n", c->solver.n_steps, c->solver.n_rejected, c->solver.n_rhs,
-           c->n_events);
+    printf("steps %ld %ld %ld %ld %ld\n", c->solver.n_steps, c->solver.n_rejected,
+           c->solver.n_rhs, c->n_events, c->n_known_breaks);
     lf_free(c);
     return 0;
 }

@@ -6,8 +6,6 @@
 #include "lf_internal.h"
 
 #define LF_EVENT_MAX_ITER 200
-/* least step over an event (relative to max(1, |t|)); its Euler error is O(gap^2) */
-#define LF_EVENT_GAP 1e-12
 
 /* ---- stepping ------------------------------------------------------------ */
 
@@ -347,6 +345,7 @@ static LfStatus apply_event(LfInstance *c, int first, double t_ok, const double 
     LfSolver *s = &c->solver;
     LfStatus st;
     c->n_events++;
+    c->kb_ready = 0; /* states may be reinitialized: predict the known breaks again */
     if (changed) *changed = 0;
     if (LF_NQ > 0) {
         memcpy(c->x_tmp, s->x, sizeof(double) * LF_NX);
@@ -361,6 +360,21 @@ static LfStatus apply_event(LfInstance *c, int first, double t_ok, const double 
     st = lf_validity_restart(c, t_ok, x_ok, q_ok);
     if (st != LF_OK) return st;
     return lf_hist_push(c, s->t, s->x, lf_model.event_mode[first] >= 0);
+}
+
+/* Early return: the event at the solver's point is left for
+ * lf_apply_pending_event. */
+static LfStatus defer_event(LfInstance *c, int first, double t_ok, const double *x_ok,
+                            const double *q_ok) {
+    c->event_pending = 1;
+    c->event_index = first;
+    c->t_event = c->solver.t;
+    c->ev_t_ok = t_ok;
+    memcpy(c->ev_x_ok, x_ok, sizeof(double) * LF_NX);
+    memcpy(c->ev_q_ok, q_ok, sizeof(double) * LF_NQ);
+    lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: event %s, step ends here (early return)",
+           c->solver.t, lf_model.event_names[first]);
+    return LF_OK;
 }
 
 LfStatus lf_apply_pending_event(LfInstance *c, int *changed) {
@@ -434,18 +448,35 @@ static LfStatus handle_events(LfInstance *c, double *h_bound) {
         if (st != LF_OK) return st;
         return lf_hist_push(c, s->t, s->x, 0);
     }
-    if (c->stop_at_events) { /* early return: handled by lf_apply_pending_event */
-        c->event_pending = 1;
-        c->event_index = first;
-        c->t_event = s->t;
-        c->ev_t_ok = t_ok;
-        memcpy(c->ev_x_ok, x_ok, sizeof x_ok);
-        memcpy(c->ev_q_ok, q_ok, sizeof q_ok);
-        lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: event %s, step ends here (early return)",
-               s->t, lf_model.event_names[first]);
-        return LF_OK;
-    }
+    if (c->stop_at_events) return defer_event(c, first, t_ok, x_ok, q_ok);
     return apply_event(c, first, t_ok, x_ok, q_ok, NULL);
+}
+
+LfStatus lf_cross_known_break(LfInstance *c, double t_limit) {
+    LfSolver *s = &c->solver;
+    double t_ok, x_ok[LF_DIM(LF_NX)], q_ok[LF_DIM(LF_NQ)], margin;
+    int k = c->kb_index, crossed_gap;
+    LfStatus st;
+    if (k < 0 || s->t != c->kb_t_land || !(s->t > s->t_old)) return LF_OK;
+    c->kb_index = -1;
+    t_ok = s->t;
+    margin = LF_EVENT_GAP * fmax(1.0, fabs(t_ok));
+    /* landed at the communication point: the next step finds the event */
+    if (c->kb_t_right + margin > t_limit) return LF_OK;
+    memcpy(x_ok, s->x, sizeof x_ok);
+    memcpy(q_ok, c->q, sizeof q_ok);
+    st = cross_gap(c, k, t_ok, x_ok, c->kb_t_right - t_ok + margin, t_limit, &crossed_gap);
+    if (st != LF_OK) return st;
+    if (!crossed_gap) {
+        lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: indicator %s, predicted to cross zero, "
+               "kept its sign: no event, solver restarted", s->t, lf_model.event_names[k]);
+        st = lf_validity_restart(c, t_ok, x_ok, q_ok);
+        if (st != LF_OK) return st;
+        return lf_hist_push(c, s->t, s->x, 0);
+    }
+    c->n_known_breaks++;
+    if (c->stop_at_events) return defer_event(c, k, t_ok, x_ok, q_ok);
+    return apply_event(c, k, t_ok, x_ok, q_ok, NULL);
 }
 
 LfStatus lf_handle_events(LfInstance *c) {

@@ -39,12 +39,20 @@ LfStatus lf_handle_events(LfInstance *c);
 /* early return (lf_step.h): perform the event located and deferred by
  * lf_handle_events when c->stop_at_events is set (nothing pending: LF_OK) */
 LfStatus lf_apply_pending_event(LfInstance *c, int *changed);
+/* lf_breaks.c: t_bound, or earlier: where the next step is to land, a
+ * margin before the predicted zero of an indicator known ahead (sets
+ * c->kb_index); lf_events.c: after a step that landed there, cross it as
+ * an event (the gap may reach up to t_limit) */
+double lf_known_break(LfInstance *c, double t_bound);
+LfStatus lf_cross_known_break(LfInstance *c, double t_limit);
 /* Scanning a function of time between samples (event indicators, validity
  * conditions; lf_events.c explains the rules): halves scanned again down to
  * LF_EVENT_SCAN_DEPTH levels where the quadratic through three samples
  * comes near zero; the next step bounded so that the function's second
  * difference over it stays below LF_EVENT_CURV of its size. */
 #define LF_EVENT_SCAN_DEPTH 8
+/* least step over an event (relative to max(1, |t|)); its Euler error is O(gap^2) */
+#define LF_EVENT_GAP 1e-12
 #define LF_EVENT_VERTEX_MARGIN 0.5
 #define LF_EVENT_CURV 0.25
 #define LF_EVENT_GROWTH 2.0

@@ -139,6 +139,19 @@ typedef struct {
     /* delays: where the last history lookup of each delay ended (a hint for
      * the next one, checked before use; not part of the FMU state) */
     long hist_cursor[LF_DIM(LF_ND)];
+    /* known breaks (lf_breaks.c; a cache, not part of the FMU state):
+     * kb_ready: kb_xdot holds der(x) of the clock states (0 elsewhere);
+     * kb_index >= 0: the steps land at kb_t_land, a margin before the
+     * predicted root of that indicator, whose bracket ends at kb_t_right */
+    int kb_ready;
+    double kb_xdot[LF_DIM(LF_NX)];
+    int kb_index;
+    double kb_t_land, kb_t_right;
+    /* no predicted root before kb_clear, where the prediction is kb_e; the
+     * next chunk of the scan is kb_dt long */
+    double kb_clear, kb_dt;
+    double kb_e[LF_DIM(LF_NE)];
+    long n_known_breaks;            /* known breaks crossed (statistics) */
     /* -- model exchange -- */
     /* -- FMI 3.0 facade -- */
     /* -- solvers and statistics -- */

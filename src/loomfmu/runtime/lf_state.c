@@ -83,6 +83,18 @@ static void write_values(const LfInstance *c, LfStateValues *v) {
         memcpy(v->ev_x_ok, c->ev_x_ok, sizeof v->ev_x_ok);
         memcpy(v->ev_q_ok, c->ev_q_ok, sizeof v->ev_q_ok);
     }
+    v->kb_ready = c->solver_ready && c->kb_ready;
+    v->kb_index = v->kb_ready ? c->kb_index : -1;
+    if (v->kb_ready) {
+        v->kb_clear = c->kb_clear;
+        v->kb_dt = c->kb_dt;
+        memcpy(v->kb_xdot, c->kb_xdot, sizeof v->kb_xdot);
+        memcpy(v->kb_e, c->kb_e, sizeof v->kb_e);
+    }
+    if (v->kb_index >= 0) {
+        v->kb_t_land = c->kb_t_land;
+        v->kb_t_right = c->kb_t_right;
+    }
     v->t = c->t;
     v->t_start = c->t_start;
     v->t_stop = c->t_stop;
@@ -330,6 +342,36 @@ static int check_pending_event(LfInstance *c, const LfStateValues *v) {
     return 1;
 }
 
+/* The known-break prediction: none (all zero), or rates, scan and values
+ * finite where they are used, the break ahead of the scan's start. */
+static int check_known_breaks(LfInstance *c, const LfStateValues *v) {
+    int k;
+    REQUIRE(is_flag(v->kb_ready), "kb_ready", v->kb_ready, "0 or 1");
+    REQUIRE(v->kb_index >= -1 && v->kb_index < LF_NE && (v->kb_ready || v->kb_index == -1),
+            "kb_index", v->kb_index, "-1, or an event indicator of this FMU when kb_ready");
+    if (!v->kb_ready) {
+        REQUIRE(v->kb_clear == 0 && v->kb_dt == 0, "kb_clear", v->kb_clear,
+                "0 when no prediction is kept");
+        return 1;
+    }
+    REQUIRE(v->solver_ready, "kb_ready", v->kb_ready, "0 before initialization");
+    REQUIRE(all_finite(v->kb_xdot, LF_DIM(LF_NX)), "clock rates", NAN, "finite");
+    REQUIRE(isfinite(v->kb_clear) && v->kb_clear >= v->t_start, "kb_clear", v->kb_clear,
+            "finite, >= t_start");
+    REQUIRE(isfinite(v->kb_dt) && v->kb_dt > 0, "kb_dt", v->kb_dt, "finite, > 0");
+    for (k = 0; k < LF_NE; k++)
+        REQUIRE(lf_model.event_time_only[k] == 0 || isfinite(v->kb_e[k]),
+                "predicted indicator", v->kb_e[k], "finite");
+    if (v->kb_index >= 0)
+        REQUIRE(isfinite(v->kb_t_land) && isfinite(v->kb_t_right) &&
+                    v->kb_t_land < v->kb_t_right,
+                "kb_t_land", v->kb_t_land, "finite, before kb_t_right");
+    else
+        REQUIRE(v->kb_t_land == 0 && v->kb_t_right == 0, "kb_t_land", v->kb_t_land,
+                "0 when no break is ahead");
+    return 1;
+}
+
 static int check_solver(LfInstance *c, const LfStateHeader *h, const LfStateValues *v,
                         const double *work) {
     const LfSolverOptions *o = &v->s_opt;
@@ -463,6 +505,14 @@ static void apply_values(LfInstance *c, const LfStateValues *v, const double *hi
     c->delay_interp = v->delay_interp;
     c->n_bp = v->n_bp;
     c->t_bp_step = INFINITY;
+    c->kb_ready = v->kb_ready;
+    c->kb_index = v->kb_index;
+    c->kb_t_land = v->kb_t_land;
+    c->kb_t_right = v->kb_t_right;
+    c->kb_clear = v->kb_clear;
+    c->kb_dt = v->kb_dt;
+    memcpy(c->kb_xdot, v->kb_xdot, sizeof v->kb_xdot);
+    memcpy(c->kb_e, v->kb_e, sizeof v->kb_e);
     c->state = (LfState)v->state;
     for (k = 0; k < LF_ND; k++) {
         c->hist_start[k] = 0;
@@ -482,7 +532,7 @@ LfStatus lf_state_read(LfInstance *c, const unsigned char *buf, size_t n) {
     if (!check_header(c, buf, n, &h)) return LF_ERROR;
     memcpy(&v, buf + sizeof h, sizeof v);
     if (!check_times(c, &v) || !check_flags(c, &v) || !check_modes_delays(c, &v) ||
-        !check_pending_event(c, &v))
+        !check_pending_event(c, &v) || !check_known_breaks(c, &v))
         return LF_ERROR;
     for (k = 0; k < LF_ND; k++) hist_len += 3 * (size_t)v.hist_count[k];
     hist_len += (size_t)v.n_bp; /* the breakpoints follow the history */

@@ -13,7 +13,7 @@
 #include <stddef.h>
 #include "lf_runtime.h"
 
-#define LF_STATE_MAGIC 0x4C465335u /* "LFS5": the pending event of an early return added */
+#define LF_STATE_MAGIC 0x4C465335u /* "LFS5": early return's pending event, known breaks */
 #define LF_STATE_GUID_LEN 64
 #define LF_FNV_OFFSET 0xcbf29ce484222325ULL
 #define LF_FNV_PRIME 0x100000001b3ULL
@@ -47,6 +47,11 @@ typedef struct {
     int event_pending, event_index;
     double t_event, ev_t_ok;
     double ev_x_ok[LF_DIM(LF_NX)], ev_q_ok[LF_DIM(LF_NQ)];
+    /* known breaks (lf_breaks.c): the prediction in use, so that a restored
+     * state lands its steps where the original run does */
+    int kb_ready, kb_index;
+    double kb_t_land, kb_t_right, kb_clear, kb_dt;
+    double kb_xdot[LF_DIM(LF_NX)], kb_e[LF_DIM(LF_NE)];
     /* solver fields (the work buffer follows separately) */
     double s_t, s_t_old, s_h;
     LfSolverOptions s_opt;

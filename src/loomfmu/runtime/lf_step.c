@@ -72,6 +72,8 @@ LfStatus lf_initialize(LfInstance *c) {
         return LF_ERROR;
     }
     c->solver_ready = 1;
+    c->kb_ready = 0;
+    c->kb_index = -1;
     c->event_pending = 0;
     c->event_index = -1;
     c->inputs_changed = 0;
@@ -221,6 +223,7 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
         st = lf_eval_events(c, s->t, s->x, c->e_old);
         if (st != LF_OK) return fail_step(c, st, "event indicators not finite");
         c->inputs_changed = 0;
+        c->kb_ready = 0; /* the clock states' rates may change with the inputs */
         lf_inputs_seen(c);
     }
     st = lf_validity_at_start(c);
@@ -229,6 +232,13 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
     while (s->t < t_end) {
         int is_bp = 0;
         double t_bound = LF_ND > 0 ? lf_next_breakpoint(c, s->t, t_end, &is_bp) : t_end;
+        if (LF_NE > 0) {
+            double t_kb = lf_known_break(c, t_bound);
+            if (t_kb < t_bound) {
+                t_bound = t_kb;
+                is_bp = 0; /* the step lands before the delay's breakpoint */
+            }
+        }
         s->message[0] = '\0';
         c->t_bp_step = is_bp ? t_bound : INFINITY;
         st = s->method->step(s, t_bound);
@@ -253,6 +263,12 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
             st = lf_hist_step(c);
             if (st != LF_OK) return fail_step(c, st, "history update failed");
             if (at_bp) lf_solver_reset(s, s->t, s->x); /* a delayed value jumps here */
+        }
+        if (LF_NE > 0 && c->kb_index >= 0) { /* landed before a known break: cross it */
+            st = lf_cross_known_break(c, t_end);
+            if (st != LF_OK)
+                return c->wants_terminate ? st : fail_step(c, st, "event handling failed");
+            if (c->event_pending) return return_at_event(c);
         }
         if (s->t < t_end && solver_work(s) - work0 >= c->max_steps) {
             char why[256];

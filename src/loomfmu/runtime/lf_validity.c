@@ -70,6 +70,7 @@ static LfStatus end_at(LfInstance *c, double t_ok, const double *x_ok, int k, do
     memcpy(&c->r[LF_VR_X0], c->x_tmp, sizeof(double) * LF_NX);
     lf_solver_reset(s, t_ok, c->x_tmp);
     c->vld_t = NAN;
+    c->kb_ready = 0;
     if (LF_NE > 0 && lf_eval_events(c, t_ok, s->x, c->e_old) != LF_OK) return LF_DISCARD;
     if (lf_hist_push(c, t_ok, s->x, 0) != LF_OK) return LF_DISCARD;
     return violated(c, k, value, t_bad, t_ok, where);

@@ -1,0 +1,91 @@
+"""Known breaks (lf_breaks.c, issue 16): an event indicator that depends
+only on time, parameters and clock states (codegen's event_time_only,
+clock_state) has zeros the step loop predicts, so the solver's steps land
+just before them instead of straddling the discontinuity there.
+
+One small model, x' = 0 before t1 and 1 after it (a jump of x' at the
+root: x = max(0, t - t1) exactly), with the break seen four ways: time
+itself, a clock state driven by a parameter, one driven by an input (held),
+and an ordinary state (not predictable: the control, which pays rejected
+steps).  The runtime is driven by tests/c/early_return.c, which prints the
+solver's counters."""
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import pytest
+
+from loomfmu.declare import Model
+from test_early_return import Run, _driver  # the runtime driver of a built FMU
+
+T1 = 0.4372
+T_END = 1.0
+RATE = 3.0
+KINDS = ("time", "clock", "input", "state")
+
+
+def _break_model(kind: str) -> Model:
+    m = Model(f"kb_{kind}", stop_time=T_END, step_size=0.1)
+    t1 = m.parameter("t1", T1, unit="s", description="time of the break",
+                     source="assumption: test value inside a communication step")
+    x = m.state("x", 0.0, unit="m", description="0 before t1, then t - t1")
+    if kind == "time":
+        ind = m.t - t1
+    elif kind in ("clock", "input"):
+        rate = (m.parameter("rate", RATE, unit="", description="clock rate",
+                            source="assumption: test value") if kind == "clock"
+                else m.input("rate", RATE, unit="", description="clock rate (held)"))
+        c = m.state("c", 0.0, unit="s", description="clock: c = rate t")
+        m.eq(m.der(c), rate)
+        ind = c - RATE * t1
+    else:
+        y = m.state("y", 1.0, unit="", description="exp(t / 2): not a clock")
+        m.eq(m.der(y), 0.5 * y)
+        ind = y - math.exp(T1 / 2)
+    m.eq(m.der(x), ca.if_else(ind > 0, 1.0, 0.0))
+    m.event("brk", ind, description="x' jumps from 0 to 1 here")
+    m.output("x_out", x, unit="m", description="x")
+    return m
+
+
+def _tol(kind: str) -> float:
+    """Where the break is predicted its time is exact to rounding; the
+    ordinary state's root is as exact as the solver's y (rtol 1e-8)."""
+    return 1e-8 if kind == "state" else 1e-11
+
+
+@pytest.fixture(scope="module", params=KINDS)
+def kb_driver(request, tmp_path_factory):
+    kind = request.param
+    return kind, _driver(_break_model(kind), tmp_path_factory.mktemp(f"kb_{kind}"))
+
+
+@pytest.mark.parametrize("solver", [1, 2])
+def test_steps_land_on_known_breaks(kb_driver, solver):
+    """Predictable breaks: the step ends just before t1 and the event is
+    crossed there, with no rejected step; the ordinary state's break costs
+    rejected steps (the solver straddles the jump of x' until it is
+    located).  Every variant puts the event at t1 and x(1) = 1 - t1."""
+    kind, exe = kb_driver
+    run = Run(exe, "plain", T_END, 0.1, f"solver={solver}", "solver_rtol=1e-8",
+              "solver_atol=1e-10")
+    accepted, rejected, rhs, events, known = run.steps
+    tol = _tol(kind)
+    assert events == 1 and run.events == pytest.approx([T1], abs=tol)
+    if kind == "state":
+        assert known == 0 and rejected > 0
+    else:
+        assert known == 1 and rejected == 0, run.steps
+    assert any(abs(v - (T_END - T1)) < 10 * tol for v in run.points[-1]), run.points[-1]
+
+
+def test_known_break_with_early_return(kb_driver):
+    """With early return the step ends at the known break (the event
+    pending), and the run goes on as the one without early return."""
+    kind, exe = kb_driver
+    ref = Run(exe, "plain", T_END, 0.1)
+    run = Run(exe, "early", T_END, 0.1)
+    assert len(run.early) == 1 and run.early[0][0] == pytest.approx(T1, abs=_tol(kind))
+    assert run.steps == ref.steps
+    assert abs(run.points - ref.points).max() < 1e-12
