@@ -76,6 +76,16 @@ def build_description(model_name: str, sources: list[str]) -> str:
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
 
+def terminals_problems(xml: str) -> list[str]:
+    """Every problem of ``terminalsAndIcons.xml`` against FMPy's FMI 3.0 schema."""
+    from lxml import etree
+    schema = etree.XMLSchema(etree.parse(str(
+        Path(fmpy.__file__).parent / "schema" / "fmi3" / "fmi3TerminalsAndIcons.xsd")))
+    if schema.validate(etree.fromstring(xml.encode())):
+        return []
+    return [f"terminalsAndIcons.xml line {e.line}: {e.message}" for e in schema.error_log]
+
+
 def fmi_headers_dir() -> Path:
     """The FMI 2.0/3.0 headers shipped with the installed FMPy."""
     return Path(fmpy.__file__).parent / "c-code"
@@ -184,6 +194,8 @@ def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 
     # documentation/index.html; `loomfmu build` rewrites it with the verification
     write_documentation(fmu, model, verification=None)
     problems = list(validate_fmu(str(fmu))) if validate else []
+    if validate and fmi_version == 3 and model.ports:  # FMPy does not read this file
+        problems += terminals_problems(terminals_and_icons(model))
     return BuildResult(model.name, fmu, guid, time.perf_counter() - t0, problems, fmi_version,
                        interface)
 
