@@ -12,7 +12,11 @@
  *         state        like early, but at each early return the FMU state is
  *                      written, read into a fresh instance, which goes on
  *                      (the old one is freed): the pending event survives
+ *         settle       like plain; after each input set during the run
+ *                      (@T:name=value) lf_settle_inputs, then the point
+ *                      printed as "settled <t> <every Real> <modes>"
  *   name=value   a Real by name (lf_model.real_names), or solver=<id>
+ *   @T:name=value  the same, set at the first communication point >= T
  * Output (stdout): per grid point "t <t> <every Real, %.17g>"; per early
  * return "early <t> <indicator> <values_changed>"; at the end
  * "steps <accepted> <rejected> <rhs> <events> <known breaks crossed>".  Log lines go to stderr.
@@ -145,7 +149,7 @@ int main(int argc, char **argv) {
     c = make();
     if (!c) return fail("lf_instantiate failed", 0);
     for (a = 4; a < argc; a++)
-        if (!set_value(c, argv[a])) return fail(argv[a], 0);
+        if (argv[a][0] != '@' && !set_value(c, argv[a])) return fail(argv[a], 0);
     c->stop_at_events = strcmp(mode, "plain") != 0 && strcmp(mode, "quiet") != 0;
     if (lf_initialize(c) != LF_OK) return fail("lf_initialize failed", 0);
     c->state = LF_ST_STEP_COMPLETE;
@@ -153,6 +157,21 @@ int main(int argc, char **argv) {
     n = (long)floor(t_end / h + 0.5);
     for (i = 1, t = c->t; i <= n; i++) {
         double t_next = i * h;
+        for (a = 4; a < argc; a++) { /* inputs set during the run */
+            const char *colon = strchr(argv[a], ':');
+            int k;
+            if (argv[a][0] != '@' || !colon || atof(argv[a] + 1) > c->t + 1e-12 ||
+                atof(argv[a] + 1) <= c->t - h + 1e-12)
+                continue;
+            if (!set_value(c, colon + 1)) return fail(argv[a], c->t);
+            if (strcmp(mode, "settle") != 0) continue;
+            if (lf_settle_inputs(c) != LF_OK || lf_update_outputs(c) != LF_OK)
+                return fail("lf_settle_inputs failed", c->t);
+            printf("settled %.17g", c->t);
+            for (k = 0; k < (int)LF_NREAL; k++) printf(" %.17g", c->r[k]);
+            for (k = 0; k < LF_NQ; k++) printf(" %g", c->q[k]);
+            printf("\n");
+        }
         while (t_next - c->t > 1e-13 * fmax(1.0, fabs(t_next))) {
             int changed = -1;
             LfStatus st = lf_do_step(c, c->t, t_next - c->t);

@@ -195,6 +195,54 @@ static LfStatus return_at_event(LfInstance *c) {
     return LF_OK;
 }
 
+/* The inputs jump (or their derivatives change) at the solver's point:
+ * modes made invalid by the jump (a stuck joint now loaded beyond its
+ * static limit) are chosen again, the solver restarts, the history takes
+ * the jump.  On failure *what says what failed. */
+static LfStatus restart_for_inputs(LfInstance *c, const char **what) {
+    LfSolver *s = &c->solver;
+    LfStatus st;
+    memcpy(c->x_tmp, s->x, sizeof(double) * LF_NX);
+    if (LF_NQ > 0) {
+        st = lf_consistent_modes(c, s->t, c->x_tmp, -1);
+        if (st != LF_OK) {
+            *what = "no consistent mode after the input change";
+            return st;
+        }
+    }
+    lf_solver_reset(s, s->t, c->x_tmp);
+    st = lf_hist_push(c, s->t, s->x, 1);
+    if (st != LF_OK) {
+        *what = "history update failed";
+        return st;
+    }
+    st = lf_eval_events(c, s->t, s->x, c->e_old);
+    if (st != LF_OK) {
+        *what = "event indicators not finite";
+        return st;
+    }
+    c->inputs_changed = 0;
+    c->kb_ready = 0; /* the clock states' rates may change with the inputs */
+    lf_inputs_seen(c);
+    return LF_OK;
+}
+
+LfStatus lf_settle_inputs(LfInstance *c) {
+    const char *what = "";
+    LfStatus st;
+    if (!c->solver_ready || c->event_pending || !(c->inputs_changed || lf_inputs_moved(c)))
+        return LF_OK;
+    st = restart_for_inputs(c, &what);
+    if (st != LF_OK) {
+        lf_log(c, st, st == LF_DISCARD ? LF_LOG_DISCARD : LF_LOG_ERROR,
+               "t = %.17g: inputs set: %s", c->t, what);
+        return st;
+    }
+    memcpy(&c->r[LF_VR_X0], c->solver.x, sizeof(double) * LF_NX);
+    c->outputs_valid = 0;
+    return LF_OK;
+}
+
 LfStatus lf_do_step(LfInstance *c, double t0, double h) {
     LfSolver *s = &c->solver;
     double t_end = t0 + h;
@@ -209,22 +257,9 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
             return c->wants_terminate ? st : fail_step(c, st, "event handling failed");
     }
     if (c->inputs_changed || lf_inputs_moved(c)) {
-        /* the inputs jump (or their derivatives change) here: modes made
-         * invalid by the jump (a stuck joint now loaded beyond its static
-         * limit) are chosen again */
-        memcpy(c->x_tmp, s->x, sizeof(double) * LF_NX);
-        if (LF_NQ > 0) {
-            st = lf_consistent_modes(c, s->t, c->x_tmp, -1);
-            if (st != LF_OK) return fail_step(c, st, "no consistent mode after the input change");
-        }
-        lf_solver_reset(s, s->t, c->x_tmp);
-        st = lf_hist_push(c, s->t, s->x, 1);
-        if (st != LF_OK) return fail_step(c, st, "history update failed");
-        st = lf_eval_events(c, s->t, s->x, c->e_old);
-        if (st != LF_OK) return fail_step(c, st, "event indicators not finite");
-        c->inputs_changed = 0;
-        c->kb_ready = 0; /* the clock states' rates may change with the inputs */
-        lf_inputs_seen(c);
+        const char *what = "";
+        st = restart_for_inputs(c, &what);
+        if (st != LF_OK) return fail_step(c, st, what);
     }
     st = lf_validity_at_start(c);
     if (st != LF_OK)

@@ -31,6 +31,17 @@
  * relative before t_event) and the simulation cannot go on. */
 LfStatus lf_handle_pending_event(LfInstance *c, int *values_changed);
 
+/* Inputs set since the last step (values or derivatives): do now what the
+ * next step's start would do (modes made consistent with the new inputs,
+ * states reinitialized for them, solver restarted, the history's jump), so
+ * that outputs, modes and states read before the next step are those of
+ * the inputs set.  No-op before initialization, with nothing set, or with
+ * an event pending (its handling comes first).  Identical trajectory: the
+ * next step's start then has nothing to do.  Inputs set after this call
+ * are handled again (at the next read or step).  LF_ERROR (logged) if no
+ * mode is consistent with the inputs. */
+LfStatus lf_settle_inputs(LfInstance *c);
+
 /* The modes after the event of indicator k (-1: none, e.g. an input jump)
  * at (t, x), without a solver (model exchange): the event's own mode first,
  * then every mode made consistent (lf_events.c); x is updated with the
