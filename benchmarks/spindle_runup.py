@@ -195,6 +195,12 @@ def run_counters(exe: Path, fmu: Path, solver: str, rtol: float, interp: bool,
     return out
 
 
+# cost of one call at the end state (C driver, best of 5 rounds): right-hand
+# side, Jacobian, factorization and solve of alpha*I - J (Schur path), and the
+# same two on the dense path
+COST_KEYS = ("rhs_us", "jac_us", "factor_us", "solve_us", "dense_factor_us", "dense_solve_us")
+
+
 def main_counters(args) -> int:
     sim = RAMP + HOLD
     rows = []
@@ -211,6 +217,7 @@ def main_counters(args) -> int:
                              **{k: int(r[k]) for k in ("steps", "rejected", "rhs", "jac", "lu")},
                              "steps_per_lu": r["steps"] / max(r["lu"], 1.0),
                              "eliminated": int(r.get("eliminated", 0)),
+                             "cost_us": {k[:-3]: r[k] for k in COST_KEYS if k in r},
                              "r_top_max": r["r_top_max"], "r_top_end": r["r_top_end"]})
     ref = rows[0]["r_top_max"]
     for r in rows:
@@ -225,6 +232,10 @@ def main_counters(args) -> int:
         print(f"{r['solver']:<10}{r['inputs']:<13}{r['cpu_s']:>8.3f}{r['rtf']:>9.3f}"
               f"{r['steps']:>8}{r['rejected']:>7}{r['rhs']:>9}{r['jac']:>8}{r['lu']:>8}"
               f"{r['steps_per_lu']:>7.2f}{r['r_top_max_rel_diff']:>12.2e}")
+    cost = rows[-1]["cost_us"]
+    if cost:
+        print(f"{rows[-1].get('eliminated', 0)} states eliminated by the Schur path; cost per call "
+              "(us, end state): " + ", ".join(f"{k} {v:.2f}" for k, v in cost.items()))
     out = args.out if args.out != DEFAULT_OUT else ROOT / "docs" / "spindle_runup_counters.json"
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result, indent=1))

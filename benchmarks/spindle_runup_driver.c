@@ -132,8 +132,10 @@ int main(int argc, char **argv) {
                 if (J && b && ode.jac(ode.ctx, c->solver.t, c->solver.x, J, J + n * n) == LF_OK &&
                     lf_shifted_factor(ws, J, n, 1e4) == 0) {
                     /* cost of each part at the end state, best of 5 rounds */
-                    double best[4] = {1e300, 1e300, 1e300, 1e300};
-                    int round, k, reps[4] = {2000, 200, 200, 2000};
+                    double best[6] = {1e300, 1e300, 1e300, 1e300, 1e300, 1e300};
+                    int round, k, reps[6] = {2000, 200, 200, 2000, 100, 2000};
+                    double *E = (double *)calloc(n * n, sizeof(double));
+                    size_t *piv = (size_t *)calloc(n, sizeof(size_t)), i;
                     printf("states %lu\neliminated %lu\n", (unsigned long)n,
                            (unsigned long)lf_shifted_eliminated(ws));
                     for (round = 0; round < 5; round++) {
@@ -153,9 +155,27 @@ int main(int argc, char **argv) {
                             lf_shifted_solve(ws, J, n, b);
                         }
                         best[3] = fmin(best[3], (cpu_now() - t0) / reps[3]);
+                        /* the dense path: LU of the whole alpha*I - J */
+                        t0 = cpu_now();
+                        for (k = 0; k < reps[4] && E && piv; k++) {
+                            for (i = 0; i < n * n; i++) E[i] = -J[i];
+                            for (i = 0; i < n; i++) E[i + i * n] += 1e4 + k;
+                            lf_lu_factor(E, n, piv);
+                        }
+                        best[4] = fmin(best[4], (cpu_now() - t0) / reps[4]);
+                        t0 = cpu_now();
+                        for (k = 0; k < reps[5] && E && piv; k++) {
+                            b[k % n] = 1.0;
+                            lf_lu_solve(E, n, piv, b);
+                        }
+                        best[5] = fmin(best[5], (cpu_now() - t0) / reps[5]);
                     }
-                    printf("rhs_us %.3f\njac_us %.3f\nfactor_us %.3f\nsolve_us %.3f\n",
-                           1e6 * best[0], 1e6 * best[1], 1e6 * best[2], 1e6 * best[3]);
+                    free(E);
+                    free(piv);
+                    printf("rhs_us %.3f\njac_us %.3f\nfactor_us %.3f\nsolve_us %.3f\n"
+                           "dense_factor_us %.3f\ndense_solve_us %.3f\n",
+                           1e6 * best[0], 1e6 * best[1], 1e6 * best[2], 1e6 * best[3],
+                           1e6 * best[4], 1e6 * best[5]);
                 }
                 free(b);
                 free(J);

@@ -495,3 +495,39 @@ def test_validity_failure_is_a_discard_not_an_early_return(fmus, instances):
         assert st == DISCARD and terminate and not early
         assert t_event <= last < 0.05
     assert any("warp" in m for _, _, m in s.log)
+
+
+def test_event_mode_settles_the_modes_for_new_inputs(fmus, instances):
+    """An importer that sets an input in event mode reads, after
+    fmi3UpdateDiscreteStates, the modes and outputs for that input (the
+    stuck joint breaks away), as model exchange gives them from the same FMU
+    state -- not the old modes until the next step."""
+    path = fmus["backrest", 3].path
+    s = instances(path, "cs", eventModeUsed=True, earlyReturnAllowed=True)
+    f, vr = s.fmu, s.vr
+    f.enterInitializationMode(startTime=0.0)
+    f.exitInitializationMode()
+    f.updateDiscreteStates()
+    f.enterStepMode()
+    assert s.do_step(0.0, 0.05)[1][2]  # early return at the first switch
+    f.enterEventMode()
+    f.updateDiscreteStates()
+    blob = f.serializeFMUState(f.getFMUState())
+    modes = [vr["mode_O1"], vr["mode_O2"]]
+    before = f.getInt32(modes)
+    outs = [vr["M1f_out"], vr["N1"]]
+
+    f.setFloat64([vr["letoff"]], [0.05])
+    need, _, _, changed, _, _ = f.updateDiscreteStates()
+    cs = f.getInt32(modes), f.getFloat64(outs)
+
+    m = instances(path, "me")
+    m.fmu.enterInitializationMode(startTime=0.0)
+    m.fmu.exitInitializationMode()
+    m.fmu.setFMUState(m.fmu.deserializeFMUState(blob))
+    m.fmu.setFloat64([vr["letoff"]], [0.05])
+    m.fmu.updateDiscreteStates()
+    me = m.fmu.getInt32(modes), m.fmu.getFloat64(outs)
+    assert not need and changed
+    assert cs[0] == me[0] != before
+    np.testing.assert_allclose(cs[1], me[1], rtol=1e-12)

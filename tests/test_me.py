@@ -252,6 +252,12 @@ def test_drive_history_from_completed_steps(fmus):
         with pytest.raises(FMICallException) as e:
             s.fmu.completedIntegratorStep()
         assert e.value.status == ERROR and "history already ends at t = 1.5" in s.messages()[-1]
+        s.fmu.setTime(1.5)  # the instance goes on from where it was
+        s.derivatives()
+        s.fmu.setTime(1.2)  # t - tau = 0.7: dropped from the history (it keeps about tau)
+        with pytest.raises(FMICallException) as e:
+            s.derivatives()
+        assert e.value.status == DISCARD and "history kept starts at" in s.messages()[-1]
     finally:
         s.close()
 
@@ -431,6 +437,48 @@ def test_an_implicit_importer_uses_the_directional_derivatives(fmus):
         assert exact.success and fd.success
         assert np.allclose(exact.y[:, -1], fd.y[:, -1], rtol=1e-6, atol=1e-9)
         assert exact.njev > 0
+    finally:
+        s.close()
+
+
+def test_a_discarded_co_simulation_state_goes_on_in_model_exchange(fmus):
+    """An FMU state of a co-simulation instance whose step was discarded (a
+    validity condition fails at once) set in a model-exchange instance: no
+    co-simulation-only state (StepFailed) there; it goes on from the last
+    accepted time and states."""
+    path = fmus["backrest"].path
+    cs = Instance(path, me=False)
+    me = Instance(path)
+    try:
+        cs.start()
+        cs.fmu.setReal([cs.vr["letoff"], cs.vr["warp_pull"]], [0.01, -0.02])
+        assert cs.raw("DoStep", ctypes.c_double(0.0), ctypes.c_double(0.1),
+                      ctypes.c_int(1)) == DISCARD
+        blob = cs.fmu.serializeFMUstate(cs.fmu.getFMUstate())
+        me.start()
+        me.to_continuous()
+        me.fmu.setFMUstate(me.fmu.deSerializeFMUstate(blob))
+        me.fmu.setTime(0.0)
+        assert np.all(np.isfinite(me.derivatives()))
+        me.fmu.enterEventMode()
+    finally:
+        cs.close()
+        me.close()
+
+
+def test_setup_and_names_refused(fmus):
+    """A tolerance that is not a finite positive number, and an instance
+    name of white space only, are refused (nothing set / NULL)."""
+    s = Instance(fmus["two_mass_force"].path)
+    try:
+        setup = s.fmu._functions["fmi2SetupExperiment"]
+        for tol in (float("nan"), -1.0, 0.0, float("inf")):
+            assert setup(s.fmu.component, 1, tol, 0.0, 0, 0.0) == ERROR
+            assert "expected a finite value > 0" in s.messages()[-1]
+        assert setup(s.fmu.component, 1, 0.5, 0.0, 0, 0.0) == WARNING  # limited to the range
+        comp = s.fmu._functions["fmi2Instantiate"](
+            b" \t ", 0, s.md.guid.encode(), b"", ctypes.byref(s._cb), 0, 0)
+        assert comp is None and "white space only" in s.messages()[-1]
     finally:
         s.close()
 

@@ -129,7 +129,7 @@ static LfStatus outputs_change(LfInstance *c, const double *x, const double *w,
                                const double *dx, const double *du, const double *dd,
                                const double *dw, const double *yd, double *dy) {
     double yx[LF_DIM(NOUT * LF_NX)], yw[LF_DIM(NOUT * LF_NW)], yu[LF_DIM(NOUT * LF_NU)];
-    memset(dy, 0, sizeof(double) * LF_DIM(NOUT));
+    memset(dy, 0, sizeof(double) * NOUT);
     if (lf_eval_fn(c, LF_FN_DIRY, c->t, x, w, yx, yw, yu) != LF_OK) return LF_ERROR;
     gemv_add(yx, NOUT, LF_NX, dx, dy);
     gemv_add(yw, NOUT, LF_NW, dw, dy);
@@ -160,8 +160,11 @@ LfStatus lf_directional_derivative(LfInstance *c, const unsigned *unknown_vr, si
     memset(res, 0, sizeof res);
     for (i = 0; i < nk; i++) {
         unsigned vr = known_vr[i];
-        if (vr < LF_VR_U0) dx[vr - LF_VR_X0] += seed[i];
-        else du[vr - LF_VR_U0] += seed[i];
+        if (vr < LF_VR_U0) {
+            if (LF_NX > 0) dx[vr - LF_VR_X0] += seed[i];
+        } else if (LF_NU > 0) {
+            du[vr - LF_VR_U0] += seed[i];
+        }
     }
     for (i = 0; i < nu; i++) need_y |= unknown_vr[i] < LF_NREAL;
     if (lf_prepare_initial(c) != LF_OK) return LF_ERROR;

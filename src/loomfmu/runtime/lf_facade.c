@@ -67,6 +67,12 @@ LfStatus lf_setup_experiment(LfInstance *c, const char *fn, int tolerance_define
                stop_time_defined ? stop_time : INFINITY);
         return LF_ERROR;
     }
+    if (tolerance_defined && !(isfinite(tolerance) && tolerance > 0)) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "%s: tolerance = %g, expected a finite value > 0 "
+               "(values outside [%g, %g] are limited to it); nothing set", fn, tolerance,
+               lf_model.real_min[LF_SET_RTOL], lf_model.real_max[LF_SET_RTOL]);
+        return LF_ERROR;
+    }
     c->t_start = c->t = c->last_successful_time = start_time;
     for (k = 0; k < LF_NU; k++) c->u_t0[k] = start_time; /* input derivatives set before */
     c->seen_t = start_time;
@@ -78,7 +84,7 @@ LfStatus lf_setup_experiment(LfInstance *c, const char *fn, int tolerance_define
         double lo = lf_model.real_min[LF_SET_RTOL], hi = lf_model.real_max[LF_SET_RTOL];
         double tol = tolerance;
         if (!(tol >= lo && tol <= hi)) {
-            tol = isfinite(tol) && tol > hi ? hi : lo;
+            tol = tol > hi ? hi : lo;
             lf_log(c, LF_WARNING, LF_LOG_WARNING, "%s: tolerance = %g is outside [%g, %g]; "
                    "using %g", fn, tolerance, lo, hi, tol);
             status = LF_WARNING;

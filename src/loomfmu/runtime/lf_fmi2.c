@@ -17,6 +17,7 @@
  * log through) without touching the freed memory.  Limit: if the allocator
  * has given the freed address to a new instance of this FMU, the call goes
  * to that instance. */
+#include <ctype.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -79,6 +80,13 @@ fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t n,
                                             n, categories);
 }
 
+/* a character other than white space (FMI 2.0, 2.1.5: a non-empty name) */
+static int has_visible_char(const char *s) {
+    for (; *s; s++)
+        if (!isspace((unsigned char)*s)) return 1;
+    return 0;
+}
+
 static void instantiate_error(const fmi2CallbackFunctions *f, const char *name,
                               const char *message) {
     f->logger(f->componentEnvironment, name, fmi2Error, "logStatusError", message);
@@ -98,9 +106,9 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
     if (!functions || !functions->logger || !functions->allocateMemory ||
         !functions->freeMemory)
         return NULL;
-    if (!instanceName || !instanceName[0]) {
-        instantiate_error(functions, name, "fmi2Instantiate: instanceName is NULL or empty "
-                          "(FMI 2.0 requires a non-empty name)");
+    if (!instanceName || !has_visible_char(instanceName)) {
+        instantiate_error(functions, name, "fmi2Instantiate: instanceName is NULL, empty or "
+                          "white space only (FMI 2.0 requires a non-empty name)");
         return NULL;
     }
     if (!((fmuType == fmi2CoSimulation && LF_HAS_CS) ||

@@ -47,6 +47,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info) {
     LfStatus st;
     ME_CHECK("fmi2NewDiscreteStates", M2_EVENT);
     if (!info) return lf_fmi2_null_arg(inst, "fmi2NewDiscreteStates", "fmi2eventInfo");
+    if (lf_me_check_time(inst, "fmi2NewDiscreteStates") != LF_OK) return fmi2Error;
     st = lf_me_event_update(inst, "fmi2NewDiscreteStates", &ev);
     if (st != LF_OK) return model_status(inst, st);
     info->newDiscreteStatesNeeded = ev.discrete_states_need_update ? fmi2True : fmi2False;
@@ -81,6 +82,7 @@ fmi2Status fmi2CompletedIntegratorStep(fmi2Component c,
         return lf_fmi2_null_arg(inst, "fmi2CompletedIntegratorStep", "enterEventMode");
     if (!terminateSimulation)
         return lf_fmi2_null_arg(inst, "fmi2CompletedIntegratorStep", "terminateSimulation");
+    if (lf_me_check_time(inst, "fmi2CompletedIntegratorStep") != LF_OK) return fmi2Error;
     st = lf_me_completed_step(inst, "fmi2CompletedIntegratorStep", &event, &terminate);
     *enterEventMode = event ? fmi2True : fmi2False;
     *terminateSimulation = terminate ? fmi2True : fmi2False;

@@ -16,9 +16,18 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
     return (fmi2Status)lf_fmustate_get((LfInstance *)c, LIST(c), "fmi2GetFMUstate", state);
 }
 
+/* A state of a co-simulation instance whose step was discarded (StepFailed)
+ * set in a model-exchange instance: its time and states are the last
+ * accepted ones, from which model exchange goes on (StepFailed is no state
+ * of model exchange; the instance keeps its event or continuous-time mode). */
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
+    LfInstance *inst = (LfInstance *)c;
+    LfStatus st;
     CHECK("fmi2SetFMUstate", RESTORE_STATES);
-    return (fmi2Status)lf_fmustate_set((LfInstance *)c, LIST(c), "fmi2SetFMUstate", state);
+    st = lf_fmustate_set(inst, LIST(c), "fmi2SetFMUstate", state);
+    if (st == LF_OK && ENV(inst)->me && inst->state == LF_ST_STEP_FAILED)
+        inst->state = LF_ST_STEP_COMPLETE;
+    return (fmi2Status)st;
 }
 
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {

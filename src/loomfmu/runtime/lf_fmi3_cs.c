@@ -21,6 +21,7 @@
  * left to update). */
 #include <math.h>
 #include <stdio.h>
+#include <string.h>
 
 #include "lf_build.h"
 #include "lf_facade.h"
@@ -75,9 +76,30 @@ fmi3Status fmi3EnterEventMode(fmi3Instance c) {
     return fmi3OK;
 }
 
-/* Co-simulation: the pending event of an early return is performed here;
- * events of steps without early return were handled inside them.  The
- * modes settle in one call: nothing is left to iterate. */
+/* Inputs set in event mode: the modes are chosen again for them here, at
+ * the instance's time and states (as model exchange does), so that the
+ * importer reads the settled modes and outputs in event mode; the next
+ * fmi3DoStep restarts the solver here as after any input change (it finds
+ * the modes consistent).  *changed: a mode or a state changed. */
+static LfStatus settle_inputs(LfInstance *inst, int *changed) {
+    double x[LF_DIM(LF_NX)];
+    int ch = 0;
+    LfStatus st;
+    if (LF_NQ == 0 || !inst->inputs_changed) return LF_OK;
+    memcpy(x, &inst->r[LF_VR_X0], sizeof(double) * LF_NX);
+    st = lf_event_update(inst, -1, inst->t, x, &ch);
+    if (st != LF_OK || !ch) return st;
+    memcpy(&inst->r[LF_VR_X0], x, sizeof(double) * LF_NX);
+    lf_solver_reset(&inst->solver, inst->t, x);
+    inst->outputs_valid = 0;
+    *changed = 1;
+    return LF_OK;
+}
+
+/* Co-simulation: the pending event of an early return is performed here,
+ * then the modes are chosen again for inputs set in event mode; events of
+ * steps without early return were handled inside them.  The modes settle
+ * in one call: nothing is left to iterate. */
 static fmi3Status cs_update_discrete_states(LfInstance *inst, fmi3Boolean *need_update,
                                             fmi3Boolean *terminate,
                                             fmi3Boolean *nominals_changed,
@@ -86,6 +108,7 @@ static fmi3Status cs_update_discrete_states(LfInstance *inst, fmi3Boolean *need_
     Fmi3Env *e = ENV3(inst);
     int changed = 0;
     LfStatus st = lf_handle_pending_event(inst, &changed);
+    if (st == LF_OK) st = settle_inputs(inst, &changed);
     *need_update = fmi3False;
     *terminate = inst->wants_terminate ? fmi3True : fmi3False;
     *nominals_changed = fmi3False;

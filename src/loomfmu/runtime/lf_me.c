@@ -68,32 +68,46 @@ static double hist_end(const LfInstance *c) {
     return end;
 }
 
-/* A point the history can take: not before its end (the importer went back
- * in time without restoring an FMU state) */
-static LfStatus history_point(LfInstance *c, const char *fn) {
+LfStatus lf_me_check_time(LfInstance *c, const char *fn) {
     double end = hist_end(c);
     if (!(c->t < end)) return LF_OK;
     lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: the delays' history already ends at "
            "t = %.17g; a step completed at an earlier time needs the FMU state of that time "
-           "(fmi2SetFMUstate) first; nothing done", c->t, fn, end);
+           "set first; nothing done, the instance goes on from where it was", c->t, fn, end);
     return LF_ERROR;
+}
+
+/* time of the first sample of delay k's history */
+static double hist_first_time(const LfInstance *c, int k) {
+    return c->hist[((size_t)k * LF_HIST_CAP + (size_t)c->hist_start[k]) * 3];
 }
 
 LfStatus lf_me_delays_known(LfInstance *c, const char *fn) {
     int k;
     for (k = 0; k < LF_ND; k++) {
-        double s, last, eps = 8 * LF_EPS * fmax(1.0, fabs(c->t));
+        double s, first, last, eps = 8 * LF_EPS * fmax(1.0, fabs(c->t));
         if (!(c->tau[k] > 0) || c->hist_count[k] == 0) continue; /* read now (tau = 0, start) */
         s = c->t - c->tau[k];
+        first = hist_first_time(c, k);
         last = hist_last_time(c, k);
-        if (s <= last + eps) continue;
-        lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
-               "t = %.17g: %s: delay %s needs its value at t - tau = %.17g, but the history "
-               "ends at t = %.17g (the last completed integrator step); model exchange "
-               "with delays needs a completed integrator step after every accepted step and "
-               "steps no longer than tau = %g s; nothing extrapolated", c->t, fn,
-               lf_model.delay_names[k], s, last, c->tau[k]);
-        return LF_DISCARD;
+        if (s > last + eps) {
+            lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
+                   "t = %.17g: %s: delay %s needs its value at t - tau = %.17g, but the history "
+                   "ends at t = %.17g (the last completed integrator step); model exchange "
+                   "with delays needs a completed integrator step after every accepted step "
+                   "and steps no longer than tau = %g s; nothing extrapolated", c->t, fn,
+                   lf_model.delay_names[k], s, last, c->tau[k]);
+            return LF_DISCARD;
+        }
+        /* before the start the history is constant; after it, only what is kept */
+        if (s < first - eps && first > c->t_start) {
+            lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
+                   "t = %.17g: %s: delay %s needs its value at t - tau = %.17g, but the history "
+                   "kept starts at t = %.17g (older points were dropped as the completed steps "
+                   "moved on); to go back in time set the FMU state of that time first",
+                   c->t, fn, lf_model.delay_names[k], s, first);
+            return LF_DISCARD;
+        }
     }
     return LF_OK;
 }
@@ -238,7 +252,7 @@ LfStatus lf_me_completed_step(LfInstance *c, const char *fn, int *enter_event_mo
     st = lf_me_delays_known(c, fn);
     if (st != LF_OK) return st;
     if (LF_ND > 0) {
-        st = history_point(c, fn);
+        st = lf_me_check_time(c, fn);
         if (st == LF_OK) st = lf_hist_push(c, c->t, &c->r[LF_VR_X0], 0);
         if (st != LF_OK) return st;
     }
@@ -260,7 +274,7 @@ LfStatus lf_me_event_update(LfInstance *c, const char *fn, LfMeEventInfo *info) 
     int k, any = 0, touched = 0, jump, is_bp = 0;
     LfStatus st;
     memset(info, 0, sizeof *info);
-    if (LF_ND > 0 && (st = history_point(c, fn)) != LF_OK) return st;
+    if (LF_ND > 0 && (st = lf_me_check_time(c, fn)) != LF_OK) return st;
     st = indicators_at(c, fn, &c->r[LF_VR_X0], e);
     if (st != LF_OK) return st;
     if (LF_NX > 0) memcpy(x, &c->r[LF_VR_X0], sizeof(double) * LF_NX);

@@ -50,6 +50,11 @@ LfStatus lf_me_event_indicators(LfInstance *c, const char *fn, double *e, size_t
  * LF_OK, or LF_DISCARD with a log naming `fn`, the delay and the times. */
 LfStatus lf_me_delays_known(LfInstance *c, const char *fn);
 
+/* Can the delays' history take a point at the instance's time?  LF_OK, or
+ * LF_ERROR with a log if the time is before the history's end (set back
+ * without restoring an FMU state): a misuse, the instance unchanged. */
+LfStatus lf_me_check_time(LfInstance *c, const char *fn);
+
 /* After an accepted step of the importer at (t, x): the delays' history
  * takes the point, the validity conditions (Model.require) are checked
  * (*terminate = 1 and a log where one fails), and *enter_event_mode = 1
