@@ -317,6 +317,62 @@ static LfStatus hist_refine(LfInstance *c, double ta, const double *ga, double t
     return hist_refine(c, ta + 0.5 * h, gm, tb, gb, depth + 1);
 }
 
+/* The history's error estimated from the samples already held, without
+ * evaluating g inside the step.  The quintic Hermite P through the sample
+ * before the step's start (tp), the start (ta) and the end (tb), values and
+ * slopes, is two orders more accurate than the cubic Hermite H through ta,
+ * tb; P - H, which vanishes doubly at ta and tb, estimates H's error (even
+ * and odd parts about the midpoint alike): P - H = Q(th) (m0 + m1 (th - thp))
+ * with Q(th) = th^2 (th - 1)^2 and m0, m1 fixed by P's value and slope at tp.
+ * Where g is resolved by the samples this matches the error measured on the
+ * dense output to a few per cent; where it is not (g varying within a step),
+ * the samples no longer join as one quintic and the estimate is of the
+ * order of g's variation, i.e. far above the tolerance.  Trusted only with
+ * LF_HIST_EST_MARGIN to spare and with the neighbouring intervals of
+ * comparable length (LF_HIST_EST_RATIO); elsewhere the error is measured on
+ * the dense output (hist_refine). */
+#define LF_HIST_EST_MARGIN 0.125
+#define LF_HIST_EST_RATIO 4.0
+
+/* Is the estimated error of the cubic Hermite over the accepted step
+ * (ta, tb] (samples ga, gb) at the quarter points within
+ * LF_HIST_EST_MARGIN x LF_HIST_QUARTER_SCALE x the tolerance, for every
+ * delay > 0?  0 where it cannot be estimated: no sample before ta, a jump
+ * at ta (two samples there), or intervals of too unequal lengths. */
+static int estimate_fine(const LfInstance *c, double ta, const double *ga, double tb,
+                         const double *gb) {
+    static const double th[2] = {0.25, 0.75};
+    double h = tb - ta;
+    int k, i;
+    for (k = 0; k < LF_ND; k++) {
+        long n = c->hist_count[k];
+        double tp, thp, q, dq, r0, r1, m0, m1;
+        if (c->tau[k] == 0) continue;
+        if (n < 2) return 0;
+        tp = HT(c, k, n - 2); /* the sample at ta is n - 1 (stored_start) */
+        if (!(tp < ta) || ta - tp > LF_HIST_EST_RATIO * h || LF_HIST_EST_RATIO * (ta - tp) < h)
+            return 0;
+        thp = (tp - ta) / h;
+        q = thp * thp * (thp - 1) * (thp - 1);
+        dq = 2 * thp * (thp - 1) * (2 * thp - 1);
+        r0 = HG(c, k, n - 2) - hermite(ga[k], ga[LF_ND + k], gb[k], gb[LF_ND + k], h, thp);
+        r1 = h * HD(c, k, n - 2) -
+             ((6 * thp * thp - 6 * thp) * (ga[k] - gb[k]) +
+              h * ((3 * thp * thp - 4 * thp + 1) * ga[LF_ND + k] +
+                   (3 * thp * thp - 2 * thp) * gb[LF_ND + k]));
+        m0 = r0 / q;
+        m1 = (r1 - dq * m0) / q;
+        for (i = 0; i < 2; i++) {
+            double e = 0.03515625 * (m0 + m1 * (th[i] - thp)); /* Q(1/4) = Q(3/4) = 9/256 */
+            double g = hermite(ga[k], ga[LF_ND + k], gb[k], gb[LF_ND + k], h, th[i]);
+            if (!(fabs(e) <= LF_HIST_EST_MARGIN * LF_HIST_QUARTER_SCALE *
+                                 (c->solver.opt.atol + c->solver.opt.rtol * fabs(g))))
+                return 0;
+        }
+    }
+    return 1;
+}
+
 /* The samples at the step's start as the history holds them (the last
  * sample of every delay > 0, taken at t_old when the step before ended or
  * the solver restarted): 1, or 0 if some delay's last sample is not at
@@ -347,6 +403,7 @@ LfStatus lf_hist_step(LfInstance *c) {
         return lf_hist_push(c, s->t, s->x, 0);
     st = hist_sample(c, s->t, s->x, gb);
     if (st != LF_OK) return st;
+    if (estimate_fine(c, s->t_old, ga, s->t, gb)) return hist_append(c, s->t, gb, 0);
     return hist_refine(c, s->t_old, ga, s->t, gb, 0);
 }
 
