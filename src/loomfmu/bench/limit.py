@@ -13,7 +13,8 @@ FMU's default experiment: stop time, communication step; rtol 1e-6, atol
 Python and reads the solver's counters from the instance.  The limit
 (:func:`limit_seconds`) is the fewest evaluations the method needs for the
 steps it took: accepted steps x new stages per step x the best time of one
-right-hand side (+ one Jacobian per step for rodas4).  Definitions and the
+right-hand side (+ one Jacobian per step for rodas4; + one history sample
+per step for a model that keeps a delay history).  Definitions and the
 table: docs/limit.md (written by the command).
 """
 from __future__ import annotations
@@ -93,12 +94,21 @@ def run_driver(exe: Path, *, stop: float, step: float, solver: str, rtol: float 
 def limit_seconds(c: dict) -> float | None:
     """The limit of the run ``c`` (a driver result): accepted steps x
     (new stages x best RHS seconds + Jacobians per step x best Jacobian
-    seconds); None for a method without a STAGES entry."""
+    seconds + best seconds of one history sample); None for a method
+    without a STAGES entry.
+
+    A model with a delay keeps a history of its delayed expressions g; each
+    accepted step must add at least the sample at its end (g and dg/dt
+    there: the unknowns w and the generated history function), whatever the
+    method: ``hist_s``, reported by the driver for a model whose history is
+    kept (0 or absent: no history).  The right-hand side's own time already
+    holds the delayed values' lookup (every generated function but the
+    history's reads them at t - tau)."""
     if c["solver"] not in STAGES:
         return None
     stages, jacs = STAGES[c["solver"]]
     jac_calls = c["jac"] if jacs is None else jacs * c["steps"]
-    return c["steps"] * stages * c["rhs_s"] + jac_calls * c["jac_s"]
+    return c["steps"] * (stages * c["rhs_s"] + c.get("hist_s", 0.0)) + jac_calls * c["jac_s"]
 
 
 def fmpy_run(path: Path, md, *, stop: float, step: float, solver: str, rtol: float = RTOL,
@@ -233,12 +243,25 @@ outputs equal FMPy's bit for bit (`tests/test_bench_limit.py`).
   integrates (`lf_ode_of(c).rhs`: the generated `wsol`, or for implicit
   models `res` with Newton on the exact dF/dw, here converging in one
   iteration from the solution) and of its Jacobian (`.jac`), at the run's
-  last accepted point, in a tight loop: the best of the batches.
+  last accepted point, in a tight loop: the best of the batches. For a model
+  with delays the right-hand side includes the lookup of the delayed values
+  in the history (at t − τ, cubic Hermite), which every call needs.
+* **hist µs** (models that keep a delay history, the drive): CPU time of one
+  history sample (`lf_hist_sample`: the unknowns w and the generated history
+  function, g and dg/dt of the delayed expressions) at the same point, timed
+  the same way.
 * **limit** = accepted steps × (new stages per step × RHS µs + Jacobians per
-  step × Jac µs), with dopri5: 6 stages (7, the first reused from the previous
-  step: FSAL), 0 Jacobians; rodas4: 6 (f(t, x) and 5 stages), 1 Jacobian;
-  rk4: 4, 0; ros34pw2 (Rosenbrock-W, Jacobian reused over steps): 4 (FSAL),
-  and the Jacobians the run evaluated. The accepted steps are the run's own (the fewest the method took
+  step × Jac µs + hist µs), with dopri5: 6 stages (7, the first reused from
+  the previous step: FSAL), 0 Jacobians; rodas4: 6 (f(t, x) and 5 stages), 1
+  Jacobian; rk4: 4, 0; ros34pw2 (Rosenbrock-W, Jacobian reused over steps): 4
+  (FSAL), and the Jacobians the run evaluated. The history term (models with
+  a delay τ > 0; the driver reports no hist µs for the others): the history
+  must gain at least the sample at each accepted step's end (value and slope,
+  for the Hermite the stages read), whatever the method; where the delayed
+  expression is costly (the drive's cam series of 96 harmonics) this sample,
+  not the right-hand side, is most of the work a step needs. Samples inside
+  a step (where the history's estimated error asks for them) are above the
+  limit. The accepted steps are the run's own (the fewest the method took
   at this tolerance with this communication grid); rejected steps, restarts
   after events and input changes, the LU factorizations and solves, event
   location, outputs and the step loop are all above the limit.
@@ -267,9 +290,9 @@ def _x(v: float) -> str:
 
 def table_md(rows) -> str:
     head = ("| model | solver | nx | comm. steps | steps (rej.) | RHS | Jac | LU | events | "
-            "RHS µs | Jac µs | C run ms | limit ms | ratio | RHS / Jac / out share | × real time "
-            "| FMPy ms | FMPy ÷ C |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
-            "---|---|---|\n")
+            "RHS µs | Jac µs | hist µs | C run ms | limit ms | ratio | RHS / Jac / out share | "
+            "× real time | FMPy ms | FMPy ÷ C |\n|---|---|---|---|---|---|---|---|---|---|---|---|"
+            "---|---|---|---|---|---|---|\n")
     lines = []
     for r in rows:
         f = r.get("fmpy")
@@ -277,7 +300,8 @@ def table_md(rows) -> str:
             f"| {r['model']} | {r['solver']} | {r['nx']} | {r['comm_steps']} | "
             f"{r['steps']} ({r['rejected']}) | {r['rhs']} | {r['jac']} | {r['lu']} | "
             f"{r['events']} | {r['rhs_s'] * 1e6:.3g} | {r['jac_s'] * 1e6:.3g} | "
-            f"{r['cpu_s'] * 1e3:.3g} | {_f(r['limit_s'], '.3g', 1e3)} | "
+            f"{_f(r.get('hist_s') or None, '.3g', 1e6)} | {r['cpu_s'] * 1e3:.3g} | "
+            f"{_f(r['limit_s'], '.3g', 1e3)} | "
             f"{_f(r['ratio'], '.2f')} | {r['rhs_share'] * 100:.0f} / "
             f"{r['jac_share'] * 100:.0f} / {r['out_share'] * 100:.0f} % | "
             f"{_x(r['realtime_x'])} | "

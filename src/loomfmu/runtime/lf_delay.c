@@ -230,13 +230,11 @@ static LfStatus hist_append(LfInstance *c, double t, const double *g, int jump) 
     return LF_OK;
 }
 
-static LfStatus hist_sample(LfInstance *c, double t, const double *x, double *g);
-
 LfStatus lf_hist_push(LfInstance *c, double t, const double *x, int jump) {
     double g[LF_DIM(2 * LF_ND)];
     LfStatus st;
     if (LF_ND == 0) return LF_OK;
-    st = hist_sample(c, t, x, g);
+    st = lf_hist_sample(c, t, x, g);
     if (st != LF_OK) return st;
     return hist_append(c, t, g, jump);
 }
@@ -246,8 +244,12 @@ LfStatus lf_hist_push(LfInstance *c, double t, const double *x, int jump) {
 
 #define LF_HIST_MAX_DEPTH 12
 
-/* g and dg/dt at (t, x), for the history. */
-static LfStatus hist_sample(LfInstance *c, double t, const double *x, double *g) {
+/* g and dg/dt at (t, x), for the history (g[0 .. LF_ND - 1] the values,
+ * g[LF_ND ...] their time derivatives): the unknowns w (dg/dt needs x') and
+ * the generated history function.  One per accepted step is the least a
+ * history needs (the sample at the step's end); the C-level benchmark times
+ * it (loomfmu bench limit: the limit of a delay model). */
+LfStatus lf_hist_sample(LfInstance *c, double t, const double *x, double *g) {
     LfStatus st = lf_solve_w(c, t, x, c->w_tmp);
     if (st != LF_OK) return st;
     return lf_eval_fn(c, LF_FN_HIST, t, x, c->w_tmp, g, &g[LF_ND], NULL);
@@ -279,7 +281,7 @@ static int hermite_misses(const LfInstance *c, const double *ga, const double *g
 static LfStatus sample_inside(LfInstance *c, double ta, double h, double th, double *g) {
     double x[LF_DIM(LF_NX)], t = ta + th * h;
     c->solver.method->dense(&c->solver, t, x);
-    return hist_sample(c, t, x, g);
+    return lf_hist_sample(c, t, x, g);
 }
 
 /* The Hermite error of a smooth g over an interval is, to leading order,
@@ -401,7 +403,7 @@ LfStatus lf_hist_step(LfInstance *c) {
     if (c->delay_interp == LF_DELAY_LINEAR || !(s->t > s->t_old) ||
         !stored_start(c, s->t_old, ga))
         return lf_hist_push(c, s->t, s->x, 0);
-    st = hist_sample(c, s->t, s->x, gb);
+    st = lf_hist_sample(c, s->t, s->x, gb);
     if (st != LF_OK) return st;
     if (estimate_fine(c, s->t_old, ga, s->t, gb)) return hist_append(c, s->t, gb, 0);
     return hist_refine(c, s->t_old, ga, s->t, gb, 0);

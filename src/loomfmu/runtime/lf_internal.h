@@ -29,6 +29,8 @@ LfStatus lf_delayed_rates(LfInstance *c, double t, const double *x, double *rate
 double lf_next_breakpoint(LfInstance *c, double t, double t_end, int *is_bp);
 LfStatus lf_hist_push(LfInstance *c, double t, const double *x, int jump);
 LfStatus lf_hist_step(LfInstance *c);
+/* g and dg/dt of the delayed expressions at (t, x): one history sample */
+LfStatus lf_hist_sample(LfInstance *c, double t, const double *x, double *g);
 LfStatus lf_init_delays(LfInstance *c, LfSolverOptions *opt);
 
 /* lf_events.c: event indicators, modes, event location after a step. */
