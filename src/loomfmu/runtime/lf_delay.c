@@ -51,16 +51,18 @@ static long hist_find(LfInstance *c, int k, double s, int left, double eps) {
     return lo;
 }
 
+/* (rate NULL: the slope is not needed, as in every call but Rosenbrock's
+ * df/dt, and is not computed) */
 static double hist_interp(LfInstance *c, int k, double s, int left, double eps,
                           double *rate) {
     long lo = hist_find(c, k, s, left, eps), hi, n = c->hist_count[k];
     double t0, t1, h, th, th2, th3, g0, g1, d0, d1;
     if (lo < 0) {
-        *rate = 0.0;
+        if (rate) *rate = 0.0;
         return HG(c, k, 0);
     }
     if (lo == n - 1) {
-        *rate = HD(c, k, n - 1);
+        if (rate) *rate = HD(c, k, n - 1);
         return HG(c, k, n - 1) + HD(c, k, n - 1) * (s - HT(c, k, n - 1));
     }
     hi = lo + 1;
@@ -73,12 +75,14 @@ static double hist_interp(LfInstance *c, int k, double s, int left, double eps,
     h = t1 - t0;
     th = (s - t0) / h;
     if (c->delay_interp == LF_DELAY_LINEAR) {
-        *rate = (g1 - g0) / h;
+        if (rate) *rate = (g1 - g0) / h;
         return g0 + (g1 - g0) * th;
     }
     th2 = th * th;
     th3 = th2 * th;
-    *rate = ((6 * th2 - 6 * th) * (g0 - g1) / h + (3 * th2 - 4 * th + 1) * d0 + (3 * th2 - 2 * th) * d1);
+    if (rate)
+        *rate = ((6 * th2 - 6 * th) * (g0 - g1) / h + (3 * th2 - 4 * th + 1) * d0 +
+                 (3 * th2 - 2 * th) * d1);
     return (2 * th3 - 3 * th2 + 1) * g0 + (th3 - 2 * th2 + th) * h * d0 + (3 * th2 - 2 * th3) * g1 +
            (th3 - th2) * h * d1;
 }
@@ -93,7 +97,7 @@ static LfStatus delayed(LfInstance *c, double t, const double *x, double *rate) 
     double g[LF_DIM(2 * LF_ND)], r;
     int k, need_now = 0, left = c->solver_ready && t > c->solver.t && t >= c->t_bp_step;
     double eps = (left || (c->solver_ready && t == c->solver.t))
-                     ? 8 * LF_EPS * fmax(1.0, fabs(t))
+                     ? 8 * LF_EPS * (fabs(t) > 1.0 ? fabs(t) : 1.0) /* fmax, inline */
                      : 0.0;
     for (k = 0; k < LF_ND; k++)
         if (c->tau[k] == 0 || c->hist_count[k] == 0) need_now = 1;
@@ -105,7 +109,7 @@ static LfStatus delayed(LfInstance *c, double t, const double *x, double *rate) 
         r = 0.0;
         c->dval[k] = (c->tau[k] == 0 || c->hist_count[k] == 0)
                          ? g[k]
-                         : hist_interp(c, k, t - c->tau[k], left, eps, &r);
+                         : hist_interp(c, k, t - c->tau[k], left, eps, rate ? &r : NULL);
         if (rate) rate[k] = r;
     }
     return LF_OK;
