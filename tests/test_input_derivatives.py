@@ -19,6 +19,7 @@ from fmpy import read_model_description
 from fmpy.fmi1 import FMICallException
 
 from loomfmu import build_fmu, load_model
+from loomfmu.codegen import SOLVERS
 from loomfmu.declare import Model
 from loomfmu.reference import reference
 
@@ -373,14 +374,16 @@ def test_solver_index_chooses_the_solver_as_an_integer(poly_fmu, slave_factory):
     assert alias == rk4 != dopri5
     assert s.fmu.getInteger([s.vr["solver"], s.vr["solver_index"]]) == [3, 3]
     bad = slave_factory(poly_fmu, "bad")
-    for value in (7, 4, -1):  # the variable set and its range are named
+    listed = ", ".join(f"{i} {name}" for i, name in enumerate(SOLVERS, 1))
+    assert listed.startswith("1 dopri5, 2 rodas4, 3 rk4, 4 ros34pw2")
+    for value in (7, len(SOLVERS) + 1, -1):  # the variable set and its range are named
         with pytest.raises(FMICallException):
             bad.fmu.setInteger([bad.vr["solver_index"]], [value])
-        assert (f"solver_index = {value} is not a solver: allowed 0..3 (0 leaves solver in "
-                "charge, 1 dopri5, 2 rodas4, 3 rk4)") in bad.log[-1][2], bad.log[-1]
+        assert (f"solver_index = {value} is not a solver: allowed 0..{len(SOLVERS)} (0 leaves "
+                f"solver in charge, {listed})") in bad.log[-1][2], bad.log[-1]
     with pytest.raises(FMICallException):
         bad.fmu.setInteger([bad.vr["solver"]], [0])
-    assert "solver = 0 is not a solver: allowed 1..3 (1 dopri5," in bad.log[-1][2]
+    assert f"solver = 0 is not a solver: allowed 1..{len(SOLVERS)} (1 dopri5," in bad.log[-1][2]
     bad.fmu.setupExperiment(startTime=0.0)
     bad.fmu.enterInitializationMode()  # nothing refused was set
     assert bad.fmu.getInteger([bad.vr["solver"], bad.vr["solver_index"]]) == [1, 0]

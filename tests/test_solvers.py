@@ -19,8 +19,6 @@ SOURCES = [RUNTIME / f for f in ("lf_solvers.c", "lf_dopri5.c", "lf_rodas4.c", "
                                    "lf_schur.c", "lf_wmethod.c")]
 CFLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
           "-fvisibility=hidden", "-fPIC"]
-# the harness registers ros34pw2 as well (the FMUs do not yet: lf_solvers.c)
-HARNESS_FLAGS = ["-DLF_REGISTER_ROS34PW2"]
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not available")
 
@@ -28,7 +26,7 @@ pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not ava
 @pytest.fixture(scope="module")
 def harness(tmp_path_factory):
     exe = tmp_path_factory.mktemp("solver_harness") / "solver_harness"
-    cmd = ["gcc", *CFLAGS, *HARNESS_FLAGS, f"-I{RUNTIME}", str(HARNESS), *map(str, SOURCES), "-lm",
+    cmd = ["gcc", *CFLAGS, f"-I{RUNTIME}", str(HARNESS), *map(str, SOURCES), "-lm",
            "-o", str(exe)]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr

@@ -38,11 +38,13 @@ from .runtime_files import LOG_CATEGORIES, RUNTIME_SYMBOLS
 
 #: Solvers in the order of the runtime registry (lf_methods[] in lf_solvers.c);
 #: the FMU's ``solver`` enumeration value is the 1-based position.
-SOLVERS = ("dopri5", "rodas4", "rk4")
+SOLVERS = ("dopri5", "rodas4", "rk4", "ros34pw2")
 SOLVER_DESCRIPTIONS = {
     "dopri5": "explicit adaptive Dormand-Prince 5(4) with 4th-order dense output",
     "rodas4": "implicit adaptive Rosenbrock RODAS4 with the exact CasADi Jacobian",
     "rk4": "classical fixed-step Runge-Kutta 4 (step solver_h_fixed), for real time",
+    "ros34pw2": "implicit adaptive Rosenbrock-W ROS34PW2 (order 3) reusing the Jacobian and "
+                "its factorization across steps, for stiff models",
 }
 
 

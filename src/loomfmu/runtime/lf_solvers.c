@@ -274,14 +274,8 @@ const LfMethod lf_rk4 = {"rk4", 0, 0, rk_work_size, rk_step, rk_dense};
 /* ------------------------------------------------------------------------ */
 /* registry and life cycle                                                   */
 
-/* ros34pw2 joins the FMUs' registry together with codegen's SOLVERS (the
- * enumeration of the `solver` parameter) and the tests that count the
- * solvers; until then the solver tests compile it in with this macro. */
-#ifdef LF_REGISTER_ROS34PW2
+/* in the order of codegen's SOLVERS (the `solver` enumeration) */
 const LfMethod *const lf_methods[] = {&lf_dopri5, &lf_rodas4, &lf_rk4, &lf_ros34pw2};
-#else
-const LfMethod *const lf_methods[] = {&lf_dopri5, &lf_rodas4, &lf_rk4};
-#endif
 const size_t lf_n_methods = sizeof lf_methods / sizeof lf_methods[0];
 
 LfStatus lf_solver_init(LfSolver *s, const LfMethod *m, LfOde ode, LfSolverOptions opt,
