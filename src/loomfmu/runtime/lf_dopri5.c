@@ -124,16 +124,20 @@ static LfStatus dp_step(LfSolver *s, double t_bound) {
             if (fac < 0.2) fac = 0.2;
             if (rejected && fac > 1.0) fac = 1.0;
             hnew = h * fac;
-            for (i = 0; i < n; i++) {
-                double dy = ynew[i] - x[i];
-                r3[i] = h * k1[i] - dy;
-                r4[i] = dy - h * k7[i] - r3[i];
-                r5[i] = h * (DP_D1 * k1[i] + DP_D3 * k3[i] + DP_D4 * k4[i] + DP_D5 * k5[i] +
-                             DP_D6 * k6[i] + DP_D7 * k7[i]);
+            if (!s->dense_unused) {
+                for (i = 0; i < n; i++) {
+                    double dy = ynew[i] - x[i];
+                    r3[i] = h * k1[i] - dy;
+                    r4[i] = dy - h * k7[i] - r3[i];
+                    r5[i] = h * (DP_D1 * k1[i] + DP_D3 * k3[i] + DP_D4 * k4[i] +
+                                 DP_D5 * k5[i] + DP_D6 * k6[i] + DP_D7 * k7[i]);
+                }
             }
-            lf_sv_copy_vec(s->x_old, x, n);
-            lf_sv_copy_vec(x, ynew, n);
-            lf_sv_copy_vec(k1, k7, n); /* FSAL */
+            for (i = 0; i < n; i++) { /* (a loop: n is small, a memmove call is not) */
+                s->x_old[i] = x[i];
+                x[i] = ynew[i];
+                k1[i] = k7[i]; /* FSAL */
+            }
             s->t_old = t;
             s->t = t_new;
             /* a step shortened to hit t_bound says little about the next one */
@@ -158,6 +162,7 @@ static LfStatus dp_step(LfSolver *s, double t_bound) {
     }
 }
 
+/* (not after steps taken with s->dense_unused set) */
 static void dp_dense(const LfSolver *s, double tq, double *out) {
     const size_t n = s->ode.n;
     const double *w = LF_CPRIV(s);

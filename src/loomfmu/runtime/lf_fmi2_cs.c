@@ -10,7 +10,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSet
     /* an invalid call (bad step, past stopTime) is refused and changes nothing */
     if (!lf_step_integrable(inst, "fmi2DoStep", t, h) || lf_check_step(inst, t, h) != LF_OK)
         return fmi2Error;
-    st = lf_do_step(inst, t, h);
+    st = lf_do_checked_step(inst, t, h);
     if (st == LF_DISCARD) inst->state = LF_ST_STEP_FAILED;
     else if (st != LF_OK && st != LF_WARNING) inst->state = LF_ST_ERROR;
     return (fmi2Status)st;

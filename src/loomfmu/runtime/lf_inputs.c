@@ -119,18 +119,29 @@ void lf_input_derivative_set(LfInstance *c, unsigned vr, int order, double value
 
 /* ---- restarts ------------------------------------------------------------ */
 
+/* (the larger magnitude written out: fmax is a library call, and this runs
+ * at every communication point) */
 static int differ(double a, double b) {
-    return fabs(a - b) > 4 * LF_EPS * fmax(fabs(a), fabs(b));
+    double fa = fabs(a), fb = fabs(b);
+    return fabs(a - b) > 4 * LF_EPS * (fa > fb ? fa : fb);
 }
 
 /* Did any input's value, slope or second derivative at c->t change since
  * the solver last started (lf_inputs_seen)?  Rounding-level differences (a
- * master that sets u(t_c) computed its own way) do not count. */
+ * master that sets u(t_c) computed its own way) do not count.  An input
+ * held now and then (no derivatives) has moved iff its value differs: the
+ * polynomials below reduce to that exactly. */
 int lf_inputs_moved(LfInstance *c) {
     int k;
     for (k = 0; k < LF_NU; k++) {
-        double dt = c->t - c->seen_t, slope, value = input_at(c, k, c->t, &slope);
-        double old = c->seen_u[k] + dt * (c->seen_d1[k] + 0.5 * c->seen_d2[k] * dt);
+        double dt, slope, value, old;
+        if (!c->u_poly && c->seen_d1[k] == 0 && c->seen_d2[k] == 0) {
+            if (differ(c->r[LF_VR_U0 + k], c->seen_u[k])) return 1;
+            continue;
+        }
+        dt = c->t - c->seen_t;
+        value = input_at(c, k, c->t, &slope);
+        old = c->seen_u[k] + dt * (c->seen_d1[k] + 0.5 * c->seen_d2[k] * dt);
         if (differ(value, old) || differ(slope, c->seen_d1[k] + c->seen_d2[k] * dt) ||
             c->u_d2[k] != c->seen_d2[k])
             return 1;

@@ -266,7 +266,8 @@ LfStatus lf_get_real(LfInstance *c, unsigned vr, double *value) {
         return LF_ERROR;
     }
     kind = lf_model.real_kind[vr];
-    if ((kind == LF_KIND_OUTPUT || kind == LF_KIND_LOCAL) && lf_update_outputs(c) != LF_OK)
+    if ((kind == LF_KIND_OUTPUT || kind == LF_KIND_LOCAL) && !c->outputs_valid &&
+        lf_update_outputs(c) != LF_OK)
         return LF_ERROR;
     if (kind == LF_KIND_STATE && lf_prepare_initial(c) != LF_OK) return LF_ERROR;
     *value = kind == LF_KIND_INPUT ? lf_input_now(c, vr) : c->r[vr];

@@ -19,6 +19,11 @@
 
 enum { LF_DELAY_HERMITE = 1, LF_DELAY_LINEAR = 2 };
 
+/* Only event location, validity conditions and the delays' history read
+ * the solver's dense output: without them the solver need not prepare it
+ * (LfSolver.dense_unused, set wherever the runtime makes its solver). */
+#define LF_DENSE_UNUSED (LF_NE == 0 && LF_NV == 0 && LF_ND == 0)
+
 /* FMI interface states, as bits so that each call can check a mask. */
 typedef enum {
     LF_ST_INSTANTIATED = 1 << 0,
@@ -177,6 +182,9 @@ LfStatus lf_initialize(LfInstance *c);
 LfStatus lf_check_step(LfInstance *c, double t0, double h);
 /* Advance from c->t by h: integrate, locate events, update outputs. */
 LfStatus lf_do_step(LfInstance *c, double t0, double h);
+/* The same after the caller checked the call with lf_check_step (the FMI
+ * facades do, to refuse it before anything changes). */
+LfStatus lf_do_checked_step(LfInstance *c, double t0, double h);
 LfStatus lf_update_outputs(LfInstance *c);
 
 /* lf_inputs.c: inputs interpolated by their time derivatives. */

@@ -66,6 +66,10 @@ typedef struct {
     int fsal_valid;  /* method-private flag: cached f(t, x) in work is valid */
     long n_steps, n_rejected, n_rhs, n_jac, n_lu;
     char message[256]; /* why the last call failed (empty on success) */
+    /* Set by the caller after lf_solver_init (0 there): 1 promises that
+     * `dense` is never called, and a method may skip preparing its
+     * interpolant (dopri5 does).  A setting of the caller, not solver state. */
+    int dense_unused;
 } LfSolver;
 
 typedef struct LfMethod {

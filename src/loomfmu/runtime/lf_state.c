@@ -460,6 +460,7 @@ static void apply_solver(LfSolver *s, const LfStateValues *v, const double *work
     s->n_jac = v->s_jac;
     s->n_lu = v->s_lu;
     s->message[0] = '\0';
+    s->dense_unused = LF_DENSE_UNUSED;
 }
 
 static void apply_values(LfInstance *c, const LfStateValues *v, const double *hist) {

@@ -71,6 +71,7 @@ LfStatus lf_initialize(LfInstance *c) {
                c->solver.message);
         return LF_ERROR;
     }
+    c->solver.dense_unused = LF_DENSE_UNUSED;
     c->solver_ready = 1;
     c->kb_ready = 0;
     c->kb_index = -1;
@@ -244,12 +245,17 @@ LfStatus lf_settle_inputs(LfInstance *c) {
 }
 
 LfStatus lf_do_step(LfInstance *c, double t0, double h) {
+    LfStatus st = lf_check_step(c, t0, h);
+    if (st != LF_OK) return st;
+    return lf_do_checked_step(c, t0, h);
+}
+
+LfStatus lf_do_checked_step(LfInstance *c, double t0, double h) {
     LfSolver *s = &c->solver;
     double t_end = t0 + h;
     long work0 = solver_work(s);
     int bad;
-    LfStatus st = lf_check_step(c, t0, h);
-    if (st != LF_OK) return st;
+    LfStatus st;
     c->wants_terminate = 0;
     if (c->event_pending) { /* returned early, the importer did not handle it */
         st = run_pending_event(c, NULL);
