@@ -18,7 +18,7 @@ from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi3 import FMU3Model, FMU3Slave, fmi3Boolean, fmi3Float64
 from fmpy.validation import validate_fmu
 
-from loomfmu import build_fmu, load_model
+from test_fmi_variants import variant_builds  # FMUs shared by the variant tests
 
 #: events and stick/slip modes (backrest); inputs with direct feedthrough
 #: (two_mass_force)
@@ -30,15 +30,12 @@ COMM = 0.01
 
 @pytest.fixture(scope="module")
 def fmus(tmp_path_factory):
-    d = tmp_path_factory.mktemp("fmi3")
-    out = {}
-    for name in MODELS:
-        model = load_model(name)
-        out[name, 2] = build_fmu(model, out_dir=d / "fmi2", fmi_version=2)
-        # two_mass_force: co-simulation only (model exchange is refused)
-        out[name, 3] = build_fmu(model, out_dir=d / "fmi3", fmi_version=3,
-                                 interface="both" if name == "backrest" else "cs")
-    return out
+    # FMI 2: "both" serves co-simulation as "cs" does (the same runtime);
+    # FMI 3 two_mass_force: co-simulation only (model exchange is refused)
+    # drive: a delay (model exchange needs the history of completed steps)
+    keys = [(n, 2, "both") for n in MODELS] + [("backrest", 3, "both"),
+                                               ("two_mass_force", 3, "cs"), ("drive", 3, "both")]
+    return dict(zip([k[:2] for k in keys], variant_builds(tmp_path_factory, keys)))
 
 
 def _event_times(log):
@@ -531,3 +528,56 @@ def test_event_mode_settles_the_modes_for_new_inputs(fmus, instances):
     assert not need and changed
     assert cs[0] == me[0] != before
     np.testing.assert_allclose(cs[1], me[1], rtol=1e-12)
+
+
+def test_me_values_at_the_importer_s_point_need_the_delay_s_history(fmus, instances):
+    """FMI 3 model exchange with a delay (drive, tau = 0.5 s): an output, der(x)
+    by fmi3GetFloat64 and a directional derivative at a time whose delayed
+    value lies beyond the history of the completed steps are refused with
+    fmi3Discard and a log line, as fmi3GetContinuousStateDerivatives is (they
+    gave extrapolated values with fmi3OK before); time needs no history.
+    With steps completed 0.05 s apart the delayed output is the signal tau
+    earlier, and fmi3GetFloat64's der(x) equals the derivatives' call."""
+    s = instances(fmus["drive", 3].path, "me")
+    f, vr = s.fmu, s.vr
+    f.enterInitializationMode(startTime=0.0)
+    f.exitInitializationMode()
+    f.updateDiscreteStates()
+    f.enterContinuousTimeMode()
+    ders = [v for v in s.md.modelVariables if v.derivative is not None]
+    nx = len(ders)
+    der_vr, x_vr = ders[0].valueReference, ders[0].derivative.valueReference
+    one = (ctypes.c_double * 1)()
+
+    def get(v):
+        return s.raw("fmi3GetFloat64", (ctypes.c_uint32 * 1)(v), 1, one, 1), one[0]
+
+    assert s.raw("fmi3SetTime", 0.75) == OK
+    for v in (vr["u_delayed"], der_vr):
+        assert get(v)[0] == DISCARD, v
+        assert "history ends at t = 0 (the last completed integrator step)" in s.log[-1][2]
+    assert _dirder(s, [der_vr], [x_vr], [1.0])[0] == DISCARD
+    assert "fmi3GetDirectionalDerivative" in s.log[-1][2]
+    assert get(vr["time"]) == (OK, 0.75)
+    dx = (ctypes.c_double * nx)()
+    assert s.raw("fmi3GetContinuousStateDerivatives", dx, nx) == DISCARD
+
+    x = (ctypes.c_double * nx)()
+    flags = [fmi3Boolean(), fmi3Boolean()]
+    u, h = {}, 0.01
+    for i in range(1, 76):  # explicit Euler to 0.75 s, a step completed every 0.01 s
+        assert s.raw("fmi3SetTime", (i - 1) * h) == OK
+        assert s.raw("fmi3GetContinuousStates", x, nx) == OK
+        assert s.raw("fmi3GetContinuousStateDerivatives", dx, nx) == OK
+        nxt = (ctypes.c_double * nx)(*(x[k] + h * dx[k] for k in range(nx)))
+        assert s.raw("fmi3SetTime", i * h) == OK
+        assert s.raw("fmi3SetContinuousStates", nxt, nx) == OK
+        assert s.raw("fmi3CompletedIntegratorStep", True,
+                     *(ctypes.byref(b) for b in flags)) == OK
+        u[i] = get(vr["u"])[1]
+    st, delayed = get(vr["u_delayed"])
+    assert st == OK and delayed == pytest.approx(u[25], rel=1e-9)  # u at 0.75 - tau
+    assert s.raw("fmi3GetContinuousStateDerivatives", dx, nx) == OK
+    assert get(der_vr) == (OK, dx[0])
+    st, d = _dirder(s, [der_vr], [x_vr], [1.0])
+    assert st == OK and np.isfinite(d[0])

@@ -31,6 +31,9 @@ fmi3Status fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference
     if (!unknowns || !knowns || !seed || !sensitivity)
         return lf_fmi3_null_arg(inst, fn, !unknowns ? "unknowns" : !knowns ? "knowns"
                                           : !seed ? "seed" : "sensitivity");
+    /* model exchange: at the importer's (t, x), delayed values from the history */
+    st = lf_fmi3_me_delays_known(inst, fn);
+    if (st != LF_OK) return st == LF_DISCARD ? fmi3Discard : fmi3Error;
     st = lf_directional_derivative(inst, unknowns, nUnknowns, knowns, nKnowns, seed,
                                    sensitivity);
     return st == LF_OK ? fmi3OK : st == LF_DISCARD ? fmi3Discard : fmi3Error;

@@ -106,6 +106,12 @@ fmi3Status lf_fmi3_me_update_discrete_states(LfInstance *inst, fmi3Boolean *need
                                              fmi3Boolean *values_changed,
                                              fmi3Boolean *next_defined, fmi3Float64 *next);
 
+/* lf_fmi3_me.c: LF_OK unless `inst` is a running model-exchange instance
+ * whose delayed values at the importer's (t, x) lie beyond the history its
+ * completed steps made (LF_DISCARD, logged by lf_me_delays_known): the
+ * getters of values computed at that point check it first. */
+LfStatus lf_fmi3_me_delays_known(LfInstance *inst, const char *fn);
+
 /* lf_fmi3_state.c */
 void lf_fmi3_free_states(LfInstance *inst);
 

@@ -47,6 +47,11 @@ static LfInstance *me_instance(fmi3Instance c, const char *fn, int mask) {
     return inst;
 }
 
+LfStatus lf_fmi3_me_delays_known(LfInstance *inst, const char *fn) {
+    if (ENV3(inst)->kind != F3_ME || inst->state != LF_ST_STEP_COMPLETE) return LF_OK;
+    return lf_me_delays_known(inst, fn);
+}
+
 /* LF_DISCARD keeps the mode (the importer may retry with a smaller step);
  * errors of bad arguments change nothing either (the core checks them
  * before anything is changed). */

@@ -87,8 +87,17 @@ fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
     size_t i;
     int have_der = 0, have_evt = 0;
     double der[LF_DIM(LF_NX)], evt[LF_DIM(LF_NE)];
+    LfStatus st;
     CHECK3("fmi3GetFloat64", GET_STATES);
     if (!float64_vrs(inst, "fmi3GetFloat64", vr, nvr, values, nValues)) return fmi3Error;
+    /* model exchange: outputs, locals and der(x) are computed at the
+     * importer's (t, x), whose delayed values must be in the history */
+    for (i = 0; i < nvr; i++)
+        if (vr[i] >= LF_VR_Y0 && vr[i] < F3_VR_INT0) {
+            st = lf_fmi3_me_delays_known(inst, "fmi3GetFloat64");
+            if (st != LF_OK) return st == LF_DISCARD ? fmi3Discard : fmi3Error;
+            break;
+        }
     for (i = 0; i < nvr; i++) {
         if (vr[i] < LF_NREAL) {
             if (lf_get_real(inst, vr[i], &values[i]) != LF_OK) return fmi3Error;
