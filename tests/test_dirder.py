@@ -19,7 +19,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Model
 
-from loomfmu import build_fmu, load_model
+from test_fmi_variants import variant_builds  # FMUs shared by the variant tests
 
 MODELS = ("two_mass_force", "backrest", "drive")
 #: central differences with h = 1e-6 (relative): truncation ~1e-12, Newton's
@@ -29,9 +29,8 @@ FD_RTOL = {"two_mass_force": 1e-7, "backrest": 1e-4, "drive": 1e-7}
 
 @pytest.fixture(scope="module")
 def fmus(tmp_path_factory):
-    out = tmp_path_factory.mktemp("dirder")
-    return {n: build_fmu(load_model(n), out_dir=out, interface="both", validate=False).path
-            for n in MODELS}
+    built = variant_builds(tmp_path_factory, [(n, 2, "both") for n in MODELS])
+    return {n: b.path for n, b in zip(MODELS, built)}
 
 
 class MEInstance:

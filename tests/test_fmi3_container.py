@@ -30,7 +30,7 @@ from fmpy.model_description import (CoSimulation, DefaultExperiment, ModelDescri
                                     ModelVariable, Unknown)
 from fmpy.validation import validate_fmu
 
-from loomfmu import build_fmu, load_model
+from test_fmi_variants import variant_builds  # FMUs shared by the variant tests
 from loomfmu.scene import run
 from loomfmu.scene.two_mass import TIGHT, Params, cosim_map, scene
 
@@ -48,9 +48,12 @@ ORDERS = {"disp-first": {}, "force-first": {"resolve_feedthrough": False}}
 @pytest.fixture(scope="module")
 def builds(tmp_path_factory):
     d = tmp_path_factory.mktemp("container")
-    fmi3 = {k: build_fmu(load_model(m), out_dir=d / "fmi3", fmi_version=3, interface="cs")
-            for k, m in SIDES.items()}
-    fmi2 = {k: build_fmu(load_model(m), out_dir=d / "fmi2").path for k, m in SIDES.items()}
+    # FMI 2 co-simulation only: the scene checks the FMUs' variables against
+    # its components' (a "both" FMU adds der(x))
+    keys = [(m, v, "cs") for v in (3, 2) for m in SIDES.values()]
+    built = variant_builds(tmp_path_factory, keys)
+    fmi3 = dict(zip(SIDES, built[:2]))
+    fmi2 = {k: b.path for k, b in zip(SIDES, built[2:])}
     return d, fmi3, fmi2
 
 

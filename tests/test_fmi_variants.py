@@ -10,11 +10,13 @@ and the shared library's exported functions (nm).
 """
 from __future__ import annotations
 
+import importlib.util
 import subprocess
 import zipfile
 from pathlib import Path
 
 import fmpy
+import numpy as np
 import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
@@ -202,7 +204,7 @@ def test_a_bad_variant_is_refused_naming_the_argument(declared, tmp_path, kw, ar
 #: (model, FMI version, interface) built once for the module: FMI 2 model
 #: exchange, FMI 3 co-simulation and FMI 3 model exchange (FMI 2 co-simulation
 #: is what every other test builds)
-BUILT = (("heald_frame_rigid", 2, "me"), ("heald_frame_rigid", 3, "cs"), ("backrest", 3, "me"))
+BUILT = (("heald_frame_rigid", 2, "me"), ("two_mass_force", 3, "cs"), ("backrest", 3, "me"))
 PLATFORM = {2: "linux64", 3: "x86_64-linux"}
 #: functions the shared library must export per (version, interface)
 EXPORTS = {(2, "me"): ("fmi2Instantiate", "fmi2GetDerivatives", "fmi2GetEventIndicators",
@@ -216,9 +218,7 @@ EXPORTS = {(2, "me"): ("fmi2Instantiate", "fmi2GetDerivatives", "fmi2GetEventInd
 
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
-    out_dir = tmp_path_factory.mktemp("variants")
-    return {(n, v, i): build_fmu(load_model(n), out_dir=out_dir, fmi_version=v, interface=i)
-            for n, v, i in BUILT}
+    return dict(zip(BUILT, variant_builds(tmp_path_factory, BUILT)))
 
 
 @pytest.mark.parametrize("key", BUILT, ids=[f"{n}-fmi{v}-{i}" for n, v, i in BUILT])
@@ -288,7 +288,7 @@ def test_value_reference_convention_matches_the_c_declaration(built, tmp_path):
 
 
 def test_documentation_page_names_the_interfaces(built):
-    res = built["heald_frame_rigid", 3, "cs"]
+    res = built["two_mass_force", 3, "cs"]
     with zipfile.ZipFile(res.path) as z:
         page = z.read(DOC_MEMBER).decode()
     assert "FMI 3.0 Co-Simulation" in page and "instantiation token" in page
@@ -300,3 +300,104 @@ def test_documentation_page_names_the_interfaces(built):
     with zipfile.ZipFile(built["backrest", 3, "me"].path) as z:
         page = z.read(DOC_MEMBER).decode()
     assert "FMI 3.0 Model Exchange" in page and "completedIntegratorStep" in page
+
+
+# ------------------------------------------------- builds shared by the variant tests
+#: (model, FMI version, interface, build options) -> BuildResult, for the
+#: session: test_me, test_fmi3, test_fmi3_container, test_dirder and this
+#: module ask for the same FMUs ("both" serves co-simulation and model
+#: exchange from one build)
+_BUILDS: dict = {}
+
+
+def _key(name, fmi_version, interface, options=None):
+    return name, fmi_version, interface, tuple(sorted((options or {}).items()))
+
+
+def _build(key, out_root):
+    name, fmi_version, interface, options = key
+    folder = out_root / "-".join([name, *(f"{k}={v}" for k, v in options)])
+    return build_fmu(load_model(name, **dict(options)), out_dir=folder,
+                     fmi_version=fmi_version, interface=interface)
+
+
+def variant_builds(tmp_path_factory, keys) -> list:
+    """The BuildResults of ``keys`` ((model, fmi_version, interface[,
+    options]), in their order), each built once per session; the missing ones
+    on two processes (gcc dominates a build)."""
+    want = [_key(*k) for k in keys]
+    missing = list(dict.fromkeys(k for k in want if k not in _BUILDS))
+    out_root = tmp_path_factory.getbasetemp() / "variant_builds"
+    if len(missing) > 1:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+        with ProcessPoolExecutor(max_workers=2,
+                                 mp_context=multiprocessing.get_context("fork")) as pool:
+            for k, res in zip(missing, pool.map(_build, missing, [out_root] * len(missing))):
+                _BUILDS[k] = res
+    for k in missing:
+        if k not in _BUILDS:
+            _BUILDS[k] = _build(k, out_root)
+    return [_BUILDS[k] for k in want]
+
+
+# ------------------------------------- the four interfaces agree, model by model
+_spec = importlib.util.spec_from_file_location(
+    "fmi_matrix", Path(__file__).parent.parent / "benchmarks" / "fmi_matrix.py")
+fmi_matrix = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(fmi_matrix)
+
+#: a short horizon per model (s) that still holds its features: the backrest's
+#: first stick-slip switches, the heald frames' dwell events, the drive past
+#: its delay tau = 0.5 s, a few spindle revolutions
+HORIZON = {"backrest": 0.3, "backrest_regularized": 0.3, "drive": 1.5, "heald_frame": 0.1,
+           "heald_frame_planar": 0.1, "heald_frame_rigid": 0.42, "loom_shaft": 0.2,
+           "spindle": 0.004, "spindle_modal": 0.004, "two_mass_displacement": 1.0,
+           "two_mass_force": 1.0}
+#: the spindle with the coarsest mesh (37 states instead of 69: the same
+#: equations; the full one builds in ~40 CPU s per variant, in
+#: benchmarks/fmi_matrix.py)
+OPTIONS = {"spindle": {"n_low": 1, "n_cone": 1}}
+RTOL = 1e-10
+POINTS = 100
+#: model exchange against co-simulation, relative to each output's range, at
+#: RTOL for FMPy's CVode and our dopri5 (measured: 2.9e-6 spindle_modal, 2.4e-6
+#: drive: its delay's history holds the importer's completed steps only,
+#: 2.0e-6 spindle, below 3e-7 for the others; at rtol 1e-8 10 to 120 times
+#: larger: the gap is the solvers')
+ME_BOUND = 1e-5
+
+
+@pytest.fixture(scope="module")
+def four_interfaces(tmp_path_factory):
+    from loomfmu.registry import MODELS
+    assert set(HORIZON) == set(MODELS)
+    keys = [(n, v, "both", OPTIONS.get(n)) for n in sorted(MODELS) for v in (2, 3)]
+    return dict(zip([k[:2] for k in keys], variant_builds(tmp_path_factory, keys)))
+
+
+@pytest.mark.parametrize("name", sorted(HORIZON))
+def test_four_interfaces_agree(four_interfaces, name):
+    """FMI 2 and 3, co-simulation and model exchange, through FMPy over a
+    short horizon: FMI 3 co-simulation equals FMI 2 co-simulation (the same
+    runtime and solver) to rounding, FMI 3 model exchange equals FMI 2 model
+    exchange (the same core under the same CVode) to rounding, and model
+    exchange agrees with co-simulation to the solvers' tolerance."""
+    stop, interval = HORIZON[name], HORIZON[name] / POINTS
+    runs = {}
+    for v in (2, 3):
+        res = four_interfaces[name, v]
+        assert res.problems == []
+        for kind in ("CoSimulation", "ModelExchange"):
+            out, log = fmi_matrix.simulate(res.path, kind, stop, interval, RTOL)
+            assert out is not None and log == [], (v, kind, log[-3:])
+            assert out["time"][-1] == pytest.approx(stop)
+            runs[v, kind] = out
+    ref = runs[2, "CoSimulation"]
+    cs3 = fmi_matrix.agreement(ref, runs[3, "CoSimulation"])
+    me3 = fmi_matrix.agreement(runs[2, "ModelExchange"], runs[3, "ModelExchange"])
+    me2 = fmi_matrix.agreement(ref, runs[2, "ModelExchange"])
+    assert cs3["points"] == me2["points"] == POINTS + 1
+    assert cs3["difference"] <= 1e-12, cs3
+    assert me3["difference"] <= 1e-12, me3
+    assert me2["difference"] <= ME_BOUND, me2

@@ -32,6 +32,7 @@ from fmpy.fmi2 import (FMU2Model, FMU2Slave, fmi2CallbackAllocateMemoryTYPE,
 from fmpy import calloc, free
 
 from loomfmu import build_fmu, load_model
+from test_fmi_variants import variant_builds  # FMUs shared by the variant tests
 from test_validity import T_STAR, _spring  # the spring x = cos(2 t), fails at T_STAR
 
 OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
@@ -40,8 +41,8 @@ OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
 @pytest.fixture(scope="module")
 def fmus(tmp_path_factory):
     out = tmp_path_factory.mktemp("me")
-    built = {name: build_fmu(load_model(name), out_dir=out, interface="both")
-             for name in ("two_mass_force", "backrest", "drive")}
+    names = ("two_mass_force", "backrest", "drive")
+    built = dict(zip(names, variant_builds(tmp_path_factory, [(n, 2, "both") for n in names])))
     # x'' = -4 x, x(0) = 1, condition x + 0.5 >= 0 (test_validity's oracle)
     built["spring_me"] = build_fmu(_spring(True, "spring_me"), out_dir=out, interface="me")
     return built
