@@ -43,9 +43,11 @@ def test_both_fmus_validate_without_problems(spindle_fmu, spindle_modal_fmu):
 
 
 @pytest.mark.parametrize("name,solver", [("spindle", "rodas4"), ("spindle", "dopri5"),
+                                         ("spindle", "ros34pw2"),
                                          ("spindle_modal", "rodas4"),
                                          ("spindle_modal", "dopri5"),
-                                         ("spindle_modal", "rk4")])
+                                         ("spindle_modal", "rk4"),
+                                         ("spindle_modal", "ros34pw2")])
 def test_fmu_agrees_with_its_scipy_reference(name, solver, spindle_fmu, spindle_modal_fmu,
                                              refs):
     fmu = spindle_fmu if name == "spindle" else spindle_modal_fmu

@@ -22,9 +22,10 @@ SOURCES = [RUNTIME / f for f in ("lf_solvers.c", "lf_dopri5.c", "lf_rodas4.c", "
 CFLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
           "-fvisibility=hidden", "-fPIC"]
 # builds: default; dense Newton matrices only; ros34pw2 renewing J and its
-# factorization at every step (W = J: the plain Rosenbrock method)
+# factorization at every step (W = J: the plain Rosenbrock method); ros34pw2
+# evaluating J at every new factorization (the policy before WM_JAC_AGE)
 VARIANTS = {"default": [], "dense": ["-DLF_SCHUR_MIN_ROWS=1000000"],
-            "fresh": ["-DWM_MAX_AGE=1"]}
+            "fresh": ["-DWM_MAX_AGE=1"], "jac_every_lu": ["-DWM_JAC_AGE=1"]}
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not available")
 
@@ -163,3 +164,20 @@ def test_ros34pw2_adaptive_error_follows_tolerance(exe, problem):
 def test_ros34pw2_reuses_factorizations_on_the_chain(exe):
     r = integrate(exe["default"], "ros34pw2", "chain", 1e-6, 1e-9, 0.05, 1.0, 10)
     assert r["lu"] * 2 <= r["steps"], r
+
+
+def test_ros34pw2_new_step_size_refactors_without_a_new_jacobian(exe):
+    """A new step size needs new factors of I/(h*gamma) - J0, not a new J0:
+    the default build re-evaluates J0 only when it is WM_JAC_AGE (10)
+    accepted steps old, so on the chain it evaluates fewer Jacobians than a
+    build that evaluates one for every factorization, in as many steps, with
+    the same solution to the tolerance."""
+    args = ("ros34pw2", "chain", 1e-6, 1e-9, 0.05, 1.0, 10)
+    a = integrate(exe["default"], *args)
+    b = integrate(exe["jac_every_lu"], *args)
+    assert b["jac"] >= b["lu"] - 5, b  # the old policy: about one J per LU
+    assert a["jac"] * 3 <= b["jac"] * 2, (a, b)
+    assert a["steps"] <= 1.1 * b["steps"], (a, b)
+    xa, xb = states(a), states(b)
+    scale = max(abs(v) for v in xb)
+    assert max(abs(p - q) for p, q in zip(xa, xb)) < 1e-4 * scale, (xa, xb)
