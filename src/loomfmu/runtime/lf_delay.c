@@ -295,34 +295,6 @@ static LfStatus sample_inside(LfInstance *c, double ta, double h, double th, dou
  * about the midpoint, which vanishes there, is seen). */
 #define LF_HIST_QUARTER_SCALE 0.5625
 
-/* Sample the history inside the accepted step (ta, tb] on the solver's dense
- * output: bisect while the cubic Hermite through the end samples misses g
- * at the quarter points by more than LF_HIST_QUARTER_SCALE times the
- * solver's tolerance, then push the samples in time order (tb last).  ga,
- * gb: samples at ta, tb.  (The midpoint alone is blind to a deviation odd
- * about it: a signal of many harmonics, such as the drive's cam, once gave
- * a 3e-4 relative error at rtol 1e-6 that way.)  The midpoint is sampled
- * only where the interval is split. */
-static LfStatus hist_refine(LfInstance *c, double ta, const double *ga, double tb,
-                            const double *gb, int depth) {
-    double gm[LF_DIM(2 * LF_ND)], gq[LF_DIM(2 * LF_ND)], h = tb - ta;
-    int i, fine = 1;
-    LfStatus st;
-    if (depth >= LF_HIST_MAX_DEPTH) return hist_append(c, tb, gb, 0);
-    for (i = 0; i < 2 && fine; i++) {
-        double th = i == 0 ? 0.25 : 0.75;
-        st = sample_inside(c, ta, h, th, gq);
-        if (st != LF_OK) return st;
-        fine = !hermite_misses(c, ga, gb, h, th, gq, LF_HIST_QUARTER_SCALE);
-    }
-    if (fine) return hist_append(c, tb, gb, 0);
-    st = sample_inside(c, ta, h, 0.5, gm);
-    if (st != LF_OK) return st;
-    st = hist_refine(c, ta, ga, ta + 0.5 * h, gm, depth + 1);
-    if (st != LF_OK) return st;
-    return hist_refine(c, ta + 0.5 * h, gm, tb, gb, depth + 1);
-}
-
 /* The history's error estimated from the samples already held, without
  * evaluating g inside the step.  The quintic Hermite P through the sample
  * before the step's start (tp), the start (ta) and the end (tb), values and
@@ -355,8 +327,8 @@ static int estimate_fine(const LfInstance *c, double ta, const double *ga, doubl
         double tp, thp, q, dq, r0, r1, m0, m1;
         if (c->tau[k] == 0) continue;
         if (n < 2) return 0;
-        tp = HT(c, k, n - 2); /* the sample at ta is n - 1 (stored_start) */
-        if (!(tp < ta) || ta - tp > LF_HIST_EST_RATIO * h || LF_HIST_EST_RATIO * (ta - tp) < h)
+        tp = HT(c, k, n - 2); /* the sample at ta is n - 1 */
+        if (HT(c, k, n - 1) != ta || !(tp < ta) || ta - tp > LF_HIST_EST_RATIO * h || LF_HIST_EST_RATIO * (ta - tp) < h)
             return 0;
         thp = (tp - ta) / h;
         q = thp * thp * (thp - 1) * (thp - 1);
@@ -377,6 +349,35 @@ static int estimate_fine(const LfInstance *c, double ta, const double *ga, doubl
         }
     }
     return 1;
+}
+
+/* Sample the history inside the accepted step (ta, tb] on the solver's dense
+ * output: bisect while the cubic Hermite through the end samples misses g
+ * at the quarter points by more than LF_HIST_QUARTER_SCALE times the
+ * solver's tolerance, then push the samples in time order (tb last).  ga,
+ * gb: samples at ta, tb.  (The midpoint alone is blind to a deviation odd
+ * about it: a signal of many harmonics, such as the drive's cam, once gave
+ * a 3e-4 relative error at rtol 1e-6 that way.)  The midpoint is sampled
+ * only where the interval is split. */
+static LfStatus hist_refine(LfInstance *c, double ta, const double *ga, double tb,
+                            const double *gb, int depth) {
+    double gm[LF_DIM(2 * LF_ND)], gq[LF_DIM(2 * LF_ND)], h = tb - ta;
+    int i, fine = 1;
+    LfStatus st;
+    if (depth >= LF_HIST_MAX_DEPTH || estimate_fine(c, ta, ga, tb, gb))
+        return hist_append(c, tb, gb, 0);
+    for (i = 0; i < 2 && fine; i++) {
+        double th = i == 0 ? 0.25 : 0.75;
+        st = sample_inside(c, ta, h, th, gq);
+        if (st != LF_OK) return st;
+        fine = !hermite_misses(c, ga, gb, h, th, gq, LF_HIST_QUARTER_SCALE);
+    }
+    if (fine) return hist_append(c, tb, gb, 0);
+    st = sample_inside(c, ta, h, 0.5, gm);
+    if (st != LF_OK) return st;
+    st = hist_refine(c, ta, ga, ta + 0.5 * h, gm, depth + 1);
+    if (st != LF_OK) return st;
+    return hist_refine(c, ta + 0.5 * h, gm, tb, gb, depth + 1);
 }
 
 /* The samples at the step's start as the history holds them (the last
@@ -409,7 +410,6 @@ LfStatus lf_hist_step(LfInstance *c) {
         return lf_hist_push(c, s->t, s->x, 0);
     st = lf_hist_sample(c, s->t, s->x, gb);
     if (st != LF_OK) return st;
-    if (estimate_fine(c, s->t_old, ga, s->t, gb)) return hist_append(c, s->t, gb, 0);
     return hist_refine(c, s->t_old, ga, s->t, gb, 0);
 }
 
