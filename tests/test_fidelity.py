@@ -62,8 +62,14 @@ def test_the_selector_picks_the_rigid_frame_for_hinge_loads_at_one_percent(loom_
     rigid = [r for r in sel.rows if r.levels["frames"] == "heald_frame_rigid"]
     assert all(0.001 < r.error <= 0.01 for r in rigid)
     tight = loom_eval.select(0.001, ["frame_a.N_rem"])
-    assert tight.best.levels["frames"] == "heald_frame_planar"
     passing = [r for r in tight.rows if r.error <= 0.001]
+    # at 0.1 % the rigid frame fails and the planar frame passes; which of the
+    # planar and spatial frames is cheaper is a CPU-time measurement (the
+    # planar one is ~0.9x the spatial one's cost, within the selector's
+    # COST_NOISE on a loaded machine), so the choice is checked by cost below
+    assert all(r.levels["frames"] != "heald_frame_rigid" for r in passing)
+    assert any(r.levels["frames"] == "heald_frame_planar" for r in passing)
+    assert tight.best.levels["frames"] in ("heald_frame_planar", "heald_frame")
     assert tight.best.cpu_s <= min(r.cpu_s for r in passing) * (1 + sf.COST_NOISE)
 
 
