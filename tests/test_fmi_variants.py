@@ -401,3 +401,35 @@ def test_four_interfaces_agree(four_interfaces, name):
     assert cs3["difference"] <= 1e-12, cs3
     assert me3["difference"] <= 1e-12, me3
     assert me2["difference"] <= ME_BOUND, me2
+
+
+if __name__ == "__main__":
+    # python tests/test_fmi_variants.py [RTOL,...]: the four-interface figures
+    # of test_four_interfaces_agree per model and tolerance
+    import sys
+    import tempfile
+
+    class _Tmp:
+        def __init__(self):
+            self.base = Path(tempfile.mkdtemp())
+
+        def getbasetemp(self):
+            return self.base
+
+    from loomfmu.registry import MODELS
+    rtols = [float(r) for r in (sys.argv[1] if len(sys.argv) > 1 else str(RTOL)).split(",")]
+    keys = [(n, v, "both", OPTIONS.get(n)) for n in sorted(MODELS) for v in (2, 3)]
+    fmus = dict(zip([k[:2] for k in keys], variant_builds(_Tmp(), keys)))
+    print("model                   rtol    3:cs vs 2:cs  3:me vs 2:me  2:me vs 2:cs (output)")
+    for rtol in rtols:
+        for name in sorted(MODELS):
+            stop = HORIZON[name]
+            runs = {(v, k): fmi_matrix.simulate(fmus[name, v].path, k, stop, stop / POINTS,
+                                                rtol)[0]
+                    for v in (2, 3) for k in ("CoSimulation", "ModelExchange")}
+            ref = runs[2, "CoSimulation"]
+            cs3 = fmi_matrix.agreement(ref, runs[3, "CoSimulation"])
+            me3 = fmi_matrix.agreement(runs[2, "ModelExchange"], runs[3, "ModelExchange"])
+            me2 = fmi_matrix.agreement(ref, runs[2, "ModelExchange"])
+            print(f"{name:<22}{rtol:>7.0e}{cs3['difference']:>14.1e}{me3['difference']:>14.1e}"
+                  f"{me2['difference']:>14.1e} ({me2['output']})", flush=True)
