@@ -358,7 +358,10 @@ static int estimate_fine(const LfInstance *c, double ta, const double *ga, doubl
  * gb: samples at ta, tb.  (The midpoint alone is blind to a deviation odd
  * about it: a signal of many harmonics, such as the drive's cam, once gave
  * a 3e-4 relative error at rtol 1e-6 that way.)  The midpoint is sampled
- * only where the interval is split. */
+ * only where the interval is split.  An interval whose error estimated from
+ * the samples held is far below the tolerance (estimate_fine) is pushed
+ * without sampling inside it: in the drive's verification run every step
+ * (one evaluation of g per step, the sample at its end). */
 static LfStatus hist_refine(LfInstance *c, double ta, const double *ga, double tb,
                             const double *gb, int depth) {
     double gm[LF_DIM(2 * LF_ND)], gq[LF_DIM(2 * LF_ND)], h = tb - ta;
