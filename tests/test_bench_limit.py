@@ -49,6 +49,7 @@ def test_driver_reproduces_fmpy_and_counts_what_the_method_needs(built, solver):
     assert c["rhs_s"] > 0 and c["jac_s"] > 0 and c["out_s"] > 0 and c["cpu_s"] > 0
     r = L.row(c, f)
     jac_calls = c["jac"] if jacs is None else jacs * c["steps"]
+    assert c["hist_s"] == 0  # no delay: no history to sample
     assert r["limit_s"] == pytest.approx(c["steps"] * stages * c["rhs_s"] + jac_calls * c["jac_s"])
     assert math.isfinite(r["ratio"]) and r["ratio"] > 0
     assert r["comm_steps"] == round(model.stop_time / model.step_size)
@@ -99,3 +100,17 @@ def test_cli_writes_the_table(tmp_path):
     assert f"| {MODEL} | rk4 |" in page.read_text()
     with pytest.raises(SystemExit):
         main(["limit", "--models", "no_such_model"])
+
+
+def test_a_delay_model_pays_one_history_sample_per_step(tmp_path):
+    """The drive keeps the history of its delayed speed: the driver times one
+    sample of it (lf_hist_sample) and the limit adds one per accepted step."""
+    model = load_model("drive")
+    fmu = build_fmu(model, out_dir=tmp_path, validate=False).path
+    exe = L.compile_driver(fmu, tmp_path / "driver")
+    c = L.run_driver(exe, stop=2.0, step=model.step_size, solver="dopri5", repeats=1,
+                     best_of=1)
+    assert c["hist_s"] > 0 and c["rhs_s"] > 0
+    stages, _ = L.STAGES["dopri5"]
+    r = L.row(c, None)
+    assert r["limit_s"] == pytest.approx(c["steps"] * (stages * c["rhs_s"] + c["hist_s"]))
