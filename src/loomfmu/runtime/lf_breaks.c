@@ -50,6 +50,7 @@ static LfStatus clock_rates(LfInstance *c) {
     st = lf_solve_w(c, c->solver.t, c->solver.x, c->w_tmp);
     c->quiet--;
     memcpy(c->w_cur, w_keep, sizeof w_keep);
+    c->wk_g = 0; /* w_cur is no longer the last solve's (lf_wcache.h) */
     if (st != LF_OK) return st;
     for (j = 0; j < LF_NX; j++) c->kb_xdot[j] = lf_model.clock_state[j] > 0 ? c->w_tmp[j] : 0.0;
     c->kb_ready = 1;

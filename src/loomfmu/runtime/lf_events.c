@@ -31,6 +31,7 @@ static LfStatus choose_mode(LfInstance *c, int k, double t, double *x) {
     for (j = lf_model.mode_value_offset[k]; j < lf_model.mode_value_offset[k + 1]; j++) {
         LfStatus st;
         c->q[k] = lf_model.mode_values[j];
+        c->wc_gen++; /* solves of another mode (lf_wcache.h) */
         if (lf_eval_fn(c, LF_FN_REINIT, t, x, c->w_cur, x_try, NULL, NULL) != LF_OK)
             return LF_ERROR;
         c->quiet++;
@@ -48,6 +49,7 @@ static LfStatus choose_mode(LfInstance *c, int k, double t, double *x) {
         }
     }
     c->q[k] = old;
+    c->wc_gen++;
     lf_log(c, LF_ERROR, LF_LOG_ERROR,
            "t = %.17g: no value of mode %s is consistent here (the model has no "
            "solution with any of its declared values)", t, lf_model.mode_names[k]);
@@ -107,6 +109,7 @@ LfStatus lf_consistent_modes(LfInstance *c, double t, double *x, int touched) {
 LfStatus lf_initial_modes(LfInstance *c) {
     int k;
     for (k = 0; k < LF_NQ; k++) c->q[k] = lf_model.mode_start[k];
+    c->wc_gen++;
     return lf_consistent_modes(c, c->t, &c->r[LF_VR_X0], -1);
 }
 

@@ -6,6 +6,7 @@
 
 #include "lf_internal.h"
 #include "lf_linalg.h"
+#include "lf_wcache.h"
 
 #define LF_NEWTON_MAX_ITER 30
 #define LF_NEWTON_RTOL 1e-10
@@ -62,10 +63,13 @@ static LfStatus newton(LfInstance *c, double t, const double *x, double *w) {
     return LF_DISCARD;
 }
 
-/* The unknowns w = [der(x); z] at (t, x). */
-LfStatus lf_solve_w(LfInstance *c, double t, const double *x, double *w) {
+/* The unknowns w = [der(x); z] at (t, x) (inline in lf_rhs, the solvers'
+ * hot path). */
+static inline LfStatus solve_w(LfInstance *c, double t, const double *x, double *w) {
     LfStatus st;
     int bad;
+    if (LF_WC_USED && c->wc_on && lf_wc_take(c, t, x, w)) return LF_OK;
+    if (LF_WK_USED && c->wc_on && lf_wk_take(c, t, x, w)) return LF_OK;
     if (LF_IMPLICIT) {
         st = newton(c, t, x, w);
         if (st != LF_OK) return st;
@@ -79,12 +83,18 @@ LfStatus lf_solve_w(LfInstance *c, double t, const double *x, double *w) {
         return LF_DISCARD;
     }
     memcpy(c->w_cur, w, sizeof(double) * LF_NW);
+    if (LF_WC_USED && c->wc_on) lf_wc_keep(c, t, x, w);
+    if (LF_WK_USED && c->wc_on) lf_wk_keep(c, t, x);
     return LF_OK;
+}
+
+LfStatus lf_solve_w(LfInstance *c, double t, const double *x, double *w) {
+    return solve_w(c, t, x, w);
 }
 
 LfStatus lf_rhs(void *ctx, double t, const double *x, double *dx) {
     LfInstance *c = (LfInstance *)ctx;
-    LfStatus st = lf_solve_w(c, t, x, c->w_tmp);
+    LfStatus st = solve_w(c, t, x, c->w_tmp);
     if (st != LF_OK) return st;
     memcpy(dx, c->w_tmp, sizeof(double) * LF_NX);
     return LF_OK;

@@ -157,6 +157,16 @@ typedef struct {
     double kb_clear, kb_dt;
     double kb_e[LF_DIM(LF_NE)];
     long n_known_breaks;            /* known breaks crossed (statistics) */
+    /* the solve cache (lf_wcache.h; not part of the FMU state): on while a
+     * step runs; entry j holds w of (wc_t[j], wc_x[j]) of generation wc_g[j] */
+    int wc_on, wc_last;
+    unsigned long wc_gen, wc_g[2];
+    double wc_t[2];
+    double wc_x[2][LF_DIM(LF_NX)];
+    double wc_w[2][LF_DIM(LF_NW)];
+    unsigned long wk_g;             /* explicit models: w_cur is w of (wk_t, wk_x) */
+    double wk_t;
+    double wk_x[LF_DIM(LF_NX)];
     /* -- model exchange -- */
     /* -- FMI 3.0 facade -- */
     /* -- solvers and statistics -- */

@@ -191,6 +191,7 @@ static LfStatus return_at_event(LfInstance *c) {
     memcpy(w_keep, c->w_cur, sizeof w_keep);
     st = lf_update_outputs(c);
     memcpy(c->w_cur, w_keep, sizeof w_keep);
+    c->wk_g = 0; /* w_cur is no longer the last solve's (lf_wcache.h) */
     if (st != LF_OK) return st;
     c->last_successful_time = c->t;
     return LF_OK;
@@ -250,7 +251,19 @@ LfStatus lf_do_step(LfInstance *c, double t0, double h) {
     return lf_do_checked_step(c, t0, h);
 }
 
+static LfStatus step_loop(LfInstance *c, double t0, double h);
+
+/* the step loop with the solve cache on (lf_wcache.h), empty at the start */
 LfStatus lf_do_checked_step(LfInstance *c, double t0, double h) {
+    LfStatus st;
+    c->wc_gen++;
+    c->wc_on = 1;
+    st = step_loop(c, t0, h);
+    c->wc_on = 0;
+    return st;
+}
+
+static LfStatus step_loop(LfInstance *c, double t0, double h) {
     LfSolver *s = &c->solver;
     double t_end = t0 + h;
     long work0 = solver_work(s);

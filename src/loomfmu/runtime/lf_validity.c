@@ -105,7 +105,10 @@ LfStatus lf_validity_restart(LfInstance *c, double t_ok, const double *x_ok,
         memcpy(c->vld_v, v, sizeof v);
         return LF_OK;
     }
-    if (LF_NQ > 0) memcpy(c->q, q_ok, sizeof(double) * LF_NQ); /* the modes before */
+    if (LF_NQ > 0) { /* the modes before */
+        memcpy(c->q, q_ok, sizeof(double) * LF_NQ);
+        c->wc_gen++;
+    }
     return end_at(c, t_ok, x_ok, bad, v[bad], c->solver.t,
                   "fails across the event where the solver restarted; the step ends before "
                   "the event");
