@@ -201,6 +201,28 @@ def run_counters(exe: Path, fmu: Path, solver: str, rtol: float, interp: bool,
 COST_KEYS = ("rhs_us", "jac_us", "factor_us", "solve_us", "dense_factor_us", "dense_solve_us")
 
 
+def git_commit() -> str:
+    """The commit measured (with '+dirty' when the tree differs from it)."""
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT,
+                              capture_output=True, text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+                               cwd=ROOT, capture_output=True, text=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+    return head + ("+dirty" if dirty else "")
+
+
+def load_average() -> list[float]:
+    """1, 5 and 15 minute load averages at the end of the run (the cores are
+    shared: CPU times are inflated under load)."""
+    try:
+        import os
+        return [round(x, 2) for x in os.getloadavg()]
+    except OSError:
+        return []
+
+
 def main_counters(args) -> int:
     sim = RAMP + HOLD
     rows = []
@@ -225,6 +247,9 @@ def main_counters(args) -> int:
     result = {"scene": {"model": args.model, "ramp_s": RAMP, "hold_s": HOLD, "dt_s": DT,
                         "top_rpm": TOP_RPM, "rtol": args.rtol, "atol": 1e-12,
                         "repeats": args.repeats, "timing": "CPU time of the C driver, median"},
+              "commit": git_commit(), "load_average": load_average(),
+              "command": "python benchmarks/spindle_runup.py --counters --solvers "
+                         + " ".join(args.solvers) + f" --repeats {args.repeats}",
               "rows": rows}
     print(f"{'solver':<10}{'inputs':<13}{'cpu s':>8}{'cpu/sim':>9}{'steps':>8}{'rej':>7}"
           f"{'rhs':>9}{'jac':>8}{'lu':>8}{'st/lu':>7}{'dmax r_top':>12}")
