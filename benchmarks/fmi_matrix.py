@@ -4,6 +4,7 @@ FMPy, and compare each variant's outputs with the FMI 2.0 co-simulation run.
     python benchmarks/fmi_matrix.py [MODEL ...] [--variants 2:cs 2:me 3:cs 3:me]
                                     [--stop T] [--rtol 1e-8] [--out-dir DIR]
                                     [--json FILE] [--markdown FILE]
+    python benchmarks/fmi_matrix.py --table-from docs/fmi_variants.json
 
 For each model and variant (FMI version : interface) it builds the FMU
 (loomfmu.build_fmu), counts ``fmpy.validate_fmu`` problems, and simulates it
@@ -199,8 +200,10 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def markdown(rows: list[dict], rtol: float) -> str:
-    """One row per model: problems, run and agreement of each variant."""
+def markdown(rows: list[dict]) -> str:
+    """One row per model; per variant: FMPy's validation problems, whether
+    it ran (and to which stop time, where shortened), its agreement with the
+    reference run."""
     variants = []
     for r in rows:
         v = (r["fmi_version"], r["interface"])
@@ -221,9 +224,10 @@ def markdown(rows: list[dict], rtol: float) -> str:
                 continue
             a = r.get("agreement")
             what = "reference" if v == REFERENCE else (
-                f"{a['difference']:.1e} ({a['output']})" if a else "not compared")
-            stop = f", to {r['stop']:g} s¹" if r.get("note") else ""
-            cells.append(f"{r['problems']} problems, ran{stop}; {what}")
+                "not compared" if not a else "identical" if a["difference"] == 0 else
+                f"{a['difference']:.1e} ({a['output']})")
+            stop = f" to {r['stop']:g} s" if r.get("note") else ""
+            cells.append(f"{r['problems']}, ran{stop}; {what}")
         out.append("| " + " | ".join(cells) + " |")
     return "\n".join(out)
 
@@ -242,7 +246,12 @@ def main(argv=None) -> int:
     ap.add_argument("--json", type=Path, default=None, help="write the rows as JSON")
     ap.add_argument("--markdown", type=Path, default=None,
                     help="write the per-model table as Markdown")
+    ap.add_argument("--table-from", type=Path, default=None, metavar="JSON",
+                    help="print the Markdown table of a run's JSON and exit (no run)")
     args = ap.parse_args(argv)
+    if args.table_from:
+        print(markdown(json.loads(args.table_from.read_text())["rows"]))
+        return 0
     for name in args.models:
         if name not in MODELS:
             ap.error(f"model {name!r}; allowed: {', '.join(sorted(MODELS))}")
@@ -277,7 +286,7 @@ def main(argv=None) -> int:
     if args.json:
         args.json.write_text(json.dumps({"meta": meta, "rows": rows}, indent=1) + "\n")
     if args.markdown:
-        args.markdown.write_text(markdown(rows, args.rtol) + "\n")
+        args.markdown.write_text(markdown(rows) + "\n")
     return 1 if bad else 0
 
 
