@@ -93,12 +93,47 @@ def fmpy_cost(model_name: str, repeats: int, work: Path) -> dict:
             "python_share_full_run": 1 - full["c_cpu_s"] / full["fmpy_cpu_s"]}
 
 
+class _Timed:
+    """A ctypes FMI function with a clock around it (keeps the attributes
+    FMPy's ``_call`` reads: argtypes, restype, argnames)."""
+
+    def __init__(self, timer: "CallTimer", name: str, fn):
+        self._timer, self._name, self._fn = timer, name, fn
+        self.argtypes, self.restype = fn.argtypes, fn.restype
+        self.argnames = getattr(fn, "argnames", None)
+
+    def __call__(self, *args):
+        t = self._timer
+        t0 = t.clock()
+        try:
+            return self._fn(*args)
+        finally:
+            dt = t.clock() - t0
+            t.c_seconds[self._name] = t.c_seconds.get(self._name, 0.0) + dt
+            t.c_calls[self._name] = t.c_calls.get(self._name, 0) + 1
+            if t.depth:
+                t.c_inside += dt
+                t.c_inside_calls += 1
+
+
 class CallTimer:
-    """Wraps FMU2Slave's methods: CPU seconds and calls per method."""
+    """CPU seconds and calls of every FMI function at two levels: the ctypes
+    functions of the FMU's binary (``c_seconds``, ``c_calls``: the C side and
+    ctypes' argument conversion; FMPy's ``_functions``, wrapped as each
+    FMU2Slave loads them), and FMPy's Python methods (``seconds``, ``calls``:
+    FMU2Slave.getReal etc., which build ctypes arrays from lists and call
+    the former).  A master that calls the ctypes functions directly shows
+    C time without method time."""
 
     def __init__(self):
         self.seconds: dict[str, float] = {}
         self.calls: dict[str, int] = {}
+        self.c_seconds: dict[str, float] = {}
+        self.c_calls: dict[str, int] = {}
+        self.c_inside = 0.0        # C seconds inside FMPy's methods
+        self.c_inside_calls = 0
+        self.depth = 0
+        self.clock = time.process_time
         self._orig = {}
 
     def __enter__(self):
@@ -108,18 +143,30 @@ class CallTimer:
                 continue
             self._orig[name] = orig
             setattr(FMU2Slave, name, self._wrap(name, orig))
+        load = FMU2Slave._loadFunctions
+        self._orig["_loadFunctions"] = load
+        timer = self
+
+        def loaded(slave):
+            load(slave)
+            for name, fn in list(slave._functions.items()):
+                slave._functions[name] = _Timed(timer, name, fn)
+        FMU2Slave._loadFunctions = loaded
         return self
 
     def _wrap(self, name, orig):
         seconds, calls, clock = self.seconds, self.calls, time.process_time
+        timer = self
 
         def wrapped(*args, **kw):
+            timer.depth += 1
             t0 = clock()
             try:
                 return orig(*args, **kw)
             finally:
                 seconds[name] = seconds.get(name, 0.0) + clock() - t0
                 calls[name] = calls.get(name, 0) + 1
+                timer.depth -= 1
         return wrapped
 
     def __exit__(self, *exc):
@@ -128,22 +175,39 @@ class CallTimer:
         self._orig.clear()
 
 
-def wrapper_cost(n: int = 200_000) -> float:
-    """CPU seconds the CallTimer's wrapper adds to one call."""
+def wrapper_cost(n: int = 200_000) -> dict:
+    """What the CallTimer's two wrappers cost, in CPU seconds per call:
+    ``method_w``, ``c_w``: added to the caller (taken off the run's time);
+    ``method_b``, ``c_b``: inside the interval each one measures (taken off
+    the measured time), both measured around an empty call."""
     class Dummy:
         def f(self):
             return None
+
+    class Fn:
+        argtypes, restype = [], None
+
+        def __call__(self):
+            return None
     timer = CallTimer()
     w = timer._wrap("f", Dummy.f)
+    fn = Fn()
+    c = _Timed(timer, "f", fn)
     d = Dummy()
-    t0 = time.process_time()
-    for _ in range(n):
-        Dummy.f(d)
-    bare = time.process_time() - t0
-    t0 = time.process_time()
-    for _ in range(n):
-        w(d)
-    return max(0.0, (time.process_time() - t0 - bare) / n)
+
+    def per_call(call, bare):
+        t0 = time.process_time()
+        for _ in range(n):
+            bare()
+        b = time.process_time() - t0
+        t0 = time.process_time()
+        for _ in range(n):
+            call()
+        return max(0.0, (time.process_time() - t0 - b) / n)
+    out = {"method_w": per_call(lambda: w(d), lambda: Dummy.f(d)), "c_w": per_call(c, fn)}
+    out["method_b"] = timer.seconds["f"] / timer.calls["f"]
+    out["c_b"] = timer.c_seconds["f"] / timer.c_calls["f"]
+    return out
 
 
 def fmpy_call_cost(fmu_path: Path, n: int = 20_000) -> float:
@@ -166,8 +230,12 @@ def fmpy_call_cost(fmu_path: Path, n: int = 20_000) -> float:
     return per
 
 
-def master_cost(scene_name: str, master: str, fmus: dict, repeats: int, wrap_s: float
-                ) -> dict:
+def master_cost(scene_name: str, master: str, fmus: dict, repeats: int,
+                wrap_s: dict, **run_kw) -> dict:
+    """Per communication step (slope between a quarter and the whole run):
+    the run's CPU time split into fmi2DoStep (the C function: the FMUs'
+    work), the other FMI functions (C), FMPy's Python methods around them,
+    and the rest: the master's own Python."""
     scene = load_scene(scene_name)
     stops = (scene.stop_time / 4, scene.stop_time)
     per_stop = []
@@ -176,39 +244,47 @@ def master_cost(scene_name: str, master: str, fmus: dict, repeats: int, wrap_s: 
         for _ in range(repeats):
             with CallTimer() as timer:
                 t0 = time.process_time()
-                res = run_scene(scene, master=master, stop=stop, fmus=fmus)
+                res = run_scene(scene, master=master, stop=stop, fmus=fmus, **run_kw)
                 totals.append(time.process_time() - t0)
             timers.append(timer)
         k = int(np.argsort(totals)[len(totals) // 2])  # the median run's call times
         timer = timers[k]
-        calls = sum(timer.calls.values())
-        fmi = sum(timer.seconds.values()) - calls * wrap_s
-        do_step = timer.seconds.get("doStep", 0.0) - timer.calls.get("doStep", 0) * wrap_s
-        per_stop.append({"stop": stop, "steps": res.accepted, "cpu_s": totals[k],
-                         "fmi_s": fmi, "do_step_s": do_step, "calls": dict(timer.calls),
-                         "seconds": dict(timer.seconds)})
+        n_m, n_c = sum(timer.calls.values()), sum(timer.c_calls.values())
+        cpu = totals[k] - n_m * wrap_s["method_w"] - n_c * wrap_s["c_w"]
+        do_step = (timer.c_seconds.get("fmi2DoStep", 0.0)
+                   - timer.c_calls.get("fmi2DoStep", 0) * wrap_s["c_b"])
+        c_all = sum(timer.c_seconds.values()) - n_c * wrap_s["c_b"]
+        fmpy_py = (sum(timer.seconds.values()) - n_m * wrap_s["method_b"] - timer.c_inside
+                   - timer.c_inside_calls * (wrap_s["c_w"] - wrap_s["c_b"]))
+        per_stop.append({"stop": stop, "steps": res.accepted + res.rejected, "cpu_s": cpu,
+                         "do_step_s": do_step, "other_fmi_s": c_all - do_step,
+                         "fmpy_python_s": fmpy_py,
+                         "master_python_s": cpu - c_all - fmpy_py,
+                         "c_calls": dict(timer.c_calls), "method_calls": dict(timer.calls)})
     a, b = per_stop
     dn = b["steps"] - a["steps"]
 
     def slope(key):
-        return (b[key] - a[key]) / dn
+        return (b[key] - a[key]) / dn * 1e6
 
-    calls_per_step = {m: (b["calls"].get(m, 0) - a["calls"].get(m, 0)) / dn
-                      for m in b["calls"]}
-    return {"scene": scene_name, "master": master, "runs": per_stop,
-            "per_step_us": slope("cpu_s") * 1e6,
-            "do_step_per_step_us": slope("do_step_s") * 1e6,
-            "other_fmi_per_step_us": (slope("fmi_s") - slope("do_step_s")) * 1e6,
-            "master_python_per_step_us": (slope("cpu_s") - slope("fmi_s")) * 1e6,
+    calls_per_step = {m: (b["c_calls"].get(m, 0) - a["c_calls"].get(m, 0)) / dn
+                      for m in b["c_calls"]}
+    return {"scene": scene_name, "master": master, "options": run_kw, "runs": per_stop,
+            "per_step_us": slope("cpu_s"),
+            "do_step_per_step_us": slope("do_step_s"),
+            "other_fmi_per_step_us": slope("other_fmi_s"),
+            "fmpy_python_per_step_us": slope("fmpy_python_s"),
+            "master_python_per_step_us": slope("master_python_s"),
             "fmi_calls_per_step": {m: round(v, 3) for m, v in calls_per_step.items() if v},
-            "setup_ms": (a["cpu_s"] - slope("cpu_s") * a["steps"]) * 1e3}
+            "setup_ms": (a["cpu_s"] - slope("cpu_s") * 1e-6 * a["steps"]) * 1e3}
 
 
-def profile_master(scene_name: str, master: str, fmus: dict, top: int = 12) -> list[str]:
+def profile_master(scene_name: str, master: str, fmus: dict, top: int = 12, **run_kw
+                   ) -> list[str]:
     scene = load_scene(scene_name)
     prof = cProfile.Profile()
     prof.enable()
-    run_scene(scene, master=master, fmus=fmus)
+    run_scene(scene, master=master, fmus=fmus, **run_kw)
     prof.disable()
     stats = pstats.Stats(prof)
     rows = sorted(stats.stats.items(), key=lambda kv: kv[1][2], reverse=True)[:top]
@@ -219,13 +295,28 @@ def profile_master(scene_name: str, master: str, fmus: dict, top: int = 12) -> l
     return out
 
 
+def scene_fmus(scene, args, tmp: Path) -> dict:
+    """--fmus FILE.json (component -> FMU path: the same binaries for runs
+    of two versions of the master), or the scene's FMUs built into --fmu-dir
+    (default a temporary folder)."""
+    if args.fmus is not None:
+        return {k: Path(v) for k, v in json.loads(args.fmus.read_text()).items()}
+    return build_fmus(scene, args.fmu_dir if args.fmu_dir is not None else tmp / "scene")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--model", default="heald_frame", help="part 1: the model")
+    ap.add_argument("--no-fmpy", action="store_true", help="skip part 1 (FMPy's own cost)")
     ap.add_argument("--scene", default="two_mass", choices=sorted(SCENES),
                     help="part 2: the scene")
     ap.add_argument("--masters", nargs="+", default=["jacobi", "gauss-seidel"],
                     choices=["jacobi", "gauss-seidel"])
+    ap.add_argument("--extrapolation", nargs="+", type=int, default=[0], choices=[0, 1, 2],
+                    help="part 2: the input extrapolation orders to measure")
+    ap.add_argument("--fmus", type=Path, default=None,
+                    help="part 2: JSON file component -> FMU path (skip the build)")
+    ap.add_argument("--fmu-dir", type=Path, default=None, help="part 2: build the FMUs here")
     ap.add_argument("--repeats", type=int, default=5, help="runs per point, median (>= 1)")
     ap.add_argument("--out", type=Path, default=None, help="also write the numbers as JSON")
     args = ap.parse_args(argv)
@@ -233,40 +324,49 @@ def main(argv=None) -> int:
         ap.error(f"--repeats {args.repeats}: allowed >= 1")
     t_start = time.perf_counter()
     out = {"command": "python benchmarks/master_overhead.py " + " ".join(argv or sys.argv[1:])}
+    f = None
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        print(f"1. FMPy's own cost ({args.model}, verification run, dopri5):", flush=True)
-        f = fmpy_cost(args.model, args.repeats, tmp / args.model)
-        out["fmpy"] = f
-        print(f"   Python side: {f['python_per_step_us']:.2f} µs per doStep + "
-              f"{f['python_setup_ms']:.2f} ms per run; the FMU's own work "
-              f"{f['fmu_per_step_us']:.2f} µs per doStep; Python's share of the full run "
-              f"{f['python_share_full_run'] * 100:.0f} %")
+        if not args.no_fmpy:
+            print(f"1. FMPy's own cost ({args.model}, verification run, dopri5):", flush=True)
+            f = fmpy_cost(args.model, args.repeats, tmp / args.model)
+            out["fmpy"] = f
+            print(f"   Python side: {f['python_per_step_us']:.2f} µs per doStep + "
+                  f"{f['python_setup_ms']:.2f} ms per run; the FMU's own work "
+                  f"{f['fmu_per_step_us']:.2f} µs per doStep; Python's share of the full "
+                  f"run {f['python_share_full_run'] * 100:.0f} %")
         scene = load_scene(args.scene)
-        fmus = build_fmus(scene, tmp / "scene")
+        fmus = scene_fmus(scene, args, tmp)
         wrap_s = wrapper_cost()
         call_s = fmpy_call_cost(next(iter(fmus.values())))
-        out["fmpy_call_us"], out["wrapper_us"] = call_s * 1e6, wrap_s * 1e6
+        out["fmpy_call_us"] = call_s * 1e6
+        out["wrapper_us"] = {k: v * 1e6 for k, v in wrap_s.items()}
         print(f"\n2. Our master on scene {args.scene} ({len(fmus)} FMUs, step "
               f"{scene.step:g} s): FMPy's cost of one FMI call (getReal of one variable) "
-              f"{call_s * 1e6:.2f} µs; timing wrapper {wrap_s * 1e6:.2f} µs per call "
-              "(taken off)")
+              f"{call_s * 1e6:.2f} µs; timing wrappers {wrap_s['method_w'] * 1e6:.2f} "
+              f"(method), {wrap_s['c_w'] * 1e6:.2f} (ctypes function) µs per call, of "
+              f"which {wrap_s['method_b'] * 1e6:.2f} and {wrap_s['c_b'] * 1e6:.2f} inside "
+              "what they measure (all taken off)")
         out["masters"] = []
         for master in args.masters:
-            m = master_cost(args.scene, master, fmus, args.repeats, wrap_s)
-            m["profile"] = profile_master(args.scene, master, fmus)
-            out["masters"].append(m)
-            print(f"   {master}: {m['per_step_us']:.1f} µs per communication step = "
-                  f"doStep calls {m['do_step_per_step_us']:.1f} + other FMI calls "
-                  f"{m['other_fmi_per_step_us']:.1f} + the master's Python "
-                  f"{m['master_python_per_step_us']:.1f}; setup {m['setup_ms']:.1f} ms")
-            print(f"     FMI calls per step: {m['fmi_calls_per_step']}")
-            print("     own time by function (cProfile, one full run):")
-            for line in m["profile"]:
-                print(f"       {line}")
-        fmpy_per_fmu = f["python_per_step_us"]
-        print(f"\n   FMPy's own Python cost per doStep ({args.model}): {fmpy_per_fmu:.2f} µs, "
-              f"x {len(fmus)} FMUs = {fmpy_per_fmu * len(fmus):.2f} µs per step")
+            for k in args.extrapolation:
+                m = master_cost(args.scene, master, fmus, args.repeats, wrap_s,
+                                extrapolation=k)
+                m["profile"] = profile_master(args.scene, master, fmus, extrapolation=k)
+                out["masters"].append(m)
+                print(f"   {master}, extrapolation {k}: {m['per_step_us']:.1f} µs per "
+                      f"communication step = fmi2DoStep {m['do_step_per_step_us']:.1f} + other "
+                      f"FMI functions {m['other_fmi_per_step_us']:.1f} + FMPy's Python "
+                      f"methods {m['fmpy_python_per_step_us']:.1f} + the master's Python "
+                      f"{m['master_python_per_step_us']:.1f}; setup {m['setup_ms']:.1f} ms")
+                print(f"     FMI calls per step: {m['fmi_calls_per_step']}")
+                print("     own time by function (cProfile, one full run):")
+                for line in m["profile"]:
+                    print(f"       {line}")
+        if f is not None:
+            fmpy_per_fmu = f["python_per_step_us"]
+            print(f"\n   FMPy's own Python cost per doStep ({args.model}): {fmpy_per_fmu:.2f} "
+                  f"µs, x {len(fmus)} FMUs = {fmpy_per_fmu * len(fmus):.2f} µs per step")
     out["wall_seconds"] = time.perf_counter() - t_start
     print(f"master_overhead.py took {out['wall_seconds']:.0f} s")
     if args.out:

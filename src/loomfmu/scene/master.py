@@ -38,7 +38,8 @@ from .system import FMUError, ModelInvalid, System
 @dataclass(frozen=True)
 class StepResult:
     accepted: bool
-    error: float     # scaled error estimate (<= 1: within the tolerances)
+    error: float     # scaled error estimate (<= 1: within the tolerances; NaN: not
+    #                  estimated, the master is not adaptive)
     message: str = ""
 
 
@@ -122,13 +123,12 @@ class Master:
         indices = list(indices)
         system.exchange(indices, t, iterate=iterate)
         k = self.extrapolation
+        if not k:      # held: the error estimate reads system.held
+            return
         for i in indices:
             y = system.held[i]
             c = system.connections[i]
             ts = system.time[c.src]
-            if not k:
-                self._coef[i], self._t0[i] = [y], t
-                continue
             coef = self._from_derivatives(i, ts, y, t) if self.output_derivatives else None
             if coef is None:
                 coef = self.history.coefficients(i, ts, y, t, k)
@@ -183,7 +183,7 @@ class Master:
     def step(self, t: float, h: float) -> StepResult:
         system = self.system
         saved = system.get_states() if self.adaptive else None
-        held_before = list(system.held)
+        held_before = list(system.held) if self.adaptive else None
         try:
             self._advance(t, h)
             error = self._error(t + h)
@@ -206,16 +206,31 @@ class Master:
             system.free_states(saved)
         if accepted:
             self.n_accepted += 1
-            self._size = [max(s, abs(u)) for s, u in zip(self._size, system.held)]
+            if self.adaptive:
+                self._size = [max(s, abs(u)) for s, u in zip(self._size, system.held)]
         else:
             self.n_rejected += 1
         return StepResult(accepted, error, message)
 
     def _error(self, t_end: float) -> float:
+        """The step's scaled error estimate (module doc); every source (and
+        each variable the run records, System.watch) is read here, one
+        fmi2GetReal per component, also when the estimate is not needed (a
+        fixed step: NaN), so every FMU computes its outputs where it always
+        did.  A failed read is repeated one by one, naming the variable."""
+        system = self.system
+        if not system.read_end():
+            return self._estimate(t_end, system.source_value)
+        if not self.adaptive:
+            return math.nan
+        return self._estimate(t_end, system.end_source)
+
+    def _estimate(self, t_end: float, source) -> float:
         err = 0.0
+        held = self.system.held
         for i in range(len(self.system.connections)):
-            u = self._end_value(i, t_end)
-            y = self.system.source_value(i)
+            u = self._end_value(i, t_end) if self.extrapolation else held[i]
+            y = source(i)
             if not (math.isfinite(y) and math.isfinite(u)):
                 return math.inf
             size = max(self._size[i], abs(u), abs(y))
@@ -255,8 +270,6 @@ class Jacobi(Master):
             self._set(every, t, h)
         else:
             system.set_inputs(every, [system.source_value(i) for i in every], t)
-            for i in every:
-                self._coef[i], self._t0[i] = [system.held[i]], t
         for name in system.instances:
             system.do_step(name, t, h)
         for name in system.instances:

@@ -107,6 +107,7 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
             m = make_master(master, system, rtol=rtol, atol=atol, adaptive=adaptive,
                             extrapolation=extrapolation, **opts)
             refs = scene.recorded_variables()
+            system.watch(refs)     # read with the sources after each step
             times, rows, hs = [0.0], [system.get(refs)], []
             t, h, k, shown = 0.0, step, 0, 0
             while t < stop * (1 - 1e-12):
@@ -118,7 +119,7 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
                     k += 1
                     t = t + h_try if adaptive else min(step * k, stop)
                     times.append(t)
-                    rows.append(system.get(refs))
+                    rows.append(system.recorded(refs))
                     hs.append(h_try)
                     done = int(100 * t / stop)
                     if bar is not None and done > shown:   # plain logs: a line per 10 %

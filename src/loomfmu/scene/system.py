@@ -22,8 +22,10 @@ from pathlib import Path
 import numpy as np
 
 from fmpy import calloc, extract, free, read_model_description
+from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2Integer, fmi2Real,
+                       fmi2True, fmi2ValueReference)
 
 #: FMU log lines kept per instance (the latest), shown when a call fails
 LOG_LINES = 200
@@ -43,6 +45,36 @@ class ModelInvalid(FMUError):
 
 #: fmi2StatusKind fmi2Terminated (FMI 2.0, 4.2.3)
 FMI2_TERMINATED = 3
+#: the largest fmi2Status that is not a failure (fmi2Warning)
+FMI2_WARNING = 1
+
+
+class Values:
+    """Real variables of one component exchanged in one FMI call: their value
+    references and a value buffer, as ctypes arrays made once (the hot path
+    calls FMPy's ctypes functions with them directly, without FMPy's
+    per-call list-to-array conversion)."""
+
+    __slots__ = ("inst", "n", "vr", "val")
+
+    def __init__(self, inst: "Instance", vrs):
+        self.inst, self.n = inst, len(vrs)
+        self.vr = (fmi2ValueReference * self.n)(*vrs)
+        self.val = (fmi2Real * self.n)()
+
+    def get(self) -> bool:
+        """fmi2GetReal of every variable into ``val``; False if it failed."""
+        inst = self.inst
+        return inst.f_get(inst.component, self.vr, self.n, self.val) <= FMI2_WARNING
+
+    def set(self) -> bool:
+        """fmi2SetReal of every variable from ``val``; False if it failed."""
+        inst = self.inst
+        return inst.f_set(inst.component, self.vr, self.n, self.val) <= FMI2_WARNING
+
+
+def _raise(exc: Exception):
+    raise exc
 
 
 class Instance:
@@ -68,6 +100,12 @@ class Instance:
                              modelIdentifier=self.md.coSimulation.modelIdentifier,
                              instanceName=name)
         self.fmu.instantiate(callbacks=self._callbacks, loggingOn=False)
+        # FMPy's ctypes functions, called directly on the hot path (Values, System.do_step)
+        f = self.fmu._functions
+        self.component = self.fmu.component
+        self.f_get, self.f_set = f["fmi2GetReal"], f["fmi2SetReal"]
+        self.f_do_step = f["fmi2DoStep"]
+        self.f_set_der = f["fmi2SetRealInputDerivatives"]
 
     def set(self, values: dict[str, float]) -> None:
         for var, value in values.items():
@@ -141,6 +179,20 @@ class System:
         self.into = {name: [i for i, c in enumerate(self.connections) if c.dst == name]
                      for name in scene.components}
         self.held = [0.0] * len(self.connections)   # the value each input holds now
+        self._gain = [c.gain for c in self.connections]
+        self._bias = [c.bias for c in self.connections]
+        #: value buffers of one connection's source and input (single-value calls)
+        self._src1 = [Values(self.instances[c.src], [self.instances[c.src].vr[c.src_var]])
+                      for c in self.connections]
+        self._dst1 = [Values(self.instances[c.dst], [self.instances[c.dst].vr[c.dst_var]])
+                      for c in self.connections]
+        self._plans: dict[tuple, list] = {}   # exchange(indices) -> its stages
+        self._der1: dict[tuple[int, int], tuple] = {}   # set_input_derivatives' arrays
+        self._watched: list[tuple[str, str]] = []
+        self._end: list[Values] = []          # read_end's calls, one per component
+        self._end_src: list[tuple[Values, int]] = []
+        self._end_rec: list[tuple[Values, int]] = []
+        self.watch([])
         self._initialize(t0, tolerance)
 
     def _initialize(self, t0: float, tolerance: float | None) -> None:
@@ -183,27 +235,151 @@ class System:
     # -- values -----------------------------------------------------------
     def source_value(self, i: int) -> float:
         """The value connection ``i`` would carry now (converted to the input's unit)."""
-        fmu, vr = self._src[i]
-        c = self.connections[i]
-        value = self._call(c.src, f"fmi2GetReal ({c.src_var}, for {c})", self.time[c.src],
-                           lambda: fmu.getReal([vr])[0])
-        return c.gain * value + c.bias
+        src = self._src1[i]
+        if not src.get():
+            c = self.connections[i]
+            fmu, vr = self._src[i]
+            self._call(c.src, f"fmi2GetReal ({c.src_var}, for {c})", self.time[c.src],
+                       lambda: fmu.getReal([vr])[0])    # fails again: FMUError naming it
+        return self._gain[i] * src.val[0] + self._bias[i]
 
     def exchange(self, indices, t: float, *, iterate=None) -> None:
         """Move values along connections ``indices`` in feedthrough order (each
         source is read after the inputs it depends on are set).  A loop among
         them is solved (all its connections) when ``iterate(block)`` is true
-        (default: always); otherwise its values are passed on once."""
+        (default: always); otherwise its values are passed on once.
+
+        The moves are made in stages (:meth:`_plan`): one fmi2GetReal per
+        source component, then one fmi2SetReal per receiving component.  A
+        stage ends before a read of a component that received an input in it,
+        so every FMU computes its outputs from the same inputs, in the same
+        order, as when each value is moved on its own (bit-identical results,
+        also for FMUs whose outputs depend on their history, e.g. a Newton
+        iteration started from its last solution)."""
+        key = tuple(indices)
+        plan = self._plans.get(key)
+        if plan is None:
+            plan = self._plans[key] = self._plan(key)
+        held, gain, bias = self.held, self._gain, self._bias
+        for stage in plan:
+            if stage[0] == "loop":
+                block, mine = stage[1], stage[2]
+                if iterate is None or iterate(block):
+                    self.solve_loop(block, t)
+                else:
+                    self._move_one_by_one(mine, t)
+                continue
+            _, reads, writes, conns = stage
+            ok = True
+            for vals, pairs in reads:
+                if not vals.get():
+                    ok = False
+                    break
+                v = vals.val
+                for p, i in pairs:
+                    held[i] = gain[i] * v[p] + bias[i]
+            if ok:
+                for vals, pairs in writes:
+                    v = vals.val
+                    for p, i in pairs:
+                        v[p] = held[i]
+                    if not vals.set():
+                        ok = False
+                        break
+            if not ok:   # repeat one by one: the failing call raises FMUError naming it
+                self._move_one_by_one(conns, t)
+
+    def _move_one_by_one(self, conns, t: float) -> None:
+        for i in conns:
+            self.set_inputs([i], [self.source_value(i)], t)
+
+    def _plan(self, indices: tuple) -> list:
+        """The stages of exchange(indices): ("loop", block, its connections
+        among indices) or ("batch", reads, writes, connections) where reads
+        and writes are [(Values, [(position, connection)])], one per
+        component."""
         wanted = set(indices)
+        stages: list = []
+        run: list[int] = []
+
+        def close():
+            if run:
+                stages.append(("batch", self._group(run, "src"), self._group(run, "dst"),
+                               list(run)))
+                run.clear()
+
         for block, loop in zip(self.blocks, self.is_loop):
             mine = [i for i in block if i in wanted]
             if not mine:
                 continue
-            if loop and (iterate is None or iterate(block)):
-                self.solve_loop(block, t)
-            else:
-                for i in mine:
-                    self.set_inputs([i], [self.source_value(i)], t)
+            if loop:
+                close()
+                stages.append(("loop", block, mine))
+                continue
+            for i in mine:
+                if self.connections[i].src in {self.connections[j].dst for j in run}:
+                    close()
+                run.append(i)
+        close()
+        return stages
+
+    def _group(self, conns: list[int], side: str) -> list:
+        """[(Values, [(position, connection)])]: connections ``conns`` by their
+        ``side`` ("src" or "dst") component, in order."""
+        by: dict[str, list[int]] = {}
+        for i in conns:
+            by.setdefault(getattr(self.connections[i], side), []).append(i)
+        out = []
+        for name, group in by.items():
+            inst = self.instances[name]
+            var = "src_var" if side == "src" else "dst_var"
+            vals = Values(inst, [inst.vr[getattr(self.connections[i], var)] for i in group])
+            out.append((vals, list(enumerate(group))))
+        return out
+
+    # -- the values at the end of a step ------------------------------------------
+    def watch(self, refs: list[tuple[str, str]]) -> None:
+        """Read the variables ``refs`` (component, variable) with the sources
+        in :meth:`read_end`: one fmi2GetReal per component after each step."""
+        self._watched = list(refs)
+        names: dict[str, list[int]] = {}
+        src_pos, rec_pos = [], []
+        for i, c in enumerate(self.connections):
+            vrs = names.setdefault(c.src, [])
+            src_pos.append((c.src, len(vrs)))
+            vrs.append(self.instances[c.src].vr[c.src_var])
+        for c, v in self._watched:
+            vrs = names.setdefault(c, [])
+            rec_pos.append((c, len(vrs)))
+            vrs.append(self.instances[c].vr[v])
+        vals = {n: Values(self.instances[n], vrs) for n, vrs in names.items()}
+        self._end = list(vals.values())
+        self._end_src = [(vals[n], p) for n, p in src_pos]
+        self._end_rec = [(vals[n], p) for n, p in rec_pos]
+        self.end_fresh = False
+
+    def read_end(self) -> bool:
+        """Read every source and watched variable now (after a step), one
+        fmi2GetReal per component; False if a read failed (then read them one
+        by one, :meth:`source_value` and :meth:`get`, to name the failure)."""
+        for vals in self._end:
+            if not vals.get():
+                self.end_fresh = False
+                return False
+        self.end_fresh = True
+        return True
+
+    def end_source(self, i: int) -> float:
+        """Connection ``i``'s source value at the last :meth:`read_end`."""
+        vals, p = self._end_src[i]
+        return self._gain[i] * vals.val[p] + self._bias[i]
+
+    def recorded(self, refs: list[tuple[str, str]]) -> list[float]:
+        """The values of ``refs`` now: from the last read_end when it is of
+        this state and ``refs`` are the watched ones, else :meth:`get`."""
+        if self.end_fresh and refs == self._watched:
+            return [vals.val[p] for vals, p in self._end_rec]
+        return self.get(refs)
 
     def loop_name(self, block) -> str:
         return "; ".join(str(self.connections[i]) for i in block)
@@ -251,20 +427,34 @@ class System:
     def set_inputs(self, indices, values, t: float) -> None:
         """Set the inputs of connections ``indices`` to ``values``."""
         for i, value in zip(indices, values):
-            fmu, vr = self._dst[i]
-            self._call(self.connections[i].dst, "fmi2SetReal (input)", t,
-                       lambda: fmu.setReal([vr], [value]))
+            dst = self._dst1[i]
+            dst.val[0] = value
+            if not dst.set():
+                fmu, vr = self._dst[i]
+                self._call(self.connections[i].dst, "fmi2SetReal (input)", t,
+                           lambda: fmu.setReal([vr], [value]))   # fails again: FMUError
             self.held[i] = value
 
     def set_input_derivatives(self, i: int, derivatives: list[float], t: float) -> None:
         """Set the derivatives (orders 1, 2, ...) of connection ``i``'s input."""
         if not derivatives:
             return
-        fmu, vr = self._dst[i]
         n = len(derivatives)
-        self._call(self.connections[i].dst, "fmi2SetRealInputDerivatives", t,
-                   lambda: fmu.setRealInputDerivatives([vr] * n, list(range(1, n + 1)),
-                                                       derivatives))
+        arrays = self._der1.get((i, n))
+        if arrays is None:
+            vr = self._dst[i][1]
+            arrays = self._der1[i, n] = ((fmi2ValueReference * n)(*([vr] * n)),
+                                         (fmi2Integer * n)(*range(1, n + 1)),
+                                         (fmi2Real * n)())
+        vrs, orders, values = arrays
+        for m, d in enumerate(derivatives):
+            values[m] = d
+        inst = self._dst1[i].inst
+        if inst.f_set_der(inst.component, vrs, n, orders, values) > FMI2_WARNING:
+            fmu, vr = self._dst[i]
+            self._call(self.connections[i].dst, "fmi2SetRealInputDerivatives", t,
+                       lambda: fmu.setRealInputDerivatives([vr] * n, list(range(1, n + 1)),
+                                                           derivatives))   # fails again
 
     def get(self, refs: list[tuple[str, str]]) -> list[float]:
         """The values of variables ``refs`` (component, variable) now."""
@@ -278,8 +468,12 @@ class System:
     # -- stepping and states --------------------------------------------------
     def do_step(self, name: str, t: float, h: float) -> None:
         inst = self.instances[name]
+        self.end_fresh = False
+        status = inst.f_do_step(inst.component, t, h, fmi2True)
         try:
-            self._call(name, f"fmi2DoStep (h = {h:.6g} s)", t, lambda: inst.fmu.doStep(t, h))
+            if status > FMI2_WARNING:
+                self._call(name, f"fmi2DoStep (h = {h:.6g} s)", t, lambda: _raise(
+                    FMICallException(function="fmi2DoStep", status=status)))
         except FMUError as exc:
             if self._terminated(name):
                 raise ModelInvalid(f"{exc} [fmi2Terminated: the model is not valid beyond "
@@ -299,6 +493,7 @@ class System:
                        lambda: self.instances[n].fmu.setFMUState(s))
         self.held = list(held)
         self.time = dict(self._saved_time)
+        self.end_fresh = False
 
     def free_states(self, states: dict) -> None:
         for n, s in states.items():
