@@ -4,6 +4,9 @@
 #ifndef LF_INTERNAL_H
 #define LF_INTERNAL_H
 
+#include <math.h>
+#include <stddef.h>
+
 #include "lf_runtime.h"
 #include "lf_step.h"
 
@@ -13,7 +16,12 @@
  * p, q and the delayed values at t; index of the first non-finite value. */
 LfStatus lf_eval_fn(LfInstance *c, int fn, double t, const double *x, const double *w,
                     double *out0, double *out1, double *out2);
-int lf_first_nonfinite(const double *v, size_t n);
+static inline int lf_first_nonfinite(const double *v, size_t n) {
+    size_t i;
+    for (i = 0; i < n; i++)
+        if (!isfinite(v[i])) return (int)i;
+    return -1;
+}
 /* before the solver starts: states and modes initialization starts from */
 LfStatus lf_prepare_initial(LfInstance *c);
 

@@ -124,6 +124,7 @@ LfInstance *lf_instantiate(const char *name, LfLogFn log, void *log_env,
 static LfStatus fold_parameters(LfInstance *c) {
     int i, bad;
     for (i = 0; i < 10; i++) c->arg[i] = NULL; /* pre reads p only */
+    c->args_set = 0;
     c->arg[4] = &c->r[LF_VR_P0];
     c->res[0] = c->k;
     if (lf_model.fn[LF_FN_PRE].eval(c->arg, c->res, c->iw, c->w, 0)) return LF_ERROR;
@@ -147,28 +148,29 @@ LfStatus lf_eval_fn(LfInstance *c, int fn, double t, const double *x, const doub
     if (LF_NK > 0 && c->k_stale && fold_parameters(c) != LF_OK) return LF_ERROR;
     if (LF_ND > 0 && fn != LF_FN_HIST && fn != LF_FN_TAU && lf_delayed_values(c, t, x) != LF_OK)
         return LF_ERROR;
-    lf_inputs_at(c, t, &u, &u_rate);
-    c->arg[6] = c->dval;
+    if (!c->args_set) { /* the arguments at fixed places, once (fold_parameters clears them) */
+        c->arg[4] = &c->r[LF_VR_P0];
+        c->arg[5] = c->q;
+        c->arg[6] = c->dval;
+        c->arg[8] = c->d_rate;
+        c->arg[9] = c->k;
+        c->args_set = 1;
+    }
+    if (c->u_poly) {
+        lf_inputs_at(c, t, &u, &u_rate);
+    } else { /* held: lf_inputs_at's own answer, without the call */
+        u = &c->r[LF_VR_U0];
+        u_rate = c->u_zero;
+    }
     c->arg[0] = &t;
     c->arg[1] = x;
     c->arg[2] = w;
     c->arg[3] = u;
-    c->arg[4] = &c->r[LF_VR_P0];
-    c->arg[5] = c->q;
     c->arg[7] = u_rate;
-    c->arg[8] = c->d_rate;
-    c->arg[9] = c->k;
     c->res[0] = out0; /* functions with fewer outputs do not read the rest */
     c->res[1] = out1;
     c->res[2] = out2;
     return lf_model.fn[fn].eval(c->arg, c->res, c->iw, c->w, 0) ? LF_ERROR : LF_OK;
-}
-
-int lf_first_nonfinite(const double *v, size_t n) {
-    size_t i;
-    for (i = 0; i < n; i++)
-        if (!isfinite(v[i])) return (int)i;
-    return -1;
 }
 
 /* Before the solver starts, the states and modes read (and the outputs

@@ -23,6 +23,8 @@ enum { LF_DELAY_HERMITE = 1, LF_DELAY_LINEAR = 2 };
  * the solver's dense output: without them the solver need not prepare it
  * (LfSolver.dense_unused, set wherever the runtime makes its solver). */
 #define LF_DENSE_UNUSED (LF_NE == 0 && LF_NV == 0 && LF_ND == 0)
+/* lf_rhs returns LF_OK with finite values only (lf_solve_w checks w):
+ * LfSolver.rhs_finite, set with dense_unused */
 
 /* FMI interface states, as bits so that each call can check a mask. */
 typedef enum {
@@ -167,6 +169,10 @@ typedef struct {
     unsigned long wk_g;             /* explicit models: w_cur is w of (wk_t, wk_x) */
     double wk_t;
     double wk_x[LF_DIM(LF_NX)];
+    /* the states at vld_t where vld_v were found (lf_validity.c: a step
+     * starting there with nothing changed takes them) */
+    double vld_x[LF_DIM(LF_NX)];
+    int args_set;                   /* arg[4..6, 8, 9] point at p, q, d, d_rate, k */
     /* -- model exchange -- */
     /* -- FMI 3.0 facade -- */
     /* -- solvers and statistics -- */

@@ -70,6 +70,11 @@ typedef struct {
      * `dense` is never called, and a method may skip preparing its
      * interpolant (dopri5 does).  A setting of the caller, not solver state. */
     int dense_unused;
+    /* Set by the caller after lf_solver_init (0 there): 1 promises that
+     * ode.rhs returns LF_OK only with finite values (the runtime's does:
+     * it checks the unknowns it solves), so the results need no check
+     * here.  A setting of the caller, not solver state. */
+    int rhs_finite;
 } LfSolver;
 
 typedef struct LfMethod {

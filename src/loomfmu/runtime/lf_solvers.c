@@ -67,7 +67,8 @@ LfStatus lf_sv_eval_rhs(LfSolver *s, double t, const double *x, double *dx) {
     if (!lf_sv_all_finite(x, n)) return LF_DISCARD;
     s->n_rhs++;
     st = s->ode.rhs(s->ode.ctx, t, x, dx);
-    if (st == LF_OK || st == LF_WARNING) return lf_sv_all_finite(dx, n) ? LF_OK : LF_DISCARD;
+    if (st == LF_OK || st == LF_WARNING)
+        return s->rhs_finite || lf_sv_all_finite(dx, n) ? LF_OK : LF_DISCARD;
     if (st == LF_DISCARD) return LF_DISCARD;
     return st == LF_FATAL ? LF_FATAL : LF_ERROR;
 }
@@ -79,7 +80,8 @@ double lf_sv_err_norm(const LfSolver *s, const double *err, const double *y0,
     double sum = 0.0;
     if (n == 0) return 0.0;
     for (i = 0; i < n; i++) {
-        double sk = s->opt.atol + s->opt.rtol * fmax(fabs(y0[i]), fabs(y1[i]));
+        double a0 = fabs(y0[i]), a1 = fabs(y1[i]); /* fmax(a0, a1) (a library call) */
+        double sk = s->opt.atol + s->opt.rtol * (a1 != a1 || a0 > a1 ? a0 : a1);
         double q = err[i] / sk;
         sum += q * q;
     }

@@ -461,6 +461,7 @@ static void apply_solver(LfSolver *s, const LfStateValues *v, const double *work
     s->n_lu = v->s_lu;
     s->message[0] = '\0';
     s->dense_unused = LF_DENSE_UNUSED;
+    s->rhs_finite = 1;
 }
 
 static void apply_values(LfInstance *c, const LfStateValues *v, const double *hist) {
@@ -468,6 +469,7 @@ static void apply_values(LfInstance *c, const LfStateValues *v, const double *hi
     long i;
     memcpy(c->r, v->r, sizeof v->r);
     c->k_stale = 1; /* k is a function of the parameters just restored (parameter folding) */
+    c->vld_t = NAN; /* the validity conditions kept are this instance's, not the state's */
     memcpy(c->q, v->q, sizeof v->q);
     memcpy(c->w_cur, v->w_cur, sizeof v->w_cur);
     memcpy(c->e_old, v->e_old, sizeof v->e_old);

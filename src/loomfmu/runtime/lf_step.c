@@ -72,6 +72,7 @@ LfStatus lf_initialize(LfInstance *c) {
         return LF_ERROR;
     }
     c->solver.dense_unused = LF_DENSE_UNUSED;
+    c->solver.rhs_finite = 1;
     c->solver_ready = 1;
     c->kb_ready = 0;
     c->kb_index = -1;
@@ -225,6 +226,7 @@ static LfStatus restart_for_inputs(LfInstance *c, const char **what) {
     }
     c->inputs_changed = 0;
     c->kb_ready = 0; /* the clock states' rates may change with the inputs */
+    c->vld_t = NAN;  /* and the validity conditions */
     lf_inputs_seen(c);
     return LF_OK;
 }

@@ -76,16 +76,26 @@ static LfStatus end_at(LfInstance *c, double t_ok, const double *x_ok, int k, do
     return violated(c, k, value, t_bad, t_ok, where);
 }
 
+/* the conditions vld_v hold at (t, x) */
+static void keep(LfInstance *c, double t, const double *x, const double *v) {
+    c->vld_t = t;
+    memcpy(c->vld_x, x, sizeof(double) * LF_NX);
+    memcpy(c->vld_v, v, sizeof(double) * LF_NV);
+}
+
 LfStatus lf_validity_at_start(LfInstance *c) {
     double v[LF_DIM(LF_NV)];
     int bad;
     LfStatus st;
     if (LF_NV == 0) return LF_OK;
+    /* the last step ended here and held them: nothing changed since (a
+     * change of the inputs, a restored state or a reset clears vld_t) */
+    if (c->vld_t == c->solver.t && memcmp(c->vld_x, c->solver.x, sizeof(double) * LF_NX) == 0)
+        return LF_OK;
     st = eval_validity(c, c->solver.t, c->solver.x, v, &bad);
     if (st != LF_OK) return st;
     if (bad < 0) {
-        c->vld_t = c->solver.t;
-        memcpy(c->vld_v, v, sizeof v);
+        keep(c, c->solver.t, c->solver.x, v);
         return LF_OK;
     }
     return violated(c, bad, v[bad], c->solver.t, c->solver.t,
@@ -101,8 +111,7 @@ LfStatus lf_validity_restart(LfInstance *c, double t_ok, const double *x_ok,
     st = eval_validity(c, c->solver.t, c->solver.x, v, &bad);
     if (st != LF_OK) return st;
     if (bad < 0) {
-        c->vld_t = c->solver.t;
-        memcpy(c->vld_v, v, sizeof v);
+        keep(c, c->solver.t, c->solver.x, v);
         return LF_OK;
     }
     if (LF_NQ > 0) { /* the modes before */
@@ -195,8 +204,7 @@ LfStatus lf_check_validity(LfInstance *c) {
     st = scan(c, s->t_old, va, s->t, vb, 0, &sc);
     if (st != LF_OK) return st;
     if (!sc.found) {
-        c->vld_t = s->t;
-        memcpy(c->vld_v, vb, sizeof vb);
+        keep(c, s->t, s->x, vb);
         /* the next step resolves the conditions (at most 4 times shorter) */
         if (s->h > sc.h_bound) s->h = fmax(sc.h_bound, 0.25 * h);
         return LF_OK;
