@@ -7,6 +7,7 @@
 #include "lf_solver.h"
 
 #include <float.h>
+#include <math.h>
 
 #define LF_UROUND DBL_EPSILON
 /* Give up a single step after this many failed attempts (guards against
@@ -28,8 +29,20 @@ void lf_sv_set_msg(LfSolver *s, const char *fmt, ...);
 int lf_sv_all_finite(const double *v, size_t n);
 void lf_sv_copy_vec(double *dst, const double *src, size_t n);
 /* f at (t, x): LF_OK only with finite values; LF_DISCARD for non-finite
- * arguments/results or an f that reports LF_DISCARD; errors passed through */
-LfStatus lf_sv_eval_rhs(LfSolver *s, double t, const double *x, double *dx);
+ * arguments/results or an f that reports LF_DISCARD; errors passed through.
+ * Inline: every stage of every method calls it. */
+static inline LfStatus lf_sv_eval_rhs(LfSolver *s, double t, const double *x, double *dx) {
+    LfStatus st;
+    size_t i, n = s->ode.n;
+    for (i = 0; i < n; i++)
+        if (!isfinite(x[i])) return LF_DISCARD;
+    s->n_rhs++;
+    st = s->ode.rhs(s->ode.ctx, t, x, dx);
+    if (st == LF_OK || st == LF_WARNING)
+        return s->rhs_finite || lf_sv_all_finite(dx, n) ? LF_OK : LF_DISCARD;
+    if (st == LF_DISCARD) return LF_DISCARD;
+    return st == LF_FATAL ? LF_FATAL : LF_ERROR;
+}
 /* Hairer's weighted RMS norm of err, scale atol + rtol max(|y0|, |y1|) */
 double lf_sv_err_norm(const LfSolver *s, const double *err, const double *y0, const double *y1);
 /* automatic initial step (Hairer's HINIT); f0 = f(t, x), y1, f1 scratch */

@@ -58,20 +58,7 @@ void lf_sv_copy_vec(double *dst, const double *src, size_t n) {
     if (n) memmove(dst, src, n * sizeof(double));
 }
 
-/* Evaluate f; LF_OK only if f succeeded with finite values.  LF_DISCARD for
- * a non-finite argument/result or an f that reports LF_DISCARD; LF_ERROR or
- * LF_FATAL are passed through. */
-LfStatus lf_sv_eval_rhs(LfSolver *s, double t, const double *x, double *dx) {
-    LfStatus st;
-    size_t n = s->ode.n;
-    if (!lf_sv_all_finite(x, n)) return LF_DISCARD;
-    s->n_rhs++;
-    st = s->ode.rhs(s->ode.ctx, t, x, dx);
-    if (st == LF_OK || st == LF_WARNING)
-        return s->rhs_finite || lf_sv_all_finite(dx, n) ? LF_OK : LF_DISCARD;
-    if (st == LF_DISCARD) return LF_DISCARD;
-    return st == LF_FATAL ? LF_FATAL : LF_ERROR;
-}
+/* (lf_sv_eval_rhs: inline in lf_solver_impl.h, called at every stage) */
 
 /* Hairer's weighted RMS norm of err with scale atol + rtol*max(|y0|,|y1|). */
 double lf_sv_err_norm(const LfSolver *s, const double *err, const double *y0,

@@ -110,7 +110,7 @@ LfStatus lf_check_step(LfInstance *c, double t0, double h) {
                t0 + h, c->t_stop);
         return LF_ERROR;
     }
-    if (fabs(t0 - c->t) > 1e-9 * fmax(1.0, fabs(c->t))) {
+    if (fabs(t0 - c->t) > 1e-9 * (fabs(c->t) > 1.0 ? fabs(c->t) : 1.0)) { /* no fmax call */
         lf_log(c, LF_ERROR, LF_LOG_ERROR,
                "fmi2DoStep: currentCommunicationPoint = %.17g, expected %.17g", t0, c->t);
         return LF_ERROR;
