@@ -164,7 +164,7 @@ def _run(path, solver, comm):
     return sw, np.array(ys)
 
 
-@pytest.mark.parametrize("solver", [1, 2, 3])
+@pytest.mark.parametrize("solver", [1, 2, 3, 4])
 @pytest.mark.parametrize("comm", [0.1, 0.01])
 def test_fmu_matches_reference_switches_and_trajectories(backrest_fmu, ref, solver, comm):
     assert len(ref.switches) > 10  # the scene is genuinely stick-slip

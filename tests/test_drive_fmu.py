@@ -48,7 +48,7 @@ def _step_response(path, slave_factory, solver, tau, U=0.5, t_end=5.0, comm=0.01
     return err
 
 
-@pytest.mark.parametrize("solver", [1, 2, 3])
+@pytest.mark.parametrize("solver", [1, 2, 3, 4])
 @pytest.mark.parametrize("tau", [0.5, 0.37, 0.0])
 def test_step_response_is_exact(drive_fmu, slave_factory, solver, tau):
     """T n' + n = K u(t - tau): n = n_min + K U (1 - exp(-(t - tau)/T)) after tau;
@@ -155,7 +155,7 @@ def _late_step(path, slave_factory, solver, tau, t_s, comm, h_fixed=1e-3, U=1.0,
     return err
 
 
-@pytest.mark.parametrize("solver", [1, 2, 3])
+@pytest.mark.parametrize("solver", [1, 2, 3, 4])
 @pytest.mark.parametrize("tau,t_s,comm", [(0.5, 1.0, 0.01), (0.37, 1.25, 0.05),
                                           (0.5, 0.5, 0.1)])
 def test_input_step_after_the_start_reaches_the_lag_tau_later(drive_fmu, slave_factory,

@@ -82,7 +82,7 @@ def _rel(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.nanmax(np.abs(a - b) / np.maximum(1.0, np.abs(b))))
 
 
-@pytest.mark.parametrize("solver", [1, 2, 3])
+@pytest.mark.parametrize("solver", [1, 2, 3, 4])
 @pytest.mark.parametrize("mode", ["early", "lazy", "state"])
 def test_backrest_early_returns_follow_the_in_step_trajectory(backrest_driver, solver, mode):
     """Backrest stick-slip (16 switches in 1 s): with early return every

@@ -28,7 +28,7 @@ def touch_fmu(request, tmp_path_factory):
                            validate=False).path
 
 
-@pytest.mark.parametrize("solver", [1, 2, 3])
+@pytest.mark.parametrize("solver", [1, 2, 3, 4])
 def test_touching_indicator_keeps_the_trajectory(touch_fmu, slave_factory, solver):
     """(t - root)^2 reaches 0 at a communication point (root 1.0: the step
     end sees e = 0, which counts as a sign change) or inside a step (0.6).

@@ -86,7 +86,7 @@ def test_belt_fmu_validates(belt_fmu):
     assert belt_fmu.problems == []
 
 
-@pytest.mark.parametrize("solver", [1, 2, 3])
+@pytest.mark.parametrize("solver", [1, 2, 3, 4])
 @pytest.mark.parametrize("comm_step", [0.1, 0.013])
 def test_switch_times_match_the_closed_form(belt_fmu, solver, comm_step):
     exact = exact_switches(2.0)

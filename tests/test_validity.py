@@ -45,7 +45,7 @@ def fmus(tmp_path_factory):
             for r in (True, False)}
 
 
-@pytest.mark.parametrize("solver", [1, 2, 3])
+@pytest.mark.parametrize("solver", [1, 2, 3, 4])
 def test_discard_at_the_crossing(fmus, slave_factory, solver):
     """The step that crosses ends at the crossing (to 1e-9 s with dopri5 and
     rodas4 at rtol 1e-10; rk4 to its fixed step's accuracy), fmi2Discard,
@@ -225,7 +225,7 @@ def test_failure_in_a_step_that_ends_at_an_event(more_fmus, slave_factory, solve
     assert all(abs(t - T_STAR) < 1e-9 for t in found.values()), found
 
 
-@pytest.mark.parametrize("solver", [1, 2, 3])
+@pytest.mark.parametrize("solver", [1, 2, 3, 4])
 def test_a_dip_shorter_than_the_step_is_found(more_fmus, slave_factory, solver):
     """The state is constant (zero error estimate: steps of up to 10 s), the
     condition dips below zero for 0.089 s.  Sampling each step at its
@@ -243,7 +243,7 @@ def test_a_dip_shorter_than_the_step_is_found(more_fmus, slave_factory, solver):
     assert all(abs(t - T_DIP) < 1e-9 for t in found.values()), found
 
 
-@pytest.mark.parametrize("solver", [1, 2, 3])
+@pytest.mark.parametrize("solver", [1, 2, 3, 4])
 def test_a_condition_that_fails_across_an_event(more_fmus, slave_factory, solver):
     """The condition jumps from 1 to -1 where the mode changes at an event:
     the step ends at the last point before the event, with the mode and
