@@ -16,7 +16,8 @@ from scipy.optimize import brentq
 from loomfmu.declare import Model
 from loomfmu.scene import Scene, run
 from loomfmu.scene import two_mass as tm
-from loomfmu.scene.extrapolation import History, shift, taylor, value
+from loomfmu.scene.extrapolation import (History, shift, shift_rows, taylor, taylor_many,
+                                         value)
 from loomfmu.scene.fmus import build_fmus
 from loomfmu.scene.system import FMUError
 
@@ -326,6 +327,66 @@ def test_taylor_coefficients_of_the_extrapolation():
     hist.discard()
     c = hist.coefficients(0, 0.05, 2.0, 0.05, 1)
     assert np.allclose(c, [2.0, 20.0])
+
+
+def test_the_masters_row_at_a_time_polynomials_are_those_of_taylor_and_shift_bit_for_bit():
+    """The master fits all connections sampled at the same times in one call
+    (taylor_many) and moves their polynomials together (shift_rows): the
+    numbers must be those of taylor and shift exactly, not to rounding."""
+    rng = np.random.default_rng(7)
+    for order in (1, 2):
+        for n_samples in range(1, order + 2):
+            for _ in range(50):
+                h = 10.0 ** rng.uniform(-6, 0)
+                t = rng.uniform(0, 10)
+                taus = [((j - n_samples + 1) * h + t) - t for j in range(n_samples)]
+                rows = rng.normal(size=(4, n_samples)) * 10.0 ** rng.uniform(-3, 3)
+                many = taylor_many(taus, rows.tolist(), order)
+                for row, got in zip(rows, many):
+                    want = taylor(taus, row, order)
+                    assert np.array_equal(np.array(got), want), (got, want)
+                s = rng.uniform(0, 2) * h
+                for row, got in zip(many, shift_rows(many, s)):
+                    assert np.array_equal(np.array(got), shift(row, s))
+                    assert got[0] == value(row, s)
+    with raises(r"taylor_many: 3 samples for order 1"):
+        taylor_many([-2.0, -1.0, 0.0], [[1.0, 2.0, 3.0]], 1)
+
+
+def test_a_step_makes_one_fmi_call_per_component_and_direction(loop_fmus, monkeypatch):
+    """FMI calls counted at FMPy's ctypes functions (the FMUs' own): a loop-free
+    scene of two FMUs, three connections, moves its values with one
+    fmi2GetReal per source component and one fmi2SetReal per receiving
+    component per stage, and reads every source and recorded variable once
+    per component after the step."""
+    from fmpy.fmi2 import FMU2Slave
+    counts: dict[str, int] = {}
+    load = FMU2Slave._loadFunctions
+
+    def counting(slave):
+        load(slave)
+        for name, fn in list(slave._functions.items()):
+            def call(*args, _fn=fn, _name=name):
+                counts[_name] = counts.get(_name, 0) + 1
+                return _fn(*args)
+            call.argtypes, call.restype = fn.argtypes, fn.restype
+            call.argnames = getattr(fn, "argnames", None)
+            slave._functions[name] = call
+    monkeypatch.setattr(FMU2Slave, "_loadFunctions", counting)
+    s = Scene("chain", stop_time=0.3, step=0.05)      # z is valid up to 0.37 s
+    s.add("a", fmu=loop_fmus["a"])          # y = x + G u (feedthrough)
+    s.add("z", fmu=loop_fmus["inv"])        # y = time left (no input)
+    s.connect("z.y", "a.u")
+    s.record("a.x", "a.y", "z.y")
+    res = {}
+    for stop in (0.1, 0.3):
+        counts.clear()
+        run(s, fmus={"a": loop_fmus["a"], "z": loop_fmus["inv"]}, stop=stop)
+        res[stop] = dict(counts)
+    per_step = {k: (res[0.3].get(k, 0) - res[0.1].get(k, 0)) / 4 for k in res[0.3]}
+    # z.y -> a.u: one read of z, one set of a; after the step one read of each
+    assert per_step["fmi2GetReal"] == 3 and per_step["fmi2SetReal"] == 1, per_step
+    assert per_step["fmi2DoStep"] == 2, per_step
 
 
 # -- extrapolation on the two-mass benchmark ----------------------------------------

@@ -52,6 +52,48 @@ def taylor(taus, values, order: int) -> np.ndarray:
     return out
 
 
+def taylor_many(taus, values, order: int) -> list[list[float]]:
+    """``taylor(taus, values[r], order)`` for every row r of ``values`` (the
+    rows sampled at the same times), bit for bit: the same matrix (built on
+    Python floats: the same IEEE operations and libm pow as numpy's float64
+    scalars), and one LAPACK solve per row on the same numbers (a stacked
+    np.linalg.solve)."""
+    taus = [float(x) for x in taus]
+    k = len(taus) - 1
+    if k > order or k < 0 or any(len(v) != k + 1 for v in values):
+        raise ValueError(f"taylor_many: {len(taus)} samples for order {order}; allowed: 1 "
+                         f"to {order + 1} samples, and as many values in every row")
+    scale = max(abs(x) for x in taus) or 1.0
+    facts = [math.factorial(m) for m in range(k + 1)]
+    V = np.array([[(x / scale)**m / facts[m] for m in range(k + 1)] for x in taus])
+    n = len(values)
+    c = np.linalg.solve(np.broadcast_to(V, (n, k + 1, k + 1)),
+                        np.asarray(values, dtype=float)[:, :, None])[:, :, 0].tolist()
+    scales = [scale**m for m in range(k + 1)]
+    pad = [0.0] * (order - k)
+    return [[cm / sm for cm, sm in zip(row, scales)] + pad for row in c]
+
+
+def shift_rows(rows: list[list[float]], s: float) -> list[list[float]]:
+    """``shift(row, s)`` for every row, bit for bit (the same products,
+    quotients and sums in the same order, on Python floats: the same IEEE
+    operations as numpy's float64, without its per-call cost on a few
+    numbers)."""
+    n = len(rows[0]) if rows else 0
+    powers = [s**j for j in range(n)]
+    facts = [math.factorial(j) for j in range(n)]
+    out = []
+    for c in rows:
+        row = []
+        for m in range(n):
+            acc = 0
+            for j in range(n - m):
+                acc = acc + c[m + j] * powers[j] / facts[j]
+            row.append(acc)
+        out.append(row)
+    return out
+
+
 def shift(c, s: float) -> np.ndarray:
     """The Taylor coefficients ``c`` (derivatives at 0) moved to s: the
     derivatives at s of the same polynomial."""
@@ -79,11 +121,18 @@ class History:
         """The input's Taylor coefficients at ``t`` (order + 1 numbers) from
         connection ``i``'s accepted samples before ``ts`` and the newest
         sample y at ts (which joins the history when the step is accepted)."""
+        taus, values = self.points(i, ts, y, t, order)
+        return taylor(list(taus), values, order)
+
+    def points(self, i: int, ts: float, y: float, t: float, order: int
+               ) -> tuple[tuple[float, ...], list[float]]:
+        """The samples :meth:`coefficients` fits: their times relative to t
+        and their values (the newest, y at ts, is kept pending)."""
         self.pending[i] = (ts, y)
         tol = 1e-12 * max(1.0, abs(ts))
         past = [s for s in self.samples[i] if s[0] < ts - tol][-order:] if order else []
         pts = [*past, (ts, y)]
-        return taylor([tj - t for tj, _ in pts], [yj for _, yj in pts], order)
+        return tuple(tj - t for tj, _ in pts), [yj for _, yj in pts]
 
     def commit(self) -> None:
         for i, (ts, y) in self.pending.items():

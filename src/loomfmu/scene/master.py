@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .extrapolation import ORDERS, History, shift, value
+from .extrapolation import ORDERS, History, shift, shift_rows, taylor_many, value
 from .system import FMUError, ModelInvalid, System
 
 
@@ -93,7 +93,8 @@ class Master:
         n = len(system.connections)
         self._size = [abs(system.source_value(i)) for i in range(n)]
         self.history = History(n)
-        self._coef = [[0.0] * (extrapolation + 1) for _ in range(n)]
+        #: each input's polynomial: Taylor coefficients (rows) at _t0
+        self._C = [[0.0] * (extrapolation + 1) for _ in range(n)]
         self._t0 = [0.0] * n         # where each input's polynomial is expanded
         self._no_derivatives: set[int] = set()
         #: what the master changed on its own while running (e.g. a fallback)
@@ -125,17 +126,42 @@ class Master:
         k = self.extrapolation
         if not k:      # held: the error estimate reads system.held
             return
+        if self.output_derivatives:   # reads between the sets: one connection at a time
+            for i in indices:
+                self._set_one(i, t)
+            return
+        held, time, conns = system.held, system.time, system.connections
+        groups: dict[tuple, tuple[list[int], list]] = {}   # sample times -> rows
         for i in indices:
-            y = system.held[i]
-            c = system.connections[i]
-            ts = system.time[c.src]
-            coef = self._from_derivatives(i, ts, y, t) if self.output_derivatives else None
-            if coef is None:
-                coef = self.history.coefficients(i, ts, y, t, k)
-            if coef[0] != y:
-                system.set_inputs([i], [float(coef[0])], t)
-            system.set_input_derivatives(i, [float(x) for x in coef[1:]], t)
-            self._coef[i], self._t0[i] = list(coef), t
+            taus, values = self.history.points(i, time[conns[i].src], held[i], t, k)
+            rows = groups.setdefault(taus, ([], []))
+            rows[0].append(i)
+            rows[1].append(values)
+        coef, t0 = self._C, self._t0
+        for taus, (idx, values) in groups.items():
+            C = taylor_many(taus, values, k)
+            moved = []
+            for i, c in zip(idx, C):
+                coef[i], t0[i] = c, t
+                if c[0] != held[i]:
+                    moved.append(i)
+            if moved:
+                system.set_inputs_together(moved, [coef[i][0] for i in moved], t)
+            system.set_input_derivatives_together(idx, [c[1:] for c in C], t)
+
+    def _set_one(self, i: int, t: float) -> None:
+        """Connection ``i``'s polynomial over the step from t (output
+        derivatives, else its samples), set."""
+        system = self.system
+        y = system.held[i]
+        ts = system.time[system.connections[i].src]
+        coef = self._from_derivatives(i, ts, y, t)
+        if coef is None:
+            coef = self.history.coefficients(i, ts, y, t, self.extrapolation)
+        if coef[0] != y:
+            system.set_inputs([i], [float(coef[0])], t)
+        system.set_input_derivatives(i, [float(x) for x in coef[1:]], t)
+        self._C[i], self._t0[i] = [float(x) for x in coef], t
 
     def _from_derivatives(self, i: int, ts: float, y: float, t: float):
         """Taylor coefficients at t from the source's output derivatives at ts,
@@ -161,7 +187,7 @@ class Master:
 
     def _end_value(self, i: int, t_end: float) -> float:
         """Connection ``i``'s input at ``t_end`` (its polynomial)."""
-        return value(self._coef[i], t_end - self._t0[i])
+        return value(self._C[i], t_end - self._t0[i])
 
     def _stepped(self, name: str, t_end: float) -> None:
         """After component ``name`` stepped: its extrapolated inputs are set to
@@ -169,12 +195,17 @@ class Master:
         there), so an output with direct feedthrough, or an output derivative,
         read now is computed with the input the FMU had there (FMI 2.0 does
         not say what an FMU's input is after fmi2DoStep)."""
-        if not self.extrapolation:
+        idx = self.system.into[name]
+        if not self.extrapolation or not idx:
             return
-        for i in self.system.into[name]:
-            c = shift(self._coef[i], t_end - self._t0[i])
-            self.system.set_inputs([i], [float(c[0])], t_end)
-            self.system.set_input_derivatives(i, [float(x) for x in c[1:]], t_end)
+        coef, t0 = self._C, self._t0
+        s = {t_end - t0[i] for i in idx}
+        if len(s) == 1:
+            C = shift_rows([coef[i] for i in idx], s.pop())
+        else:
+            C = [shift_rows([coef[i]], t_end - t0[i])[0] for i in idx]
+        self.system.set_inputs_together(idx, [c[0] for c in C], t_end)
+        self.system.set_input_derivatives_together(idx, [c[1:] for c in C], t_end)
 
     def _advance(self, t: float, h: float) -> None:
         """Exchange values and step every FMU from t to t + h."""

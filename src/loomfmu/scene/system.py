@@ -12,6 +12,13 @@ variable; the loop's last solution is the first guess), or by relaxed
 fixed-point iteration u <- u + w (G(u) - u).  Converged when every
 |G(u) - u| <= loop_atol + loop_rtol |u|; after loop_max_iter iterations
 FMUError names the loop, the time and the residual.
+
+Cost: the hot path calls FMPy's ctypes functions (``FMU2Slave._functions``)
+directly with ctypes arrays made once (:class:`Values`), and moves values in
+stages of one fmi2GetReal per source component and one fmi2SetReal per
+receiving component (:meth:`System.exchange`); a failed call is repeated one
+value at a time through :meth:`System._call`, so the error still names the
+component, the call, the variable, the time and the FMU's last log line.
 """
 from __future__ import annotations
 
@@ -188,6 +195,7 @@ class System:
                       for c in self.connections]
         self._plans: dict[tuple, list] = {}   # exchange(indices) -> its stages
         self._der1: dict[tuple[int, int], tuple] = {}   # set_input_derivatives' arrays
+        self._der_calls: dict[tuple, list] = {}   # set_input_derivatives_together's
         self._watched: list[tuple[str, str]] = []
         self._end: list[Values] = []          # read_end's calls, one per component
         self._end_src: list[tuple[Values, int]] = []
@@ -434,6 +442,61 @@ class System:
                 self._call(self.connections[i].dst, "fmi2SetReal (input)", t,
                            lambda: fmu.setReal([vr], [value]))   # fails again: FMUError
             self.held[i] = value
+
+    def set_inputs_together(self, indices: list[int], values: list[float], t: float) -> None:
+        """set_inputs(indices, values, t) with one fmi2SetReal per receiving
+        component (each input's value set before its derivatives, as one
+        by one; a failed call is repeated one by one to name it)."""
+        by: dict[str, tuple[list[int], list[float]]] = {}
+        conns = self.connections
+        for i, v in zip(indices, values):
+            group = by.setdefault(conns[i].dst, ([], []))
+            group[0].append(i)
+            group[1].append(v)
+        held = self.held
+        for name, (idx, vals) in by.items():
+            inst = self.instances[name]
+            n = len(idx)
+            vr = (fmi2ValueReference * n)(*[self._dst[i][1] for i in idx])
+            if inst.f_set(inst.component, vr, n, (fmi2Real * n)(*vals)) > FMI2_WARNING:
+                self.set_inputs(idx, vals, t)
+                continue
+            for i, v in zip(idx, vals):
+                held[i] = v
+
+    def set_input_derivatives_together(self, indices: list[int], D: list[list[float]],
+                                       t: float) -> None:
+        """set_input_derivatives(i, D[r], t) for connection indices[r], with
+        one fmi2SetRealInputDerivatives per receiving component."""
+        k = len(D[0]) if D else 0
+        if not k:
+            return
+        key = (tuple(indices), k)
+        calls = self._der_calls.get(key)
+        if calls is None:
+            calls = self._der_calls[key] = self._derivative_calls(list(indices), k)
+        for inst, rows, vrs, orders, values, n in calls:
+            p = 0
+            for r in rows:
+                for x in D[r]:
+                    values[p] = x
+                    p += 1
+            if inst.f_set_der(inst.component, vrs, n, orders, values) > FMI2_WARNING:
+                for r in rows:
+                    self.set_input_derivatives(indices[r], list(D[r]), t)
+
+    def _derivative_calls(self, indices: list[int], k: int) -> list:
+        by: dict[str, list[int]] = {}
+        for r, i in enumerate(indices):
+            by.setdefault(self.connections[i].dst, []).append(r)
+        calls = []
+        for name, rows in by.items():
+            n = len(rows) * k
+            vrs = [self._dst[indices[r]][1] for r in rows for _ in range(k)]
+            calls.append((self.instances[name], rows, (fmi2ValueReference * n)(*vrs),
+                          (fmi2Integer * n)(*(list(range(1, k + 1)) * len(rows))),
+                          (fmi2Real * n)(), n))
+        return calls
 
     def set_input_derivatives(self, i: int, derivatives: list[float], t: float) -> None:
         """Set the derivatives (orders 1, 2, ...) of connection ``i``'s input."""
