@@ -1,8 +1,9 @@
 """What is spent outside the FMU: FMPy's cost per doStep and per run, and
 what our scene master adds per communication step beyond the FMUs' doStep.
 
-    python benchmarks/master_overhead.py [--model heald_frame] [--repeats 5]
-        [--scene two_mass] [--masters jacobi gauss-seidel] [--out FILE.json]
+    python benchmarks/master_overhead.py [--model heald_frame] [--no-fmpy] [--repeats 5]
+        [--scene two_mass] [--masters jacobi gauss-seidel] [--extrapolation 0 2]
+        [--fmus FILE.json | --fmu-dir DIR] [--out FILE.json]
 
 1. FMPy.  The model's verification run (its default experiment, dopri5,
    rtol 1e-6) over fractions 1/8, 1/4, 1/2, 1 of its length, each run both
@@ -16,15 +17,22 @@ what our scene master adds per communication step beyond the FMUs' doStep.
 
 2. Our master.  The scene (default two_mass: two FMUs, force-displacement
    coupling) run by ``loomfmu.scene.run.run`` at its default step, over the
-   scene's length and a quarter of it; every FMI call FMPy makes for it is
-   timed and counted (the methods of fmpy.fmi2.FMU2Slave wrapped; the
-   wrapper's own cost, measured on an empty wrapped call, is taken off).
-   Per communication step (slope between the two lengths): the whole run,
-   the time inside fmi2DoStep calls (the FMUs' work plus FMPy's call
-   wrapping), inside the other FMI calls (values in and out), and the rest:
-   the master's own Python.  FMPy's cost per FMI call is measured on
-   ``getReal`` of one variable (whose C side is a copy).  The functions
-   where the master's time goes (cProfile, by own time) are printed.
+   scene's length and a quarter of it, for each master and extrapolation
+   order (``--extrapolation 0 2``).  Every FMI call is timed and counted at
+   two levels: FMPy's ctypes functions (``FMU2Slave._functions``, wrapped as
+   each FMU2Slave loads them: the FMU's C code and ctypes' argument
+   conversion) and FMPy's Python methods (``FMU2Slave.getReal`` etc., which
+   build ctypes arrays from lists and call the former).  The wrappers' own
+   cost, measured on empty calls, is taken off.  Per communication step
+   (slope between the two lengths): the whole run = fmi2DoStep (the FMUs'
+   work) + the other FMI functions + FMPy's Python methods + the rest, the
+   master's own Python.  A master that calls the ctypes functions directly
+   has no FMPy method time.  ``--fmus FILE.json`` (component -> FMU path)
+   runs two versions of the master on the same binaries, e.g. the old one
+   with ``PYTHONPATH=<old checkout>/src``.  FMPy's cost per FMI call is
+   measured on ``getReal`` of one variable (whose C side is a copy).  The
+   functions where the master's time goes (cProfile, by own time) are
+   printed.
 """
 from __future__ import annotations
 

@@ -65,10 +65,9 @@ def taylor_many(taus, values, order: int) -> list[list[float]]:
                          f"to {order + 1} samples, and as many values in every row")
     scale = max(abs(x) for x in taus) or 1.0
     facts = [math.factorial(m) for m in range(k + 1)]
-    V = np.array([[(x / scale)**m / facts[m] for m in range(k + 1)] for x in taus])
-    n = len(values)
-    c = np.linalg.solve(np.broadcast_to(V, (n, k + 1, k + 1)),
-                        np.asarray(values, dtype=float)[:, :, None])[:, :, 0].tolist()
+    V = [[(x / scale)**m / facts[m] for m in range(k + 1)] for x in taus]
+    c = np.linalg.solve(np.array([V] * len(values)),
+                        np.array(values, dtype=float)[:, :, None])[:, :, 0].tolist()
     scales = [scale**m for m in range(k + 1)]
     pad = [0.0] * (order - k)
     return [[cm / sm for cm, sm in zip(row, scales)] + pad for row in c]

@@ -196,6 +196,7 @@ class System:
         self._plans: dict[tuple, list] = {}   # exchange(indices) -> its stages
         self._der1: dict[tuple[int, int], tuple] = {}   # set_input_derivatives' arrays
         self._der_calls: dict[tuple, list] = {}   # set_input_derivatives_together's
+        self._set_calls: dict[tuple, list] = {}   # set_inputs_together's
         self._watched: list[tuple[str, str]] = []
         self._end: list[Values] = []          # read_end's calls, one per component
         self._end_src: list[tuple[Values, int]] = []
@@ -447,22 +448,29 @@ class System:
         """set_inputs(indices, values, t) with one fmi2SetReal per receiving
         component (each input's value set before its derivatives, as one
         by one; a failed call is repeated one by one to name it)."""
-        by: dict[str, tuple[list[int], list[float]]] = {}
-        conns = self.connections
-        for i, v in zip(indices, values):
-            group = by.setdefault(conns[i].dst, ([], []))
-            group[0].append(i)
-            group[1].append(v)
+        key = tuple(indices)
+        calls = self._set_calls.get(key)
+        if calls is None:
+            calls = self._set_calls[key] = self._value_calls(list(indices))
         held = self.held
-        for name, (idx, vals) in by.items():
-            inst = self.instances[name]
-            n = len(idx)
-            vr = (fmi2ValueReference * n)(*[self._dst[i][1] for i in idx])
-            if inst.f_set(inst.component, vr, n, (fmi2Real * n)(*vals)) > FMI2_WARNING:
-                self.set_inputs(idx, vals, t)
+        for inst, rows, vrs, vals, n in calls:
+            for p, r in enumerate(rows):
+                vals[p] = values[r]
+            if inst.f_set(inst.component, vrs, n, vals) > FMI2_WARNING:
+                self.set_inputs([indices[r] for r in rows], [values[r] for r in rows], t)
                 continue
-            for i, v in zip(idx, vals):
-                held[i] = v
+            for r in rows:
+                held[indices[r]] = values[r]
+
+    def _value_calls(self, indices: list[int]) -> list:
+        """[(Instance, rows of indices, vr array, value array, n)]: one
+        fmi2SetReal per receiving component of connections ``indices``."""
+        by: dict[str, list[int]] = {}
+        for r, i in enumerate(indices):
+            by.setdefault(self.connections[i].dst, []).append(r)
+        return [(self.instances[name], rows,
+                 (fmi2ValueReference * len(rows))(*[self._dst[indices[r]][1] for r in rows]),
+                 (fmi2Real * len(rows))(), len(rows)) for name, rows in by.items()]
 
     def set_input_derivatives_together(self, indices: list[int], D: list[list[float]],
                                        t: float) -> None:
