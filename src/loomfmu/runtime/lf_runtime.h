@@ -169,9 +169,6 @@ typedef struct {
     unsigned long wk_g;             /* explicit models: w_cur is w of (wk_t, wk_x) */
     double wk_t;
     double wk_x[LF_DIM(LF_NX)];
-    /* the states at vld_t where vld_v were found (lf_validity.c: a step
-     * starting there with nothing changed takes them) */
-    double vld_x[LF_DIM(LF_NX)];
     int args_set;                   /* arg[4..6, 8, 9] point at p, q, d, d_rate, k */
     /* -- model exchange -- */
     /* -- FMI 3.0 facade -- */

@@ -469,7 +469,6 @@ static void apply_values(LfInstance *c, const LfStateValues *v, const double *hi
     long i;
     memcpy(c->r, v->r, sizeof v->r);
     c->k_stale = 1; /* k is a function of the parameters just restored (parameter folding) */
-    c->vld_t = NAN; /* the validity conditions kept are this instance's, not the state's */
     memcpy(c->q, v->q, sizeof v->q);
     memcpy(c->w_cur, v->w_cur, sizeof v->w_cur);
     memcpy(c->e_old, v->e_old, sizeof v->e_old);

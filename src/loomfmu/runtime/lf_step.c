@@ -226,7 +226,6 @@ static LfStatus restart_for_inputs(LfInstance *c, const char **what) {
     }
     c->inputs_changed = 0;
     c->kb_ready = 0; /* the clock states' rates may change with the inputs */
-    c->vld_t = NAN;  /* and the validity conditions */
     lf_inputs_seen(c);
     return LF_OK;
 }

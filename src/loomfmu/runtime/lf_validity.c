@@ -76,10 +76,9 @@ static LfStatus end_at(LfInstance *c, double t_ok, const double *x_ok, int k, do
     return violated(c, k, value, t_bad, t_ok, where);
 }
 
-/* the conditions vld_v hold at (t, x) */
-static void keep(LfInstance *c, double t, const double *x, const double *v) {
+/* the conditions vld_v hold at time t */
+static void keep(LfInstance *c, double t, const double *v) {
     c->vld_t = t;
-    memcpy(c->vld_x, x, sizeof(double) * LF_NX);
     memcpy(c->vld_v, v, sizeof(double) * LF_NV);
 }
 
@@ -88,14 +87,13 @@ LfStatus lf_validity_at_start(LfInstance *c) {
     int bad;
     LfStatus st;
     if (LF_NV == 0) return LF_OK;
-    /* the last step ended here and held them: nothing changed since (a
-     * change of the inputs, a restored state or a reset clears vld_t) */
-    if (c->vld_t == c->solver.t && memcmp(c->vld_x, c->solver.x, sizeof(double) * LF_NX) == 0)
-        return LF_OK;
+    /* evaluated again even where the last step ended: taking the values kept
+     * there would skip a solve, and a Newton model's next steps would then
+     * differ by rounding from those after a restored FMU state */
     st = eval_validity(c, c->solver.t, c->solver.x, v, &bad);
     if (st != LF_OK) return st;
     if (bad < 0) {
-        keep(c, c->solver.t, c->solver.x, v);
+        keep(c, c->solver.t, v);
         return LF_OK;
     }
     return violated(c, bad, v[bad], c->solver.t, c->solver.t,
@@ -111,7 +109,7 @@ LfStatus lf_validity_restart(LfInstance *c, double t_ok, const double *x_ok,
     st = eval_validity(c, c->solver.t, c->solver.x, v, &bad);
     if (st != LF_OK) return st;
     if (bad < 0) {
-        keep(c, c->solver.t, c->solver.x, v);
+        keep(c, c->solver.t, v);
         return LF_OK;
     }
     if (LF_NQ > 0) { /* the modes before */
@@ -204,7 +202,7 @@ LfStatus lf_check_validity(LfInstance *c) {
     st = scan(c, s->t_old, va, s->t, vb, 0, &sc);
     if (st != LF_OK) return st;
     if (!sc.found) {
-        keep(c, s->t, s->x, vb);
+        keep(c, s->t, vb);
         /* the next step resolves the conditions (at most 4 times shorter) */
         if (s->h > sc.h_bound) s->h = fmax(sc.h_bound, 0.25 * h);
         return LF_OK;
