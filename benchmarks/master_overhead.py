@@ -4,6 +4,7 @@ what our scene master adds per communication step beyond the FMUs' doStep.
     python benchmarks/master_overhead.py [--model heald_frame] [--no-fmpy] [--repeats 5]
         [--scene two_mass] [--masters jacobi gauss-seidel] [--extrapolation 0 2]
         [--fmus FILE.json | --fmu-dir DIR] [--out FILE.json]
+    python benchmarks/master_overhead.py --reference record|compare FILE --fmu-dir DIR
 
 1. FMPy.  The model's verification run (its default experiment, dopri5,
    rtol 1e-6) over fractions 1/8, 1/4, 1/2, 1 of its length, each run both
@@ -33,6 +34,12 @@ what our scene master adds per communication step beyond the FMUs' doStep.
    measured on ``getReal`` of one variable (whose C side is a copy).  The
    functions where the master's time goes (cProfile, by own time) are
    printed.
+
+3. Reference runs (``--reference``): 61 runs of the master (two_mass on
+   every master with extrapolation 0-2, output derivatives and adaptive
+   steps; spinning 0.2 s and loom 0.1 s; algebraic loops by Newton and by
+   fixed point; the failing runs) recorded, or compared byte for byte with a
+   record: results unchanged by a change of the master.
 """
 from __future__ import annotations
 
@@ -312,6 +319,226 @@ def scene_fmus(scene, args, tmp: Path) -> dict:
     return build_fmus(scene, args.fmu_dir if args.fmu_dir is not None else tmp / "scene")
 
 
+# -- reference runs: results unchanged by a change of the master --------------------
+class _LoopModels:
+    """The small models of tests/test_scene_masters.py (copied: an older
+    version of the master must be able to run them): an algebraic loop of
+    gain 3 (linear or cubic), a square root that fails for u < 0, a model
+    not valid after 0.37 s."""
+    SRC = "assumption: a test model"
+
+    @staticmethod
+    def loop_a():
+        from loomfmu.declare import Model
+        m = Model("loop_a", description="test loop side a", stop_time=1.0, step_size=1e-2,
+                  h_fixed=1e-3)
+        g = m.parameter("g", 1.5, description="feedthrough gain", source=_LoopModels.SRC)
+        u = m.input("u", 0.0, description="input")
+        x = m.state("x", 1.0, description="state")
+        m.eq(m.der(x), -x)
+        m.output("y", x + g * u, description="output (feedthrough)")
+        return m
+
+    @staticmethod
+    def loop_b(cubic: bool = False):
+        from loomfmu.declare import Model
+        m = Model("loop_b3" if cubic else "loop_b", description="test loop side b",
+                  stop_time=1.0, step_size=1e-2, h_fixed=1e-3)
+        k = m.parameter("k", 2.0, description="feedthrough gain", source=_LoopModels.SRC)
+        c = m.parameter("c", 0.3, description="offset", source=_LoopModels.SRC)
+        u = m.input("u", 0.0, description="input")
+        z = m.state("z", 0.0, description="a state that does not move")
+        m.eq(m.der(z), 0.0 * z)
+        m.output("y", c - k * (u**3 if cubic else u) + z, description="output (feedthrough)")
+        return m
+
+    @staticmethod
+    def loop_sqrt():
+        import casadi as ca
+        from loomfmu.declare import Model
+        m = Model("loop_sqrt", description="test loop side b: a square root",
+                  stop_time=1.0, step_size=1e-2, h_fixed=1e-3)
+        u = m.input("u", 0.0, description="input")
+        z = m.state("z", 0.0, description="a state that does not move")
+        m.eq(m.der(z), 0.0 * z)
+        m.output("y", ca.sqrt(u) - 5.0 + z, description="output (feedthrough)")
+        return m
+
+    @staticmethod
+    def invalid_after():
+        from loomfmu.declare import Model
+        m = Model("invalid_after", description="test: not valid beyond t = T_INVALID",
+                  stop_time=1.0, step_size=1e-2, h_fixed=1e-3)
+        x = m.state("x", 0.37, description="time left")
+        m.eq(m.der(x), -1.0 + 0.0 * x)
+        m.require("x_left", x, "no time left: the test model is not valid here")
+        m.output("y", x, description="time left")
+        return m
+
+    @staticmethod
+    def loop_scene(fmus, *, cubic=False):
+        from loomfmu.scene import Scene
+        paths = {"a": fmus["a"], "b": fmus["b3" if cubic else "b"]}
+        s = Scene("loop", stop_time=0.5, step=0.05)
+        for name, path in paths.items():
+            s.add(name, fmu=path)
+        s.connect("a.y", "b.u")
+        s.connect("b.y", "a.u")
+        s.record("a.x", "a.u", "b.u", "a.y", "b.y")
+        return s, paths
+
+
+def fmus_of(scene, key, fmu_dir: Path):
+    idx = fmu_dir / f"{key}.json"
+    if idx.exists():
+        return {k: Path(v) for k, v in json.loads(idx.read_text()).items()}
+    f = build_fmus(scene, fmu_dir / key)
+    idx.write_text(json.dumps({k: str(v) for k, v in f.items()}))
+    return f
+
+
+def cases(fmu_dir: Path):
+    """(name, scene, run options): the reference runs (two_mass on every master,
+    extrapolation 0-2, output derivatives, adaptive; spinning 0.2 s, loom 0.1 s;
+    loops by Newton and fixed point; failing runs)."""
+    from loomfmu.scene import Scene
+    tm = load_scene("two_mass")
+    f = fmus_of(tm, "two_mass", fmu_dir)
+    for master in ("jacobi", "gauss-seidel"):
+        for k in (0, 1, 2):
+            yield f"tm-{master}-k{k}", tm, dict(master=master, extrapolation=k, fmus=f)
+            yield f"tm-{master}-k{k}-ad", tm, dict(master=master, extrapolation=k, fmus=f,
+                                                   adaptive=True, rtol=1e-2, atol=1e-4)
+        yield f"tm-{master}-k0-ad-loose", tm, dict(master=master, fmus=f, adaptive=True,
+                                                   rtol=0.1, atol=1e-4, stop=0.5)
+        yield f"tm-{master}-k1-od", tm, dict(master=master, extrapolation=1, fmus=f,
+                                             master_options={"output_derivatives": True})
+        yield f"tm-{master}-k1-od-ad", tm, dict(master=master, extrapolation=1, fmus=f,
+                                                adaptive=True, rtol=1e-3, atol=1e-4,
+                                                master_options={"output_derivatives": True})
+    for k in (0, 1, 2):
+        yield f"tm-gs-dispfirst-k{k}", tm, dict(master="gauss-seidel", extrapolation=k,
+                                                fmus=f,
+                                                master_options={"order": ["disp", "force"]})
+    yield "tm-jacobi-libcosim", tm, dict(master="jacobi", fmus=f,
+                                         master_options={"resolve_feedthrough": False})
+    yield "tm-jacobi-h6ms-k2", tm, dict(master="jacobi", fmus=f, step=6e-3, extrapolation=2)
+    sp = load_scene("spinning")
+    f = fmus_of(sp, "spinning", fmu_dir)
+    for master in ("jacobi", "gauss-seidel"):
+        yield f"spin-{master}", sp, dict(master=master, fmus=f, stop=0.2)
+        yield f"spin-{master}-k1", sp, dict(master=master, fmus=f, stop=0.2, extrapolation=1)
+    yield "spin-gs-k2-ad", sp, dict(master="gauss-seidel", fmus=f, stop=0.2, extrapolation=2,
+                                    adaptive=True, rtol=1e-3)
+    lo = load_scene("loom")
+    f = fmus_of(lo, "loom", fmu_dir)
+    for master in ("jacobi", "gauss-seidel"):
+        yield f"loom-{master}", lo, dict(master=master, fmus=f, stop=0.1)
+        yield f"loom-{master}-k2", lo, dict(master=master, fmus=f, stop=0.1, extrapolation=2)
+        yield f"loom-{master}-k1-ad", lo, dict(master=master, fmus=f, stop=0.1,
+                                               extrapolation=1, adaptive=True, rtol=1e-3)
+    # loops, failures
+    T = _LoopModels
+    s = Scene("loops")
+    s.add("a", model=T.loop_a())
+    s.add("b", model=T.loop_b())
+    s.add("b3", model=T.loop_b(cubic=True))
+    s.add("bs", model=T.loop_sqrt())
+    s.add("inv", model=T.invalid_after())
+    lf = fmus_of(s, "loops", fmu_dir)
+    for cubic in (False, True):
+        ls, lp = T.loop_scene(lf, cubic=cubic)
+        for master in ("jacobi", "gauss-seidel"):
+            for k in (0, 1, 2):
+                yield f"loop-{cubic}-{master}-k{k}", ls, dict(master=master, fmus=lp,
+                                                              extrapolation=k)
+            yield f"loop-{cubic}-{master}-ad", ls, dict(master=master, fmus=lp, adaptive=True,
+                                                        rtol=1e-4, extrapolation=1)
+            yield f"loop-{cubic}-{master}-fp", ls, dict(
+                master=master, fmus=lp, loop_options={"loop_method": "fixed-point",
+                                                      "relaxation": 0.25,
+                                                      "loop_max_iter": 300})
+    ls, lp = T.loop_scene(lf)
+    yield "loop-diverge", ls, dict(fmus=lp, loop_options={"loop_method": "fixed-point",
+                                                          "relaxation": 0.5,
+                                                          "loop_max_iter": 30})
+    paths = {"a": lf["a"], "b": lf["bs"]}
+    sq = Scene("loop_sqrt", stop_time=0.1, step=0.01)
+    for name, path in paths.items():
+        sq.add(name, fmu=path)
+    sq.connect("a.y", "b.u")
+    sq.connect("b.y", "a.u")
+    sq.record("a.y", "b.y")
+    for method in ("newton", "fixed-point"):
+        yield f"sqrt-{method}", sq, dict(fmus=paths, loop_options={"loop_method": method})
+    iv = Scene("invalid", stop_time=1.0, step=0.1)
+    iv.add("inv", fmu=lf["inv"])
+    iv.record("inv.y")
+    for master in ("jacobi", "gauss-seidel"):
+        yield f"inv-{master}-ad", iv, dict(master=master, fmus={"inv": lf["inv"]},
+                                           adaptive=True, h_min=1e-6)
+        yield f"inv-{master}", iv, dict(master=master, fmus={"inv": lf["inv"]})
+
+
+def one(scene, kw):
+    from loomfmu.scene import run
+    from loomfmu.scene.system import FMUError
+    try:
+        r = run(scene, **kw)
+    except (FMUError, RuntimeError) as exc:
+        return {"error": f"{type(exc).__name__}: {exc}"}
+    return {"data": r.data, "h": r.h, "accepted": r.accepted, "rejected": r.rejected,
+            "loop_iterations": r.loop_iterations, "notes": r.notes, "log": r.log}
+
+
+def same(a, b):
+    if set(a) != set(b):
+        return f"keys {sorted(a)} != {sorted(b)}"
+    for k in a:
+        x, y = a[k], b[k]
+        if isinstance(x, np.ndarray):
+            if x.dtype != y.dtype or x.shape != y.shape:
+                return f"{k}: shape/dtype"
+            if x.dtype.names:
+                for n in x.dtype.names:
+                    if x[n].tobytes() != y[n].tobytes():
+                        d = np.nanmax(np.abs(x[n] - y[n]))
+                        return f"{k}[{n}] differs (max {d:.3g})"
+            elif x.tobytes() != y.tobytes():
+                return f"{k} differs"
+        elif x != y:
+            return f"{k}: {str(x)[:200]} != {str(y)[:200]}"
+    return None
+
+
+def reference(mode: str, path: Path, fmu_dir: Path, only: str = "") -> int:
+    """Record (mode "record") the reference runs into ``path`` (pickle), or
+    compare (mode "compare") them with it byte for byte: data, step sizes,
+    counts, loop iterations, notes, logs and error messages.  The FMUs are
+    built once into ``fmu_dir`` and listed there (<scene>.json), so two
+    versions of the master run the same binaries (build them with the older
+    version's code: e.g. PYTHONPATH=<old checkout>/src)."""
+    import pickle
+    fmu_dir.mkdir(parents=True, exist_ok=True)
+    ref = pickle.loads(path.read_bytes()) if mode == "compare" else {}
+    out, bad = {}, 0
+    for name, scene, kw in cases(fmu_dir):
+        if only and only not in name:
+            continue
+        t1 = time.perf_counter()
+        out[name] = one(scene, kw)
+        msg = ""
+        if mode == "compare":
+            diff = same(ref[name], out[name]) if name in ref else "not in the reference"
+            bad += diff is not None
+            msg = "identical" if diff is None else f"DIFFERS: {diff}"
+        print(f"{name:34s} {time.perf_counter() - t1:6.2f} s {msg}", flush=True)
+    if mode == "record":
+        path.write_bytes(pickle.dumps(out))
+    print(f"{len(out)} reference runs, {bad} differ")
+    return 1 if bad else 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--model", default="heald_frame", help="part 1: the model")
@@ -327,9 +554,17 @@ def main(argv=None) -> int:
     ap.add_argument("--fmu-dir", type=Path, default=None, help="part 2: build the FMUs here")
     ap.add_argument("--repeats", type=int, default=5, help="runs per point, median (>= 1)")
     ap.add_argument("--out", type=Path, default=None, help="also write the numbers as JSON")
+    ap.add_argument("--reference", nargs=2, metavar=("record|compare", "FILE"), default=None,
+                    help="instead of timing: record the reference runs into FILE, or compare "
+                         "them with FILE byte for byte (FMUs built once into --fmu-dir)")
     args = ap.parse_args(argv)
     if args.repeats < 1:
         ap.error(f"--repeats {args.repeats}: allowed >= 1")
+    if args.reference is not None:
+        mode, path = args.reference
+        if mode not in ("record", "compare") or args.fmu_dir is None:
+            ap.error("--reference record|compare FILE needs --fmu-dir DIR")
+        return reference(mode, Path(path), args.fmu_dir)
     t_start = time.perf_counter()
     out = {"command": "python benchmarks/master_overhead.py " + " ".join(argv or sys.argv[1:])}
     f = None
