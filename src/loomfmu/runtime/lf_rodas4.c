@@ -1,13 +1,7 @@
 /* loomfmu runtime: rodas4, the Hairer-Wanner RODAS stiffly accurate
  * Rosenbrock method 4(3) with its 3rd-order dense output (contract:
  * lf_solver.h). */
-#include "lf_solver_impl.h"
-#include "lf_linalg.h"
-
-#include <math.h>
-#include <stdarg.h>
-#include <stdio.h>
-#include <string.h>
+#include "lf_rosenbrock.h"
 
 /* ------------------------------------------------------------------------ */
 /* rodas4                                                                    */
@@ -62,204 +56,51 @@
 #define RO_D34 24.76722511418386
 #define RO_D35 (-6.594389125716872)
 
-/* private data: 3 controller scalars (h_acc, err_acc, valid), then vectors
- * k1..k6, stage argument / new state, f at stage, f0 = f(t,x), df/dt,
- * dense cont3, cont4; then J (n*n) and the factored iteration matrix
- * (lf_shifted_factor: dense LU, or the Schur complement when J has
- * kinematic rows q' = v). */
-enum { RO_HACC, RO_ERRACC, RO_HISTOK, RO_NSCAL };
-enum { RO_K1, RO_K2, RO_K3, RO_K4, RO_K5, RO_K6, RO_Y, RO_DY, RO_F0, RO_FT, RO_CONT3, RO_CONT4, RO_NVEC };
+/* the tableau (lower triangles row by row, lf_rosenbrock.h); stage 6 takes the stage-5
+ * argument plus k5, x_new is stage 6's argument plus k6, the error k6 */
+static const double ro_a[15] = {RO_A21, RO_A31, RO_A32, RO_A41, RO_A42, RO_A43,
+    RO_A51, RO_A52, RO_A53, RO_A54, RO_A51, RO_A52, RO_A53, RO_A54, 1.0};
+static const double ro_c[15] = {RO_C21, RO_C31, RO_C32, RO_C41, RO_C42, RO_C43,
+    RO_C51, RO_C52, RO_C53, RO_C54, RO_C61, RO_C62, RO_C63, RO_C64, RO_C65};
+static const double ro_alpha[6] = {0.0, RO_C2, RO_C3, RO_C4, 1.0, 1.0};
+static const double ro_d[6] = {RO_D1, RO_D2, RO_D3, RO_D4, 0.0, 0.0};
 
-static size_t ro_work_size(size_t n) {
-    return RO_NSCAL + RO_NVEC * n + n * n + lf_shifted_doubles(n);
-}
+/* private data (lf_rosenbrock.h): the controller scalars; k1..k6, the
+ * common vectors, then the dense output's cont3, cont4 */
+#define RO_CONT3 (6 + 4)
+#define RO_CONT4 (6 + 5)
 
-static double *ro_vec(LfSolver *s, int k) { return LF_PRIV(s) + RO_NSCAL + (size_t)k * s->ode.n; }
-static double *ro_jac(LfSolver *s) { return LF_PRIV(s) + RO_NSCAL + RO_NVEC * s->ode.n; }
-static double *ro_lu(LfSolver *s) { return ro_jac(s) + s->ode.n * s->ode.n; }
+static LfStatus ro_accept(LfSolver *s, double *const *k, const double *y, double t_new);
 
-void lf_rodas4_clear_history(LfSolver *s) { LF_PRIV(s)[RO_HISTOK] = 0.0; }
+static const LfRosenbrock ro_method = {
+    "rodas4", 6, LF_RB_NSCAL, 6 + 6, RO_GAMMA, ro_a, ro_c, ro_alpha, ro_d, NULL,
+    4.0, 0.25, 1, NULL, NULL, NULL, ro_accept};
 
-/* f0 = f(t,x), J, df/dt at the accepted point */
-static LfStatus ro_prepare(LfSolver *s) {
+static size_t ro_work_size(size_t n) { return lf_rb_work_size(&ro_method, n); }
+
+void lf_rodas4_clear_history(LfSolver *s) { LF_PRIV(s)[LF_RB_HISTOK] = 0.0; }
+
+/* the dense output's coefficients from the stages of the accepted step */
+static LfStatus ro_accept(LfSolver *s, double *const *k, const double *y, double t_new) {
     const size_t n = s->ode.n;
-    double *f0 = ro_vec(s, RO_F0), *ft = ro_vec(s, RO_FT), *J = ro_jac(s);
-    LfStatus st = lf_sv_eval_rhs(s, s->t, s->x, f0);
-    if (st != LF_OK) return lf_sv_start_failure(s, st);
-    s->n_jac++;
-    st = s->ode.jac(s->ode.ctx, s->t, s->x, J, ft);
-    if (st == LF_OK || st == LF_WARNING) {
-        if (lf_sv_all_finite(J, n * n) && lf_sv_all_finite(ft, n)) return LF_OK;
-        lf_sv_set_msg(s, "rodas4: Jacobian or df/dt not finite at t=%.17g", s->t);
-        return LF_DISCARD;
-    }
-    if (st == LF_DISCARD) {
-        lf_sv_set_msg(s, "rodas4: Jacobian could not be evaluated at t=%.17g", s->t);
-        return LF_DISCARD;
-    }
-    lf_sv_set_msg(s, "rodas4: Jacobian callback returned an error at t=%.17g", s->t);
-    return st == LF_FATAL ? LF_FATAL : LF_ERROR;
-}
-
-static LfStatus ro_step(LfSolver *s, double t_bound) {
-    const size_t n = s->ode.n;
-    double *k1 = ro_vec(s, RO_K1), *k2 = ro_vec(s, RO_K2), *k3 = ro_vec(s, RO_K3);
-    double *k4 = ro_vec(s, RO_K4), *k5 = ro_vec(s, RO_K5), *k6 = ro_vec(s, RO_K6);
-    double *y = ro_vec(s, RO_Y), *dy = ro_vec(s, RO_DY), *f0 = ro_vec(s, RO_F0);
-    double *ft = ro_vec(s, RO_FT), *J = ro_jac(s), *E = ro_lu(s), *hist = LF_PRIV(s);
-    double *x = s->x;
-    const double t = s->t, hmax = s->opt.h_max;
-    double h;
-    int rejected = 0, cause = CAUSE_NONE, attempts = 0, nsing = 0;
+    double *cont3 = lf_rb_vec(s, &ro_method, RO_CONT3), *cont4 = lf_rb_vec(s, &ro_method, RO_CONT4);
     size_t i;
-    LfStatus st;
-
-    if (!(t_bound > t)) return lf_sv_bad_bound(s, t_bound);
-    if (!s->fsal_valid) {
-        st = ro_prepare(s);
-        if (st != LF_OK) return st;
-        s->fsal_valid = 1;
+    (void)y;
+    (void)t_new;
+    for (i = 0; i < n; i++) {
+        cont3[i] = RO_D21 * k[0][i] + RO_D22 * k[1][i] + RO_D23 * k[2][i] + RO_D24 * k[3][i] +
+                   RO_D25 * k[4][i];
+        cont4[i] = RO_D31 * k[0][i] + RO_D32 * k[1][i] + RO_D33 * k[2][i] + RO_D34 * k[3][i] +
+                   RO_D35 * k[4][i];
     }
-    h = s->h;
-    if (!(h > 0.0)) h = lf_sv_initial_step(s, f0, y, dy, 4.0, fmin(hmax, t_bound - t));
-    if (h > hmax) h = hmax;
-
-    for (;;) {
-        double h_prop = h, t_new, hmin, err, fac, hnew, fac_lu, hd, c1, c2, c3, c4, c5;
-        int last;
-        if (++attempts > LF_MAX_ATTEMPTS) return lf_sv_give_up(s, h, 0.0, cause, 1);
-        if (lf_sv_plan_step(s, t_bound, &h, &t_new, &last, &hmin)) return lf_sv_give_up(s, h, hmin, cause, 0);
-
-        /* iteration matrix I/(h*gamma) - J, factorized */
-        fac_lu = 1.0 / (h * RO_GAMMA);
-        s->n_lu++;
-        if (lf_shifted_factor(E, J, n, fac_lu) != 0) {
-            if (++nsing >= 5) {
-                lf_sv_set_msg(s, "rodas4: singular iteration matrix I/(h*gamma) - J at t=%.17g "
-                           "(h=%.3g, 5 step reductions)", t, h);
-                return LF_DISCARD;
-            }
-            h *= 0.5;
-            rejected = 1;
-            cause = CAUSE_SINGULAR;
-            s->n_rejected++;
-            continue;
-        }
-
-        /* stage 1 */
-        hd = h * RO_D1;
-        for (i = 0; i < n; i++) k1[i] = f0[i] + hd * ft[i];
-        lf_shifted_solve(E, J, n, k1);
-        /* stage 2 */
-        for (i = 0; i < n; i++) y[i] = x[i] + RO_A21 * k1[i];
-        st = lf_sv_eval_rhs(s, t + RO_C2 * h, y, dy);
-        if (st != LF_OK) goto failed;
-        hd = h * RO_D2;
-        c1 = RO_C21 / h;
-        for (i = 0; i < n; i++) k2[i] = dy[i] + c1 * k1[i] + hd * ft[i];
-        lf_shifted_solve(E, J, n, k2);
-        /* stage 3 */
-        for (i = 0; i < n; i++) y[i] = x[i] + RO_A31 * k1[i] + RO_A32 * k2[i];
-        st = lf_sv_eval_rhs(s, t + RO_C3 * h, y, dy);
-        if (st != LF_OK) goto failed;
-        hd = h * RO_D3;
-        c1 = RO_C31 / h;
-        c2 = RO_C32 / h;
-        for (i = 0; i < n; i++) k3[i] = dy[i] + c1 * k1[i] + c2 * k2[i] + hd * ft[i];
-        lf_shifted_solve(E, J, n, k3);
-        /* stage 4 */
-        for (i = 0; i < n; i++) y[i] = x[i] + RO_A41 * k1[i] + RO_A42 * k2[i] + RO_A43 * k3[i];
-        st = lf_sv_eval_rhs(s, t + RO_C4 * h, y, dy);
-        if (st != LF_OK) goto failed;
-        hd = h * RO_D4;
-        c1 = RO_C41 / h;
-        c2 = RO_C42 / h;
-        c3 = RO_C43 / h;
-        for (i = 0; i < n; i++) k4[i] = dy[i] + c1 * k1[i] + c2 * k2[i] + c3 * k3[i] + hd * ft[i];
-        lf_shifted_solve(E, J, n, k4);
-        /* stage 5 (c5 = 1, d5 = 0) */
-        for (i = 0; i < n; i++)
-            y[i] = x[i] + RO_A51 * k1[i] + RO_A52 * k2[i] + RO_A53 * k3[i] + RO_A54 * k4[i];
-        st = lf_sv_eval_rhs(s, t_new, y, dy);
-        if (st != LF_OK) goto failed;
-        c1 = RO_C51 / h;
-        c2 = RO_C52 / h;
-        c3 = RO_C53 / h;
-        c4 = RO_C54 / h;
-        for (i = 0; i < n; i++) k5[i] = dy[i] + c1 * k1[i] + c2 * k2[i] + c3 * k3[i] + c4 * k4[i];
-        lf_shifted_solve(E, J, n, k5);
-        /* embedded 3rd-order solution, stage 6 */
-        for (i = 0; i < n; i++) y[i] += k5[i];
-        st = lf_sv_eval_rhs(s, t_new, y, dy);
-        if (st != LF_OK) goto failed;
-        c1 = RO_C61 / h;
-        c2 = RO_C62 / h;
-        c3 = RO_C63 / h;
-        c4 = RO_C64 / h;
-        c5 = RO_C65 / h;
-        for (i = 0; i < n; i++)
-            k6[i] = dy[i] + c1 * k1[i] + c2 * k2[i] + c3 * k3[i] + c4 * k4[i] + c5 * k5[i];
-        lf_shifted_solve(E, J, n, k6);
-        /* new solution (4th order) */
-        for (i = 0; i < n; i++) y[i] += k6[i];
-
-        err = lf_sv_err_norm(s, k6, x, y);
-        if (!isfinite(err) || !lf_sv_all_finite(y, n)) {
-            st = LF_DISCARD;
-            goto failed;
-        }
-        /* Hairer's RODAS controller: 1/5 <= hnew/h <= 6 */
-        fac = pow(err, 0.25) / 0.9;
-        if (fac > 5.0) fac = 5.0;
-        if (fac < 1.0 / 6.0) fac = 1.0 / 6.0;
-        hnew = h / fac;
-        if (err <= 1.0) {
-            double *cont3 = ro_vec(s, RO_CONT3), *cont4 = ro_vec(s, RO_CONT4);
-            if (hist[RO_HISTOK] != 0.0) {
-                /* predictive controller of Gustafsson */
-                double facgus = (hist[RO_HACC] / h) * pow(err * err / hist[RO_ERRACC], 0.25) / 0.9;
-                if (facgus > 5.0) facgus = 5.0;
-                if (facgus < 1.0 / 6.0) facgus = 1.0 / 6.0;
-                fac = fmax(fac, facgus);
-                hnew = h / fac;
-            }
-            hist[RO_HACC] = h;
-            hist[RO_ERRACC] = fmax(1e-2, err);
-            hist[RO_HISTOK] = 1.0;
-            for (i = 0; i < n; i++) {
-                cont3[i] = RO_D21 * k1[i] + RO_D22 * k2[i] + RO_D23 * k3[i] + RO_D24 * k4[i] +
-                           RO_D25 * k5[i];
-                cont4[i] = RO_D31 * k1[i] + RO_D32 * k2[i] + RO_D33 * k3[i] + RO_D34 * k4[i] +
-                           RO_D35 * k5[i];
-            }
-            lf_sv_copy_vec(s->x_old, x, n);
-            lf_sv_copy_vec(x, y, n);
-            s->t_old = t;
-            s->t = t_new;
-            if (rejected && hnew > h) hnew = h;
-            if (last && !rejected && h_prop > hnew) hnew = h_prop;
-            s->h = fmin(hnew, hmax);
-            s->fsal_valid = 0; /* f0, J, df/dt are recomputed at the new point */
-            s->n_steps++;
-            return LF_OK;
-        }
-        h = hnew;
-        rejected = 1;
-        cause = CAUSE_ERRTEST;
-        s->n_rejected++;
-        continue;
-    failed:
-        if (st != LF_DISCARD) return lf_sv_callback_error(s, st, t + h);
-        h *= 0.25;
-        rejected = 1;
-        cause = CAUSE_NONFINITE;
-        s->n_rejected++;
-    }
+    return LF_OK;
 }
+
+static LfStatus ro_step(LfSolver *s, double t_bound) { return lf_rb_step(s, &ro_method, t_bound); }
 
 static void ro_dense(const LfSolver *s, double tq, double *out) {
     const size_t n = s->ode.n;
-    const double *w = LF_CPRIV(s) + RO_NSCAL;
+    const double *w = LF_CPRIV(s) + LF_RB_NSCAL;
     const double *cont3 = w + RO_CONT3 * n, *cont4 = w + RO_CONT4 * n;
     const double *x0 = s->x_old, *x1 = s->x;
     double h = s->t - s->t_old, th, th1;

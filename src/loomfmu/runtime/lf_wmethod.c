@@ -45,7 +45,7 @@
  * output: cubic Hermite from x and f at both ends (f at the new point is
  * the next step's f0).
  */
-#include "lf_solver_impl.h"
+#include "lf_rosenbrock.h"
 #include "lf_linalg.h"
 
 #include <math.h>
@@ -94,44 +94,38 @@
 #define WM_JAC_AGE 10
 #endif
 
-/* private data: scalars, vectors u1..u4, stage argument / new state, f at a
- * stage, f0 = f(t, x), f(t_old, x_old), df/dt (with J0), then J0 (n*n) and
- * the factored iteration matrix (lf_shifted_*). */
-enum { WM_HACC, WM_ERRACC, WM_HISTOK, WM_JOK, WM_H0, WM_AGE, WM_NSCAL };
-enum { WM_U1, WM_U2, WM_U3, WM_U4, WM_Y, WM_DY, WM_F0, WM_FOLD, WM_FT, WM_NVEC };
+/* the tableau (lower triangles row by row, lf_rosenbrock.h) */
+static const double wm_a[6] = {WM_A21, WM_A31, WM_A32, WM_A41, WM_A42, WM_A43};
+static const double wm_c[6] = {WM_C21, WM_C31, WM_C32, WM_C41, WM_C42, WM_C43};
+static const double wm_alpha[4] = {0.0, WM_ALPHA2, WM_ALPHA3, 1.0};
+static const double wm_d[4] = {WM_D1, WM_D2, WM_D3, 0.0};
+static const double wm_e[4] = {WM_E1, WM_E2, WM_E3, WM_E4};
 
-static size_t wm_work_size(size_t n) {
-    return WM_NSCAL + WM_NVEC * n + n * n + lf_shifted_doubles(n);
-}
+/* private data (lf_rosenbrock.h): the controller scalars, then J0's state
+ * (J0 and factors usable, h0 of the factors, accepted steps since J0);
+ * u1..u4, the common vectors (df/dt goes with J0), then f(t_old, x_old) */
+enum { WM_JOK = LF_RB_NSCAL, WM_H0, WM_AGE, WM_NSCAL };
+#define WM_FOLD (4 + 4)
 
-static double *wm_vec(LfSolver *s, int k) { return LF_PRIV(s) + WM_NSCAL + (size_t)k * s->ode.n; }
-static double *wm_jac(LfSolver *s) { return LF_PRIV(s) + WM_NSCAL + WM_NVEC * s->ode.n; }
-static double *wm_lu(LfSolver *s) { return wm_jac(s) + s->ode.n * s->ode.n; }
+static int wm_renew(const LfSolver *s, int rejected);
+static double wm_propose(LfSolver *s, double h, double t_bound, int rejected, int renew);
+static int wm_matrix(LfSolver *s, double h, int renew);
+static LfStatus wm_accept(LfSolver *s, double *const *k, const double *y, double t_new);
+
+static const LfRosenbrock wm_method = {
+    "ros34pw2", 4, WM_NSCAL, 4 + 5, WM_GAMMA, wm_a, wm_c, wm_alpha, wm_d, wm_e,
+    3.0, 1.0 / 3.0, 0, wm_renew, wm_propose, wm_matrix, wm_accept};
+
+static size_t wm_work_size(size_t n) { return lf_rb_work_size(&wm_method, n); }
 
 /* after a restart: forget the controller history, keep J0 and its factors */
-void lf_ros34pw2_restart(LfSolver *s) { LF_PRIV(s)[WM_HISTOK] = 0.0; }
+void lf_ros34pw2_restart(LfSolver *s) { LF_PRIV(s)[LF_RB_HISTOK] = 0.0; }
 
 /* J0, df/dt at the current point */
 static LfStatus wm_jacobian(LfSolver *s) {
-    const size_t n = s->ode.n;
-    double *J = wm_jac(s), *ft = wm_vec(s, WM_FT);
-    LfStatus st;
-    s->n_jac++;
-    st = s->ode.jac(s->ode.ctx, s->t, s->x, J, ft);
-    if (st == LF_OK || st == LF_WARNING) {
-        if (lf_sv_all_finite(J, n * n) && lf_sv_all_finite(ft, n)) {
-            LF_PRIV(s)[WM_AGE] = 0.0;
-            return LF_OK;
-        }
-        lf_sv_set_msg(s, "ros34pw2: Jacobian or df/dt not finite at t=%.17g", s->t);
-        return LF_DISCARD;
-    }
-    if (st == LF_DISCARD) {
-        lf_sv_set_msg(s, "ros34pw2: Jacobian could not be evaluated at t=%.17g", s->t);
-        return LF_DISCARD;
-    }
-    lf_sv_set_msg(s, "ros34pw2: Jacobian callback returned an error at t=%.17g", s->t);
-    return st == LF_FATAL ? LF_FATAL : LF_ERROR;
+    LfStatus st = lf_rb_jacobian(s, &wm_method);
+    if (st == LF_OK) LF_PRIV(s)[WM_AGE] = 0.0;
+    return st;
 }
 
 /* Make the factors usable for step h: refresh J (if older than this point)
@@ -148,10 +142,20 @@ static int wm_matrix(LfSolver *s, double h, int renew) {
     }
     s->n_lu++;
     p[WM_JOK] = 0.0;
-    if (lf_shifted_factor(wm_lu(s), wm_jac(s), s->ode.n, 1.0 / (h * WM_GAMMA)) != 0) return -1;
+    if (lf_shifted_factor(lf_rb_lu(s, &wm_method), lf_rb_jac(s, &wm_method), s->ode.n,
+                          1.0 / (h * WM_GAMMA)) != 0)
+        return -1;
     p[WM_JOK] = 1.0;
     p[WM_H0] = h;
     return LF_OK;
+}
+
+/* renew the factors: at a step's start when J0 served WM_MAX_AGE steps;
+ * after a rejection when J0 is older than this point (it may be what
+ * failed) */
+static int wm_renew(const LfSolver *s, int rejected) {
+    const double age = LF_CPRIV(s)[WM_AGE];
+    return rejected ? age > 0.0 : age >= WM_MAX_AGE;
 }
 
 /* The k = ceil(rem/h) steps left to t_bound made equal (rem/k <= h): as
@@ -165,149 +169,36 @@ static double wm_even_split(double h, double rem) {
     return k > 1e6 ? h : rem / k;
 }
 
-static LfStatus wm_step(LfSolver *s, double t_bound) {
-    const size_t n = s->ode.n;
-    double *u1 = wm_vec(s, WM_U1), *u2 = wm_vec(s, WM_U2), *u3 = wm_vec(s, WM_U3);
-    double *u4 = wm_vec(s, WM_U4), *y = wm_vec(s, WM_Y), *dy = wm_vec(s, WM_DY);
-    double *f0 = wm_vec(s, WM_F0), *ft = wm_vec(s, WM_FT), *J = wm_jac(s), *E = wm_lu(s);
-    double *p = LF_PRIV(s), *x = s->x;
-    const double t = s->t, hmax = s->opt.h_max;
-    double h;
-    int rejected = 0, cause = CAUSE_NONE, attempts = 0, nsing = 0, renew = 0, mst;
-    size_t i;
-    LfStatus st;
-
-    if (!(t_bound > t)) return lf_sv_bad_bound(s, t_bound);
-    if (!s->fsal_valid) {
-        st = lf_sv_eval_rhs(s, t, x, f0);
-        if (st != LF_OK) return lf_sv_start_failure(s, st);
-        s->fsal_valid = 1;
-    }
-    if (p[WM_AGE] >= WM_MAX_AGE) renew = 1;
-    h = s->h;
-    if (!(h > 0.0)) h = lf_sv_initial_step(s, f0, y, dy, 3.0, fmin(hmax, t_bound - t));
-    if (h > hmax) h = hmax;
-
-    for (;;) {
-        double h_prop = h, t_new, hmin, err, fac, hnew, hd, c1, c2, c3;
-        int last;
-        if (++attempts > LF_MAX_ATTEMPTS) return lf_sv_give_up(s, h, 0.0, cause, 1);
-        if (!renew && !rejected && p[WM_JOK] != 0.0 && h >= WM_SNAP_LO * p[WM_H0] &&
-            h <= WM_SNAP_HI * p[WM_H0])
-            h = p[WM_H0];
-        h = wm_even_split(h, t_bound - t);
-        if (lf_sv_plan_step(s, t_bound, &h, &t_new, &last, &hmin)) return lf_sv_give_up(s, h, hmin, cause, 0);
-
-        mst = wm_matrix(s, h, renew);
-        renew = 0;
-        if (mst < 0) {
-            if (++nsing >= 5) {
-                lf_sv_set_msg(s, "ros34pw2: singular iteration matrix I/(h*gamma) - J at t=%.17g "
-                              "(h=%.3g, 5 step reductions)", t, h);
-                return LF_DISCARD;
-            }
-            h *= 0.5;
-            rejected = 1;
-            cause = CAUSE_SINGULAR;
-            s->n_rejected++;
-            continue;
-        }
-        if (mst != LF_OK) return (LfStatus)mst;
-
-        /* stage 1 */
-        hd = h * WM_D1;
-        for (i = 0; i < n; i++) u1[i] = f0[i] + hd * ft[i];
-        lf_shifted_solve(E, J, n, u1);
-        /* stage 2 */
-        for (i = 0; i < n; i++) y[i] = x[i] + WM_A21 * u1[i];
-        st = lf_sv_eval_rhs(s, t + WM_ALPHA2 * h, y, dy);
-        if (st != LF_OK) goto failed;
-        hd = h * WM_D2;
-        c1 = WM_C21 / h;
-        for (i = 0; i < n; i++) u2[i] = dy[i] + c1 * u1[i] + hd * ft[i];
-        lf_shifted_solve(E, J, n, u2);
-        /* stage 3 */
-        for (i = 0; i < n; i++) y[i] = x[i] + WM_A31 * u1[i] + WM_A32 * u2[i];
-        st = lf_sv_eval_rhs(s, t + WM_ALPHA3 * h, y, dy);
-        if (st != LF_OK) goto failed;
-        hd = h * WM_D3;
-        c1 = WM_C31 / h;
-        c2 = WM_C32 / h;
-        for (i = 0; i < n; i++) u3[i] = dy[i] + c1 * u1[i] + c2 * u2[i] + hd * ft[i];
-        lf_shifted_solve(E, J, n, u3);
-        /* stage 4 (alpha_4 = 1, gamma_4 = 0) */
-        for (i = 0; i < n; i++) y[i] = x[i] + WM_A41 * u1[i] + WM_A42 * u2[i] + WM_A43 * u3[i];
-        st = lf_sv_eval_rhs(s, t_new, y, dy);
-        if (st != LF_OK) goto failed;
-        c1 = WM_C41 / h;
-        c2 = WM_C42 / h;
-        c3 = WM_C43 / h;
-        for (i = 0; i < n; i++) u4[i] = dy[i] + c1 * u1[i] + c2 * u2[i] + c3 * u3[i];
-        lf_shifted_solve(E, J, n, u4);
-        /* new solution (stiffly accurate) and the embedded error */
-        for (i = 0; i < n; i++) {
-            y[i] += u4[i];
-            dy[i] = WM_E1 * u1[i] + WM_E2 * u2[i] + WM_E3 * u3[i] + WM_E4 * u4[i];
-        }
-        err = lf_sv_err_norm(s, dy, x, y);
-        if (!isfinite(err) || !lf_sv_all_finite(y, n)) {
-            st = LF_DISCARD;
-            goto failed;
-        }
-        fac = pow(err, 1.0 / 3.0) / 0.9;
-        if (fac > 5.0) fac = 5.0;
-        if (fac < 1.0 / 6.0) fac = 1.0 / 6.0;
-        hnew = h / fac;
-        if (err <= 1.0) {
-            /* f at the new point: the dense output's end slope and the next
-             * step's f0 */
-            st = lf_sv_eval_rhs(s, t_new, y, dy);
-            if (st != LF_OK) goto failed;
-            if (p[WM_HISTOK] != 0.0) {
-                /* predictive controller of Gustafsson */
-                double facgus = (p[WM_HACC] / h) * pow(err * err / p[WM_ERRACC], 1.0 / 3.0) / 0.9;
-                if (facgus > 5.0) facgus = 5.0;
-                if (facgus < 1.0 / 6.0) facgus = 1.0 / 6.0;
-                fac = fmax(fac, facgus);
-                hnew = h / fac;
-            }
-            p[WM_HACC] = h;
-            p[WM_ERRACC] = fmax(1e-2, err);
-            p[WM_HISTOK] = 1.0;
-            p[WM_AGE] += 1.0;
-            lf_sv_copy_vec(wm_vec(s, WM_FOLD), f0, n);
-            lf_sv_copy_vec(f0, dy, n);
-            lf_sv_copy_vec(s->x_old, x, n);
-            lf_sv_copy_vec(x, y, n);
-            s->t_old = t;
-            s->t = t_new;
-            if (rejected && hnew > h) hnew = h;
-            if (last && !rejected && h_prop > hnew) hnew = h_prop;
-            s->h = fmin(hnew, hmax);
-            s->n_steps++;
-            return LF_OK;
-        }
-        h = hnew;
-        rejected = 1;
-        cause = CAUSE_ERRTEST;
-        s->n_rejected++;
-        /* a W older than this point may be what failed: renew it */
-        if (p[WM_AGE] > 0.0) renew = 1;
-        continue;
-    failed:
-        if (st != LF_DISCARD) return lf_sv_callback_error(s, st, t + h);
-        h *= 0.25;
-        rejected = 1;
-        cause = CAUSE_NONFINITE;
-        s->n_rejected++;
-        if (p[WM_AGE] > 0.0) renew = 1;
-    }
+/* h snapped to the factors' h0 within the band, then split evenly */
+static double wm_propose(LfSolver *s, double h, double t_bound, int rejected, int renew) {
+    const double *p = LF_CPRIV(s);
+    if (!renew && !rejected && p[WM_JOK] != 0.0 && h >= WM_SNAP_LO * p[WM_H0] &&
+        h <= WM_SNAP_HI * p[WM_H0])
+        h = p[WM_H0];
+    return wm_even_split(h, t_bound - s->t);
 }
+
+/* f at the new point: the dense output's end slope and the next step's f0 */
+static LfStatus wm_accept(LfSolver *s, double *const *k, const double *y, double t_new) {
+    const size_t n = s->ode.n;
+    double *dy = lf_rb_vec(s, &wm_method, LF_RB_DY(&wm_method));
+    double *f0 = lf_rb_vec(s, &wm_method, LF_RB_F0(&wm_method));
+    LfStatus st;
+    (void)k;
+    st = lf_sv_eval_rhs(s, t_new, y, dy);
+    if (st != LF_OK) return st;
+    LF_PRIV(s)[WM_AGE] += 1.0;
+    lf_sv_copy_vec(lf_rb_vec(s, &wm_method, WM_FOLD), f0, n);
+    lf_sv_copy_vec(f0, dy, n);
+    return LF_OK;
+}
+
+static LfStatus wm_step(LfSolver *s, double t_bound) { return lf_rb_step(s, &wm_method, t_bound); }
 
 static void wm_dense(const LfSolver *s, double tq, double *out) {
     const size_t n = s->ode.n;
     const double *w = LF_CPRIV(s) + WM_NSCAL;
-    const double *f1 = w + WM_F0 * n, *f0 = w + WM_FOLD * n;
+    const double *f1 = w + LF_RB_F0(&wm_method) * n, *f0 = w + WM_FOLD * n;
     const double *x0 = s->x_old, *x1 = s->x;
     double h = s->t - s->t_old, th, th2, th3, h00, h10, h01, h11;
     size_t i;
