@@ -219,6 +219,95 @@ def test_build_model_exchange_variant_is_named_reported_and_not_verified(tmp_pat
     assert "<ModelExchange" in md and "<CoSimulation" not in md
 
 
+@pytest.fixture(scope="module")
+def variants(tmp_path_factory):
+    """two_mass_force as FMI 3.0 model exchange only and FMI 2.0 both."""
+    out = tmp_path_factory.mktemp("variants")
+    for version, interface in (("3", "me"), ("2", "both")):
+        res = run("build", "two_mass_force", "--fmi-version", version, "--interface",
+                  interface, "--no-verify", "--out-dir", out)
+        assert res.returncode == 0, res.stderr
+    return out
+
+
+def _rows(stdout: str) -> list[list[str]]:
+    """The summary table's rows, cells split at two or more spaces."""
+    import re
+    lines = [ln for ln in stdout.splitlines() if ln.strip()]
+    start = next(i for i, ln in enumerate(lines) if ln.startswith("model "))
+    return [re.split(r"\s{2,}", ln.strip()) for ln in lines[start + 1:]
+            if not ln.startswith("written:")]
+
+
+def test_verify_a_model_exchange_fmu_runs_the_importer_once(variants, tmp_path):
+    """Not four rows named after solvers that do not run: one FMPy CVode run,
+    labelled so, under the variant's name; --document writes that row."""
+    from loomfmu.verify import ME_LABEL
+    fmu = tmp_path / "two_mass_force_fmi3_me.fmu"
+    fmu.write_bytes((variants / fmu.name).read_bytes())
+    res = run("verify", fmu, "--document")
+    assert res.returncode == 0, res.stderr
+    rows = _rows(res.stdout)
+    assert [r[:2] for r in rows] == [["two_mass_force_fmi3_me", ME_LABEL]], res.stdout
+    assert not any(s in res.stdout for s in SOLVERS)
+    with zipfile.ZipFile(fmu) as z:
+        page = z.read("documentation/index.html").decode()
+    section = page.split('<section id="verification">', 1)[1].split("</section>", 1)[0]
+    assert f"<h3>{ME_LABEL}: worst relative error" in section
+    assert not any(f"<h3>{s}:" in section for s in SOLVERS)
+    assert "Not verified at build" not in page
+    # --solver means nothing here: refused in one line, exit 2
+    res = run("verify", fmu, "--solver", "rk4")
+    assert res.returncode == 2 and "model exchange only" in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1 and "Traceback" not in res.stderr
+
+
+def test_verify_a_both_fmu_checks_the_embedded_solvers_and_optionally_the_importer(variants):
+    from loomfmu.verify import ME_LABEL
+    fmu = variants / "two_mass_force_fmi2_both.fmu"
+    res = run("verify", fmu, "--solver", "ros34pw2", "--model-exchange")
+    assert res.returncode == 0, res.stderr
+    assert [r[:2] for r in _rows(res.stdout)] == [["two_mass_force_fmi2_both", "ros34pw2"],
+                                                  ["two_mass_force_fmi2_both", ME_LABEL]]
+    res = run("verify", fmu, "--solver", "rk4")
+    assert [r[1] for r in _rows(res.stdout)] == ["rk4"]
+
+
+def test_simulate_a_model_exchange_fmu_names_the_importer_and_refuses_solver(variants):
+    fmu = variants / "two_mass_force_fmi3_me.fmu"
+    res = run("simulate", fmu, "--stop", "0.5")
+    assert res.returncode == 0, res.stderr
+    assert "FMPy's CVode" in res.stdout and "dopri5" not in res.stdout
+    res = run("simulate", fmu, "--stop", "0.5", "--solver", "rk4")
+    assert res.returncode == 2 and "model exchange only" in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1 and "Traceback" not in res.stderr
+    # a both FMU: co-simulation with the embedded solver, --solver taken
+    res = run("simulate", variants / "two_mass_force_fmi2_both.fmu", "--stop", "0.5",
+              "--solver", "ros34pw2")
+    assert res.returncode == 0 and "solver ros34pw2" in res.stdout, res.stderr
+
+
+def test_summary_columns_are_as_wide_as_their_contents():
+    from loomfmu.cli_commands import summary
+    from loomfmu.verify import ME_LABEL
+    err = {"errors": {"a_rather_long_output_name": {"max_abs": 1e-3, "max_rel_range": 2e-4}},
+           "wall_seconds": 0.5}
+    rep = {"validation_problems": [], "reference_wall_seconds": 1.25,
+           "solvers": {s: err for s in (*SOLVERS, ME_LABEL)}}
+    lines = summary({"two_mass_force_fmi2_both": rep, "x": {"validation_problems": []}}) \
+        .splitlines()
+    import re
+    head = re.split(r"\s{2,}", lines[0])
+    assert head[:3] == ["model", "solver", "worst output"]
+    for line in lines[1:-1]:
+        cells = re.split(r"\s{2,}", line)
+        assert len(cells) == len(head), line  # no cell runs into the next
+    # the columns line up: each header starts where its column does
+    start = lines[0].index("worst output")
+    assert all(ln[start - 2:start] == "  " for ln in lines)
+    assert lines[-1].split()[:3] == ["x", "-", "not"]
+
+
 def test_build_fmu_py_is_a_thin_wrapper():
     res = subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--help"],
                          capture_output=True, text=True, timeout=120)

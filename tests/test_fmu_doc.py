@@ -193,3 +193,93 @@ def test_readable_page_shows_the_derivation():
     assert "<script" not in page.lower() and not re.search(r'\b(src|href)="(?!#)', page)
     plain = html_for(model)
     assert "<h2>Equations</h2>" in plain and "Derivation" not in plain
+
+
+# ------------------------------------------------------------- variants
+def _variant_page(name: str, fmi_version: int, interface: str, verification=None) -> str:
+    from loomfmu.fmi_xml import model_description
+    from loomfmu.ode import dae_form
+    model = load_model(name)
+    xml = model_description(model, dae_form(model), "{00000000-0000-0000-0000-000000000000}",
+                            [], fmi_version=fmi_version, interface=interface)
+    return html_for(model, verification, model_description_xml=xml)
+
+
+def _section(page: str, anchor: str) -> str:
+    body = page.split(f'<section id="{anchor}">', 1)[1].split("</section>", 1)[0]
+    return " ".join(_visible_text(body).split())
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_model_exchange_only_page_says_what_the_importer_must_do(version):
+    """An ME-only FMU: no embedded-solver section; completedIntegratorStep,
+    event iteration, nominals 1.0, the solver* parameters unused."""
+    page = _variant_page("two_mass_force", version, "me")
+    nav = re.search(r"<nav>(.*?)</nav>", page).group(1)
+    assert "Solvers and tolerances" not in nav and "Integration by the importer" in nav
+    text = _section(page, "solver")
+    assert f"fmi{version}CompletedIntegratorStep after every accepted step" in text
+    assert "event mode" in text and "gives 1.0 for every state" in text
+    assert "unused in model exchange" in text
+    for s in SETTINGS:
+        assert s.name in text
+    # nothing about the embedded solvers' tolerance rule
+    assert "Tolerance rule" not in page and "dopri5" not in text
+
+
+def test_both_page_keeps_the_solvers_and_adds_the_importer_s_duties():
+    text = _section(_variant_page("two_mass_force", 2, "both"), "solver")
+    assert "Tolerance rule" in text and "fmi2CompletedIntegratorStep" in text
+    assert "unused in model exchange" in text
+
+
+def test_the_adaptive_solvers_are_those_of_codegen():
+    from loomfmu.codegen import SOLVER_DESCRIPTIONS, SOLVERS
+    text = _section(_variant_page("two_mass_force", 2, "cs"), "solver")
+    adaptive = [s for s in SOLVERS if "adaptive" in SOLVER_DESCRIPTIONS[s]]
+    assert "ros34pw2" in adaptive
+    listed = re.search(r"relative tolerance of the adaptive solvers \(([^)]*)\)", text).group(1)
+    assert sorted(re.split(r", | and ", listed)) == sorted(adaptive)
+
+
+@pytest.mark.parametrize("interface", ["cs", "me", "both"])
+def test_fmi3_pages_name_fmi3_functions(interface):
+    """No fmi2 name on an FMI 3.0 page (fmi3DoStep, fmi3Discard, fmi3GetFloat64...),
+    no fmi3 name on an FMI 2.0 page."""
+    page3 = _visible_text(_variant_page("drive", 3, interface))
+    assert not re.findall(r"fmi2[A-Z]\w*", page3), set(re.findall(r"fmi2[A-Z]\w*", page3))
+    page2 = _visible_text(_variant_page("drive", 2, interface))
+    assert not re.findall(r"fmi3[A-Z]\w*", page2)
+    if interface != "me":
+        assert "fmi3DoStep" in page3 and "fmi3Discard" in page3
+        assert "fmi3EnterInitializationMode" in page3 and "fmi2DoStep" in page2
+    if interface != "cs":
+        assert "fmi3CompletedIntegratorStep" in page3 and "fmi3UpdateDiscreteStates" in page3
+
+
+def test_model_exchange_with_a_delay_states_the_step_limit_and_how_to_run_fmpy():
+    text = _section(_variant_page("drive", 3, "me"), "solver")
+    assert "tau = 0.5 s" in text
+    assert "steps between completed integrator steps must not be longer than tau" in text
+    assert "fmi3Discard with a log line" in text
+    assert 'fmi_type="ModelExchange"' in text and "output_interval" in text
+    assert "50 × tau = 25 s" in text
+    # without a delay: no such paragraph
+    assert "tau" not in _section(_variant_page("two_mass_force", 3, "me"), "solver")
+
+
+def test_model_exchange_verification_is_documented_as_one_cvode_run():
+    from loomfmu.verify import ME_LABEL
+    ver = {"reference_wall_seconds": 1.0, "reference_rhs_calls": 10, "rtol": 1e-6,
+           "solvers": {ME_LABEL: {"interface": "me", "wall_seconds": 0.1, "log": [],
+                                  "errors": {"v1_out": {"max_abs": 1e-4,
+                                                        "max_rel_range": 2e-5}}}}}
+    page = _variant_page("two_mass_force", 3, "me", ver)
+    text = _section(page, "verification")
+    assert "FMPy model exchange, once: FMPy's CVode" in text
+    assert "co-simulation with the embedded" not in text
+    assert f"{ME_LABEL}: worst relative error 2e-05 (v1_out)" in text
+    failed = {**ver, "solvers": {ME_LABEL: {"interface": "me", "error": "refused: Discard",
+                                            "errors": {}}}}
+    assert "refused: Discard" in _section(
+        _variant_page("drive", 3, "me", failed), "verification")

@@ -70,8 +70,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="FMI version: 2 (FMI 2.0, the default) or 3 (FMI 3.0)")
     p.add_argument("--interface", choices=["cs", "me", "both"], default="cs",
                    help="cs: co-simulation with the embedded solvers (default); me: model "
-                        "exchange (the importer integrates; not verified here); both: one "
-                        "FMU with both")
+                        "exchange (the importer integrates; not verified at build: 'loomfmu "
+                        "verify FMU' runs it once through FMPy's CVode); both: one FMU with "
+                        "both (the embedded solvers verified)")
     p.add_argument("--no-verify", action="store_true",
                    help="skip the comparison with the scipy reference")
     p.add_argument("--out-dir", type=Path, default=Path("dist"), help="default: dist")
@@ -94,7 +95,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="stop time in s (default: the FMU's DefaultExperiment)")
     p.add_argument("--step", type=float, default=None,
                    help="communication step in s (default: the DefaultExperiment's)")
-    p.add_argument("--solver", choices=SOLVERS, default="dopri5")
+    p.add_argument("--solver", choices=SOLVERS, default=None,
+                   help="embedded co-simulation solver (default dopri5); refused for a "
+                        "model-exchange-only FMU, which the importer (FMPy's CVode) integrates")
     p.add_argument("--rtol", type=float, default=1e-6,
                    help="importer tolerance (0 < rtol < 1; default 1e-6)")
     p.add_argument("--output", action="append", default=None, metavar="NAME",
@@ -103,15 +106,20 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", type=Path, default=None, help="write a PNG chart")
 
     p = sub.add_parser("verify", help="compare an FMU with its scipy reference",
-                       description="Run FMU with every solver (or --solver) and compare "
-                                   "its outputs with a tight scipy reference of the same "
-                                   "declaration.")
+                       description="Run FMU with every embedded solver (or --solver) in "
+                                   "co-simulation, or once with FMPy's CVode if it is model "
+                                   "exchange only, and compare its outputs with a tight scipy "
+                                   "reference of the same declaration.")
     p.add_argument("fmu", type=Path, metavar="FMU")
     p.add_argument("--model", default=None,
                    help="model name (default: the FMU's modelName)")
     _option_arg(p)
     p.add_argument("--solver", action="append", choices=SOLVERS, default=None,
-                   help="solver to check (repeatable; default: all)")
+                   help="embedded co-simulation solver to check (repeatable; default: all); "
+                        "refused for a model-exchange-only FMU")
+    p.add_argument("--model-exchange", action="store_true",
+                   help="also run the FMU once as model exchange, integrated by FMPy's "
+                        "CVode (the default, and the only run, for a model-exchange-only FMU)")
     p.add_argument("--rtol", type=float, default=1e-6, help="default 1e-6")
     p.add_argument("--max-error", type=float, default=1e-3, help="default 1e-3")
     p.add_argument("--document", action="store_true",

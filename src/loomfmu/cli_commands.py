@@ -114,21 +114,37 @@ def _worst(res: dict) -> tuple[str, dict]:
     return name, res["errors"][name]
 
 
+def _table(head: list[tuple[str, str]], rows: list[list[str]]) -> str:
+    """Columns as wide as their widest cell (header included), two spaces
+    apart; head: (title, "<" or ">") per column."""
+    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, (h, _) in enumerate(head)]
+    def line(cells):
+        return "  ".join(f"{c:{a}{w}}" for c, (_, a), w in zip(cells, head, widths)).rstrip()
+    return "\n".join([line([h for h, _ in head]), *(line(r) for r in rows)])
+
+
 def summary(reports: dict[str, dict]) -> str:
-    w = max([22, *(len(name) + 2 for name in reports)])  # FMU names: e.g. backrest_fmi3_me
-    lines = [f"{'model':<{w}}{'solver':<8}{'worst output':<14}{'max abs err':>13}"
-             f"{'rel. to range':>15}{'FMU s':>9}{'scipy s':>9}{'problems':>10}"]
+    """One row per FMU and solver (or importer run); name: the FMU's variant
+    (e.g. two_mass_force_fmi3_me)."""
+    head = [("model", "<"), ("solver", "<"), ("worst output", "<"), ("max abs err", ">"),
+            ("rel. to range", ">"), ("FMU s", ">"), ("scipy s", ">"), ("problems", ">")]
+    rows = []
     for name, rep in reports.items():
+        problems = str(len(rep["validation_problems"]))
+        scipy_s = rep.get("reference_wall_seconds")
+        scipy_s = "" if scipy_s is None else f"{scipy_s:.3f}"
         for solver, res in rep.get("solvers", {}).items():
+            if res.get("error") or not res.get("errors"):
+                rows.append([name, solver, "run failed (below)", "", "", "", scipy_s,
+                             problems])
+                continue
             worst, e = _worst(res)
-            lines.append(f"{name:<{w}}{solver:<8}{worst:<14}{e['max_abs']:>13.3e}"
-                         f"{e['max_rel_range']:>15.3e}{res['wall_seconds']:>9.3f}"
-                         f"{rep['reference_wall_seconds']:>9.3f}"
-                         f"{len(rep['validation_problems']):>10d}")
+            rows.append([name, solver, worst, f"{e['max_abs']:.3e}",
+                         f"{e['max_rel_range']:.3e}", f"{res['wall_seconds']:.3f}", scipy_s,
+                         problems])
         if "solvers" not in rep:
-            lines.append(f"{name:<{w}}{'-':<8}{'not verified':<14}{'':>13}{'':>15}"
-                         f"{'':>9}{'':>9}{len(rep['validation_problems']):>10d}")
-    return "\n".join(lines)
+            rows.append([name, "-", "not verified", "", "", "", "", problems])
+    return _table(head, rows)
 
 
 def failures(reports: dict[str, dict], max_error: float) -> list[str]:
@@ -137,6 +153,9 @@ def failures(reports: dict[str, dict], max_error: float) -> list[str]:
            if r["validation_problems"]]
     for name, r in reports.items():
         for solver, res in r.get("solvers", {}).items():
+            if res.get("error") or not res.get("errors"):
+                out.append(f"{name} {solver}: the run failed: {res.get('error', 'no result')}")
+                continue
             worst = max(e["max_rel_range"] for e in res["errors"].values())
             if not worst <= max_error:
                 out.append(f"{name} {solver}: error {worst:.3g} of the range > "
@@ -176,8 +195,9 @@ def cmd_build(args) -> int:
                     result.path, model, bar, rtol=args.rtol)}
             elif not args.no_verify:
                 rep["verification"] = ("not run: model exchange only (the importer's solver "
-                                       "integrates); build --interface both to verify the "
-                                       "co-simulation")
+                                       "integrates); 'loomfmu verify FMU' runs it once "
+                                       "through FMPy's CVode; build --interface both to "
+                                       "verify the embedded solvers")
             bar.stage(f"{name}: documentation (equations in MathML)")
             write_documentation(result.path, model, verification=rep if verify else None,
                                 readable=True)
@@ -312,7 +332,12 @@ def cmd_simulate(args) -> int:
         _plot_format_ok(args.plot)
     md, model = _description_of(args.target, options)
     variables = {v.name: v for v in md.modelVariables}
-    start = check_start_values(md, {"solver": args.solver,
+    me_only = md.coSimulation is None
+    if me_only and args.solver is not None:
+        raise UsageError(f"--solver {args.solver}: {Path(args.target).name} is model exchange "
+                         "only: the importer (FMPy's CVode) integrates and the FMU's solver "
+                         "parameter is unused; drop --solver (--rtol sets CVode's tolerance)")
+    start = check_start_values(md, {**({} if me_only else {"solver": args.solver or "dopri5"}),
                                     **parse_assignments(args.set, "--set")})
     outputs = args.output or [v.name for v in md.modelVariables if v.causality == "output"]
     for name in outputs:
@@ -325,10 +350,12 @@ def cmd_simulate(args) -> int:
     if stop / step > MAX_POINTS:
         raise UsageError(f"--stop {stop:g} with --step {step:g} gives {stop / step:.3g} "
                          f"points; allowed: at most {MAX_POINTS}: choose a larger --step")
-    solver = _solver_name(md, start["solver"])
+    solver = ("FMPy's CVode (model exchange: the importer integrates)" if me_only
+              else _solver_name(md, start["solver"]))
     log: list[str] = []
 
-    def logger(component, instance, status, category, message):
+    def logger(*args):  # FMI 2: (component, instance, status, category, message); FMI 3
+        status, category, message = args[-3:]  # (environment, status, category, message)
         log.append((status, f"{category.decode()}: {message.decode()}"))
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -340,10 +367,14 @@ def cmd_simulate(args) -> int:
                 bar.stage(f"{model.name}: generating C, compiling")
                 fmu = build_fmu(model, out_dir=tmp, validate=False).path
                 bar.advance(f"{model.name}: built")
+        from .verify import quiet_callbacks
         try:
-            res = fmpy.simulate_fmu(str(fmu), validate=False, stop_time=stop,
-                                    output_interval=step, relative_tolerance=args.rtol,
-                                    start_values=start, output=outputs, logger=logger)
+            with quiet_callbacks():
+                res = fmpy.simulate_fmu(
+                    str(fmu), validate=False, stop_time=stop,
+                    fmi_type="ModelExchange" if me_only else "CoSimulation",
+                    output_interval=step, relative_tolerance=args.rtol, start_values=start,
+                    output=outputs, logger=logger)
         except Exception as exc:  # FMPy raises on fmi2Error/fmi2Discard
             print(f"loomfmu simulate: the FMU refused: {exc}", file=sys.stderr)
             for status, line in _up_to_first_failure(log):
@@ -371,6 +402,11 @@ def cmd_simulate(args) -> int:
         more = (f" (the first {shown} of {len(outputs)} outputs; choose with --output)"
                 if len(outputs) > shown else "")
         print(f"written: {args.plot}{more}")
+    refused = [line for status, line in log if status >= 2]
+    if refused:  # FMPy's CVode steps over a Discard of the derivatives: the run failed
+        print(f"loomfmu simulate: the FMU refused {len(refused)} call(s) of the importer; "
+              f"first: {refused[0]}", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -429,21 +465,33 @@ def cmd_verify(args) -> int:
                 f"pass dist/{args.fmu}.fmu" if str(args.fmu) in MODELS else "")
         raise UsageError(f"FMU {str(args.fmu)!r} does not exist or is not an FMU (zip)"
                          + hint)
+    from .verify import ME_LABEL, fmu_interfaces
     md = fmpy.read_model_description(str(args.fmu))
+    have = fmu_interfaces(md)
     name = args.model or md.modelName
     model = declare(name, parse_assignments(args.option, "--option"))
-    solvers = tuple(args.solver or SOLVERS)
+    if "cs" not in have and args.solver:
+        raise UsageError(f"--solver {args.solver[0]}: {args.fmu.name} is model exchange only: "
+                         "it is verified once, integrated by FMPy's CVode (its solver "
+                         "parameter is unused); drop --solver")
+    if "me" not in have and args.model_exchange:
+        raise UsageError(f"--model-exchange: {args.fmu.name} has no model exchange interface")
+    solvers = tuple(args.solver or SOLVERS) if "cs" in have else ()
+    me = args.model_exchange or "cs" not in have
+    variant = args.fmu.stem  # the variant, e.g. two_mass_force_fmi3_me
     with Progress(total=1, desc="verify") as bar:
         rep = {"rtol": args.rtol, "validation_problems": [],
+               "fmi_version": int(str(md.fmiVersion)[0]),
+               "interface": "both" if len(have) == 2 else have[0],
                **_verify_with_progress(args.fmu, model, bar, rtol=args.rtol,
-                                       solvers=solvers)}
-        bar.advance(f"{name}: done")
+                                       solvers=solvers, model_exchange=me)}
+        bar.advance(f"{variant}: done" + (f" ({ME_LABEL})" if me else ""))
     if args.document:
         from .fmu_doc import write_documentation
         write_documentation(args.fmu, model, verification=rep, readable=True)
         print(f"written: {args.fmu}!documentation/index.html")
-    print(summary({name: rep}))
-    bad = failures({name: rep}, args.max_error)
+    print(summary({variant: rep}))
+    bad = failures({variant: rep}, args.max_error)
     for line in bad:
         print(f"FAILED {line}", file=sys.stderr)
     return 1 if bad else 0

@@ -145,7 +145,7 @@ def html_for(model: Model, verification: dict | None = None, *,
         ("about", "What it is", _about(model)),
         ("interfaces", "Interfaces", _interfaces(model, md)),
         ("verification", "Verification", _verification(model, verification)),
-        ("solver", "Solvers and tolerances", _solver(md)),
+        ("solver", *_integration(model, md)),
         ("experiment", "Default experiment", _experiment(md)),
         ("ports", "Ports", _ports(model)),
         ("variables", "Variables", _variables(model, md)),
@@ -489,7 +489,8 @@ def _variables(model: Model, md: ET.Element) -> str:
     svs = _model_variables(md)
     out = [f"<p>Every variable of modelDescription.xml ({len(svs)} in all), as the "
            "importer sees them. Ranges are enforced by the FMU: a parameter or state set "
-           "outside its range is refused (fmi2Error and a log line); an input outside its "
+           f"outside its range is refused ({_fn(md, 'Error')} and a log line); an input "
+           "outside its "
            "range is taken with a warning (the model may not be valid there).</p>"]
     enums = {st.get("name"): {it.get("value"): it.get("name") for it in st.iter("Item")}
              for st in (*md.iter("SimpleType"), *md.iter("EnumerationType"))}
@@ -516,12 +517,144 @@ def _variables(model: Model, md: ET.Element) -> str:
             rows.append([("name", _e(name)),
                          ("small", f'{_e(sv.get("causality"))}/{_e(sv.get("variability"))}'),
                          ("num", _e(start)), ("", _e(unit)), ("num", _e(rng)),
-                         ("", _e(sv.get("description"))), ("small", _e(src))])
+                         ("", _e(_fmi(md, sv.get("description") or ""))),
+                         ("small", _e(src))])
         if rows:
             head = ["name", "causality/variability", "start", "unit", "range", "description",
                     "source"]
             out.append(f"<h3>{title} ({len(rows)})</h3>" + _cell_table(head, rows))
     return "".join(out)
+
+
+#: FMI 2.0 names whose FMI 3.0 counterpart is not fmi3 + the same name.
+_FMI3_NAMES = {
+    "fmi2GetRealStatus(fmi2LastSuccessfulTime)":
+        "the lastSuccessfulTime argument of fmi3DoStep",
+    "fmi2SetupExperiment": "fmi3EnterInitializationMode",
+    "fmi2GetReal": "fmi3GetFloat64", "fmi2SetReal": "fmi3SetFloat64",
+    "fmi2GetDerivatives": "fmi3GetContinuousStateDerivatives",
+    "fmi2GetContinuousStates": "fmi3GetContinuousStates",
+    "fmi2SetContinuousStates": "fmi3SetContinuousStates",
+    "fmi2NewDiscreteStates": "fmi3UpdateDiscreteStates",
+    "fmi2Component": "fmi3Instance",
+}
+
+
+def _fmi(md: ET.Element, text: str) -> str:
+    """``text`` (written with FMI 2.0 names: fmi2DoStep, fmi2Discard, ...)
+    with the names of the FMU's FMI version."""
+    if not md.get("fmiVersion", "").startswith("3"):
+        return text
+    for old, new in _FMI3_NAMES.items():
+        text = text.replace(old, new)
+    return re.sub(r"\bfmi2(?=[A-Z])", "fmi3", text)
+
+
+def _fn(md: ET.Element, name: str) -> str:
+    """The FMI function or constant ``name`` (FMI 2.0 spelling without its
+    prefix, e.g. "DoStep", "GetReal", "Discard") in the FMU's version."""
+    return _fmi(md, f"fmi2{name}")
+
+
+def _adaptive() -> list[str]:
+    """The adaptive embedded solvers (from codegen's descriptions)."""
+    return [s for s in SOLVERS if "adaptive" in SOLVER_DESCRIPTIONS[s]]
+
+
+def _fixed() -> list[str]:
+    return [s for s in SOLVERS if "adaptive" not in SOLVER_DESCRIPTIONS[s]]
+
+
+def _words(items: list[str]) -> str:
+    return ", ".join(items[:-1]) + (" and " if len(items) > 1 else "") + items[-1] \
+        if items else ""
+
+
+def _integration(model: Model, md: ET.Element) -> tuple[str, str]:
+    """(title, body) of the section on who integrates: the embedded solvers
+    in co-simulation, the importer in model exchange."""
+    cs, me = md.find("CoSimulation") is not None, md.find("ModelExchange") is not None
+    if cs and me:
+        return ("Solvers and tolerances", _solver(md)
+                + "<h3>Model exchange: what the importer must do</h3>"
+                + _model_exchange(model, md, both=True))
+    if me:
+        return "Integration by the importer", _model_exchange(model, md, both=False)
+    return "Solvers and tolerances", _solver(md)
+
+
+def _model_exchange(model: Model, md: ET.Element, *, both: bool) -> str:
+    """What a model-exchange importer must do (docs/runtime.md, Model exchange)."""
+    f = lambda name: f"<code>{_e(_fn(md, name))}</code>"  # noqa: E731
+    settings = ", ".join(f"<code>{_e(n)}</code>" for n in ("solver", *(s.name for s in SETTINGS)))
+    items = [
+        f"<strong>Call {f('CompletedIntegratorStep')} after every accepted step</strong> "
+        "(<code>completedIntegratorStepNotNeeded=\"false\"</code>): the validity conditions "
+        f"are checked there and in {f('NewDiscreteStates')} (where one fails, the log names "
+        "it and <code>terminateSimulation</code> is true)"
+        + ("; the delays build their history from these steps only" if model.delays else "")
+        + ".",
+        "<strong>Event iteration.</strong> After " + f("ExitInitializationMode")
+        + " the instance is in event mode; call " + f("NewDiscreteStates")
+        + " there and after every event: it re-chooses the mode of every event indicator "
+          "that changed sign and reinitializes the states for it "
+          "(<code>valuesOfContinuousStatesChanged</code>; the modes settle in one call). "
+        + f("CompletedIntegratorStep") + " returns <code>enterEventMode</code> true when an "
+          "indicator changed sign since the last event, so an importer without root "
+          "finding still learns of the switch (at its step's resolution)."
+        + ("" if model.events else " This model declares no event indicators."),
+        f"<strong>Nominals:</strong> {f('GetNominalsOfContinuousStates')} gives 1.0 for every "
+        "state: an importer that scales its absolute tolerance by the nominals (FMPy's CVode: "
+        "atol = rtol × nominal) resolves states much smaller than 1 coarsely; give it an "
+        "absolute tolerance of its own if it allows one.",
+        f"Equations that cannot be solved at the importer's point give {f('Discard')} with "
+        "the time in the log (retry with a shorter step); calls out of order, wrong array "
+        f"sizes, non-finite states or time give {f('Error')} with a log line.",
+    ]
+    if model.delays:
+        taus = ", ".join(f"<code>{_e(d.name)}</code>: tau = {_e(_tau(model, d.tau))}"
+                         for d in model.delays)
+        tau_min = min(_tau_value(model, d.tau) for d in model.delays)
+        items.append(
+            f"<strong>Delays ({taus}): the importer's steps between completed integrator "
+            "steps must not be longer than tau</strong>, counting its internal steps: a "
+            "derivative, event indicator or output needs the delayed value at t − tau, and "
+            "where that lies beyond the last completed step the call returns "
+            f"{f('Discard')} with a log line giving the delay, t − tau and the end of the "
+            "history (nothing is extrapolated). FMPy completes a step at every output point, "
+            "and its CVode takes internal steps up to (stop − start)/50: both must stay "
+            "below tau. Usage: <code>fmpy.simulate_fmu(path, fmi_type=\"ModelExchange\", "
+            "stop_time=..., output_interval=...)</code> with <code>output_interval</code> "
+            f"well below tau (e.g. {_fmt(tau_min / 10)} s) and <code>stop_time</code> below "
+            f"50 × tau = {_fmt(50 * tau_min)} s (longer runs: in pieces, or with an "
+            "importer whose largest step can be limited). An input set in event mode, or a mode re-chosen at an event, jumps the "
+            "history; the delayed value jumps tau later, announced as the next time event "
+            "(<code>nextEventTimeDefined</code>).")
+    head = ("<p>Model exchange: the importer's own solver integrates the states from their "
+            f"derivatives ({f('GetDerivatives')}); the FMU evaluates at the time and states "
+            "the importer set.</p>")
+    unused = (f'<div class="warn">The parameters {settings} are those of the embedded '
+              "co-simulation solvers" + (" and are unused in model exchange"
+                                         if both else ": unused in model exchange (this FMU "
+                                         "has no co-simulation)")
+              + ". The importer's own tolerance governs the integration.</div>")
+    return head + "<ul>" + "".join(f"<li>{i}</li>" for i in items) + "</ul>" + unused
+
+
+def _tau_value(model: Model, tau) -> float:
+    """tau (an expression of parameters) at the parameters' start values."""
+    params = model.of_kind("parameter")
+    f = ca.Function("tau", [ca.vertcat(*(p.sym for p in params))] if params else [],
+                    [ca.SX(tau)])
+    return float(f(*([[float(p.start) for p in params]] if params else [])))
+
+
+def _tau(model: Model, tau) -> str:
+    """tau printed: its value at the start values, and its expression if it
+    is not a number."""
+    value = _fmt(_tau_value(model, tau))
+    text = str(tau)
+    return f"{value} s" if text == value else f"{value} s ({text} at its start value)"
 
 
 def _solver(md: ET.Element) -> str:
@@ -533,26 +666,32 @@ def _solver(md: ET.Element) -> str:
     starts = {sv.get("name"): typ.get("start") for sv, typ in _model_variables(md)}
     srows = [f'<tr><td class="name">{_e(s.name)}</td><td class="num">{_fmt(starts.get(s.name))}'
              f'</td><td>{_e(s.unit)}</td><td class="num">[{_fmt(s.min)}, {_fmt(s.max)}]</td>'
-             f"<td>{_e(s.description)}</td></tr>" for s in SETTINGS]
+             f"<td>{_e(_fmi(md, s.description))}</td></tr>" for s in SETTINGS]
     fmpy_note = (f" FMPy's <code>simulate_fmu</code> always passes one (the default "
                  f"experiment's {_fmt(tol)} unless <code>relative_tolerance</code> is given), "
                  "so with FMPy set <code>relative_tolerance</code>, not "
                  "<code>solver_rtol</code>.") if tol else ""
-    return ("<p>The FMU integrates itself between communication points with the solver "
-            "chosen by the parameter <code>solver</code>; events are located inside the "
-            "step and the solver restarts there.</p>"
+    f = lambda name: f"<code>{_e(_fn(md, name))}</code>"  # noqa: E731
+    setup = f("SetupExperiment")
+    fixed = _fixed()
+    return ("<p>In co-simulation the FMU integrates itself between communication points "
+            "with the solver chosen by the parameter <code>solver</code>; events are located "
+            "inside the step and the solver restarts there.</p>"
             + _table(["value", "solver", "method"], rows)
             + '<div class="rule"><strong>Tolerance rule: the importer\'s tolerance overrides '
-            "<code>solver_rtol</code>.</strong> When the importer calls "
-            "<code>fmi2SetupExperiment</code> with <code>toleranceDefined = fmi2True</code>, "
+            f"<code>solver_rtol</code>.</strong> When the importer calls {setup} with "
+            f"<code>toleranceDefined = {_e(_fn(md, 'True'))}</code>, "
             "its <code>tolerance</code> is the relative tolerance of the adaptive solvers "
-            "(dopri5, rodas4) and <code>solver_rtol</code> is not used (it keeps its "
-            "value); if the importer set <code>solver_rtol</code> to another value, "
-            "<code>fmi2ExitInitializationMode</code> returns fmi2Warning with a log line "
+            f"({_e(_words(_adaptive()))}) and <code>solver_rtol</code> is not used (it keeps "
+            "its value); if the importer set <code>solver_rtol</code> to another value, "
+            f"{f('ExitInitializationMode')} returns {_e(_fn(md, 'Warning'))} with a log line "
             "(logStatusWarning) naming both. A tolerance outside "
-            f"[{_fmt(rtol.min)}, {_fmt(rtol.max)}] is limited to that range, with a warning. <code>solver_rtol</code> applies only when the "
+            f"[{_fmt(rtol.min)}, {_fmt(rtol.max)}] is limited to that range, with a warning. "
+            "<code>solver_rtol</code> applies only when the "
             "importer defines no tolerance." + fmpy_note + " <code>solver_atol</code> "
-            "always applies; rk4 takes fixed steps of <code>solver_h_fixed</code> and uses "
+            f"always applies; {_e(_words(fixed))} "
+            f"take{'s' if len(fixed) == 1 else ''} fixed steps of "
+            f"<code>solver_h_fixed</code> and use{'s' if len(fixed) == 1 else ''} "
             "neither.</div>"
             + "<h3>Settings (fixed parameters)</h3>"
             + _table(["name", "start", "unit", "range", "description"], srows))
@@ -600,8 +739,7 @@ def _verification(model: Model, ver: dict | None) -> str:
                          f"rtol {tol('ref_rtol')}, atol {tol('ref_atol')}; "
                          f"{_sig(ver.get('reference_wall_seconds'))} s, "
                          f"{_e(ver.get('reference_rhs_calls', '?'))} right-hand-side calls"),
-           ("FMU runs", f"FMPy co-simulation with each solver, rtol {tol('rtol')} (passed as "
-                        f"the importer's tolerance), atol {tol('atol')}"),
+           ("FMU runs", _runs_text(ver, tol)),
            ("compared", "at every communication point of the default experiment; per "
                         "output the largest absolute difference, and that divided by the "
                         "output's range over the run (its magnitude if the range is zero)")]
@@ -611,7 +749,7 @@ def _verification(model: Model, ver: dict | None) -> str:
     for solver, res in ver["solvers"].items():
         errs = res.get("errors") or {}
         wall = _sig(res.get("wall_seconds"))
-        if not errs:
+        if not errs or res.get("error"):
             msg = res.get("error") or "; ".join(res.get("log", [])) or "no errors recorded"
             summary.append(f'<tr><td class="name">{_e(solver)}</td><td colspan="3">'
                            f"{_e(msg)}</td></tr>")
@@ -634,6 +772,23 @@ def _verification(model: Model, ver: dict | None) -> str:
     out.append('<div class="solvers">' + "".join(tables) + "</div>")
     out.append("<p>Highlighted: the output with the worst relative error.</p>")
     return "".join(out)
+
+
+def _runs_text(ver: dict, tol) -> str:
+    """How the FMU was run: the embedded solvers in co-simulation, FMPy's
+    CVode in model exchange (rows labelled by verify.ME_LABEL)."""
+    cs = [s for s, r in ver["solvers"].items() if r.get("interface", "cs") == "cs"]
+    me = [s for s, r in ver["solvers"].items() if r.get("interface") == "me"]
+    out = []
+    if cs:
+        out.append(f"FMPy co-simulation with the embedded solver{'s' if len(cs) > 1 else ''} "
+                   f"{_e(_words(cs))}, rtol {tol('rtol')} (passed as the importer's "
+                   f"tolerance), atol {tol('atol')}")
+    if me:
+        out.append(f"FMPy model exchange, once: FMPy's CVode integrates at rtol {tol('rtol')} "
+                   "(absolute tolerance rtol × the nominal 1.0 of each state); the embedded "
+                   "solver and its settings are not used")
+    return "; ".join(out)
 
 
 def _sig(v) -> str:

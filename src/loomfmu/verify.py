@@ -8,6 +8,8 @@ Error measures (per output, over the communication points):
 """
 from __future__ import annotations
 
+import contextlib
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,6 +24,33 @@ from .declare import Model
 from .reference import MAX_OUTPUTS, RTOL_MIN, Reference, check_model, reference
 
 
+#: The row label of a model-exchange run: FMPy's own solver integrates, once.
+ME_LABEL = "CVode (FMPy, model exchange)"
+
+
+@contextlib.contextmanager
+def quiet_callbacks():
+    """Drop the tracebacks FMPy's ctypes callbacks print when an FMU call
+    returns Discard inside CVode's right-hand side (FMPy goes on; the FMU's
+    own log line says what happened)."""
+    old = sys.unraisablehook
+
+    def hook(unraisable):
+        if type(unraisable.exc_value).__name__ != "FMICallException":
+            old(unraisable)
+    sys.unraisablehook = hook
+    try:
+        yield
+    finally:
+        sys.unraisablehook = old
+
+
+def fmu_interfaces(model_description) -> tuple[str, ...]:
+    """("cs",), ("me",) or ("cs", "me"): what FMPy's ``model_description`` declares."""
+    return tuple(k for k, attr in (("cs", "coSimulation"), ("me", "modelExchange"))
+                 if getattr(model_description, attr, None) is not None)
+
+
 @dataclass
 class FmuRun:
     t: np.ndarray
@@ -33,9 +62,13 @@ class FmuRun:
 def simulate(fmu: Path | str, *, solver: str = "dopri5", rtol: float = 1e-6,
              atol: float = 1e-9, stop_time: float | None = None,
              output_interval: float | None = None, values: dict | None = None,
-             output: list[str] | None = None, model_description=None) -> FmuRun:
-    """Simulate ``fmu`` with ``fmpy.simulate_fmu`` (co-simulation).
+             output: list[str] | None = None, model_description=None,
+             interface: str | None = None) -> FmuRun:
+    """Simulate ``fmu`` with ``fmpy.simulate_fmu``.
 
+    interface: "cs" (co-simulation with the embedded ``solver``) or "me"
+    (model exchange: FMPy's CVode integrates at ``rtol``; ``solver`` and
+    ``atol`` are not used); default: "cs" if the FMU has it, else "me".
     solver: one of SOLVERS.  rtol: in (0, 0.1]; atol: > 0 (adaptive solvers).
     stop_time: > 0 (default: the FMU's DefaultExperiment).
     output_interval: communication step, in (0, stop_time] (default: the
@@ -60,6 +93,8 @@ def simulate(fmu: Path | str, *, solver: str = "dopri5", rtol: float = 1e-6,
     elif not hasattr(model_description, "modelVariables"):
         raise ValueError(f"model_description = {model_description!r:.60}; allowed: FMPy's "
                          "ModelDescription of this FMU, or None")
+    have = fmu_interfaces(model_description)
+    interface = check_choice("interface", interface or have[0], have)
     variables = model_description.modelVariables
     settable = [v.name for v in variables if v.start is not None]
     values = check_mapping("values", values, settable, what="variables with a start value",
@@ -91,16 +126,22 @@ def simulate(fmu: Path | str, *, solver: str = "dopri5", rtol: float = 1e-6,
                          f"{MAX_OUTPUTS}")
     log: list[str] = []
 
-    def logger(component, instance, status, category, message):
+    def logger(*args):  # FMI 2: (component, instance, status, category, message); FMI 3
+        status, category, message = args[-3:]  # (environment, status, category, message)
         log.append(f"[{status}] {category.decode()}: {message.decode()}")
 
-    start = {"solver": SOLVERS.index(solver) + 1, "solver_atol": atol, **(values or {})}
+    start = ({"solver": SOLVERS.index(solver) + 1, "solver_atol": atol} if interface == "cs"
+             else {})
+    start.update(values or {})
     wall = time.perf_counter()
     try:
-        res = fmpy.simulate_fmu(str(fmu), validate=False, stop_time=stop_time,
-                                relative_tolerance=rtol, output_interval=output_interval,
-                                start_values=start, output=output, logger=logger,
-                                model_description=model_description)
+        with quiet_callbacks():
+            res = fmpy.simulate_fmu(str(fmu), validate=False, stop_time=stop_time,
+                                    fmi_type="CoSimulation" if interface == "cs"
+                                    else "ModelExchange",
+                                    relative_tolerance=rtol, output_interval=output_interval,
+                                    start_values=start, output=output, logger=logger,
+                                    model_description=model_description)
     except Exception as e:  # noqa: BLE001 (FMPy raises bare Exceptions)
         tail = "; ".join(log[-3:]) or "no log"
         raise RuntimeError(f"simulate {Path(fmu).name}: {e} (log: {tail})") from e
@@ -156,34 +197,86 @@ def compare(run: FmuRun | Reference, ref: Reference,
     return errs
 
 
-def verify(fmu: Path | str, model: Model, *, solvers=SOLVERS, rtol: float = 1e-6,
-           atol: float = 1e-9, ref_rtol: float = 1e-11, ref_atol: float = 1e-13,
-           on_stage=None) -> dict:
+def verify(fmu: Path | str, model: Model, *, solvers=None, model_exchange: bool | None = None,
+           rtol: float = 1e-6, atol: float = 1e-9, ref_rtol: float = 1e-11,
+           ref_atol: float = 1e-13, on_stage=None) -> dict:
     """Run ``fmu`` with every solver and compare with a tight scipy reference.
 
+    solvers: the embedded solvers to run in co-simulation, a list from
+    SOLVERS (default: all of them if the FMU has co-simulation, none if it
+    is model exchange only; then passing any is a ValueError: the importer
+    integrates).  model_exchange: also run the FMU once as model exchange,
+    integrated by FMPy's CVode at ``rtol``, reported under :data:`ME_LABEL`
+    (default: only if the FMU has no co-simulation).  A model-exchange run
+    that the FMU refuses (e.g. FMPy's steps longer than a delay: Discard,
+    which FMPy's CVode steps over) is reported with its "error" (and its
+    "errors" if FMPy finished the run anyway).
     on_stage: called with a short text before each run (progress display).
 
-    Returns {"reference_wall_seconds", "solvers": {solver: {"wall_seconds",
-    "errors": {output: {"max_abs", "max_rel_range"}}}}}.  solvers: a non-empty
-    list from SOLVERS; rtol, atol as for :func:`simulate`; ref_rtol, ref_atol
-    as rtol, atol of :func:`~loomfmu.reference.reference`.
+    Returns {"reference_wall_seconds", "reference_rhs_calls", "solvers":
+    {label: {"interface": "cs"|"me", "wall_seconds", "log", "errors":
+    {output: {"max_abs", "max_rel_range"}}}}}; label: the solver's name in
+    co-simulation, ME_LABEL for model exchange.  rtol, atol as for
+    :func:`simulate`; ref_rtol, ref_atol as rtol, atol of
+    :func:`~loomfmu.reference.reference`.
     """
     check_model(model)
+    try:
+        md = fmpy.read_model_description(str(fmu), validate=False)
+    except Exception as e:  # noqa: BLE001 (FMPy raises bare Exceptions)
+        raise ValueError(f"fmu = {str(fmu)!r}: not a readable FMU ({e})") from None
+    have = fmu_interfaces(md)
+    if solvers is None:
+        solvers = SOLVERS if "cs" in have else ()
     solvers = check_name_list("solvers", solvers, SOLVERS, what="solvers")
-    if not solvers:
+    if solvers and "cs" not in have:
+        raise ValueError(f"solvers = {solvers!r}: {Path(fmu).name} is model exchange only "
+                         "(the importer's solver integrates, the FMU's solver parameter is "
+                         "unused); allowed: none")
+    if model_exchange is None:
+        model_exchange = "cs" not in have
+    check_bool("model_exchange", model_exchange)
+    if model_exchange and "me" not in have:
+        raise ValueError(f"model_exchange = True: {Path(fmu).name} has no model exchange")
+    if not solvers and not model_exchange:
         raise ValueError(f"solvers = []; allowed: a non-empty list from {SOLVERS}")
     check_number("ref_rtol", ref_rtol, lo=RTOL_MIN, hi=0.1)
     check_number("ref_atol", ref_atol, lo=0.0, lo_open=True)
     names = [v.name for v in model.of_kind("output")]
     stage = on_stage or (lambda text: None)
-    runs = {}
+    runs, failed = {}, {}
     for s in solvers:
         stage(f"FMU run, {s}")
-        runs[s] = simulate(fmu, solver=s, rtol=rtol, atol=atol, output=names)
-    grid = next(iter(runs.values())).t  # FMPy's communication points
-    stage(f"scipy reference ({model.reference_method}, rtol {ref_rtol:g})")
-    ref = reference(model, t_end=grid[-1], t_eval=grid, rtol=ref_rtol, atol=ref_atol,
-                    method=model.reference_method)
-    return {"reference_wall_seconds": ref.wall_seconds, "reference_rhs_calls": ref.n_rhs,
-            "solvers": {s: {"wall_seconds": run.wall_seconds, "log": run.log[-5:],
-                            "errors": compare(run, ref, names)} for s, run in runs.items()}}
+        runs[s] = simulate(fmu, solver=s, rtol=rtol, atol=atol, output=names,
+                           model_description=md, interface="cs")
+    if model_exchange:
+        stage(f"FMU run, {ME_LABEL}")
+        try:
+            runs[ME_LABEL] = simulate(fmu, rtol=rtol, output=names, model_description=md,
+                                      interface="me")
+        except RuntimeError as e:
+            failed[ME_LABEL] = {"interface": "me", "error": str(e), "errors": {}}
+        else:  # FMPy's CVode goes on after a Discard of a derivative: the run failed
+            refused = [ln for ln in runs[ME_LABEL].log if ln[1:2] in "234" and ln[2] == "]"]
+            if refused:
+                failed[ME_LABEL] = {"error": f"the FMU refused {len(refused)} call(s) of "
+                                             f"FMPy's CVode; first: {refused[0]}"}
+    out = {s: {"interface": "me" if s == ME_LABEL else "cs", "wall_seconds": run.wall_seconds,
+               "log": run.log[-5:]} for s, run in runs.items()}
+    ref_wall = ref_calls = None
+    if runs:
+        refs: list[Reference] = []  # one per grid (FMPy's model exchange adds event times)
+        for s, run in runs.items():
+            ref = next((r for r in refs if len(r.t) == len(run.t)
+                        and np.allclose(r.t, run.t, rtol=0, atol=1e-9)), None)
+            if ref is None:
+                stage(f"scipy reference ({model.reference_method}, rtol {ref_rtol:g})")
+                ref = reference(model, t_end=run.t[-1], t_eval=run.t, rtol=ref_rtol,
+                                atol=ref_atol, method=model.reference_method)
+                refs.append(ref)
+            out[s]["errors"] = compare(run, ref, names)
+        ref_wall, ref_calls = refs[0].wall_seconds, refs[0].n_rhs
+    for s, res in failed.items():
+        out[s] = {**out.get(s, {}), **res}
+    return {"reference_wall_seconds": ref_wall, "reference_rhs_calls": ref_calls,
+            "solvers": out}
