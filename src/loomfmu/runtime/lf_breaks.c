@@ -190,10 +190,21 @@ double lf_known_break(LfInstance *c, double t_bound) {
     }
     if (c->kb_clear >= t_bound) return t_bound;
     /* land a margin before the root (as the step redone up to an event
-     * stops: lf_events.c), not at or before the step's start */
+     * stops: lf_events.c), and only if that is at least another margin
+     * past the step's start.  A solver already standing about a margin
+     * before the root (it landed there, and the crossing was left to the
+     * next step because the root lies at or past the communication point:
+     * lf_cross_known_break) predicts the root again from its own clock
+     * states, which differ from the first prediction by rounding: the root
+     * can come out a few ulps later, t0 + margin + ulps.  Landing there
+     * would be a step of an ulp, after which the same happens again: the
+     * solver crawled through the margin one ulp per step (heald_frame,
+     * rodas4: 18 000 steps of 5.6e-17 s before the stop time, and the
+     * event at the stop time lost).  Such a root is left to the step
+     * that straddles it (lf_handle_events locates it as any event). */
     margin = LF_EVENT_GAP * fmax(1.0, fabs(tl));
     c->kb_ready = 0; /* after the break: scan again from there */
-    if (!(tl - margin > t0)) return t_bound;
+    if (!(tl - margin > t0 + margin)) return t_bound;
     c->kb_ready = 1;
     c->kb_index = k;
     c->kb_t_land = tl - margin;
