@@ -321,3 +321,15 @@ def test_analysis_outputs_go_where_the_user_says(tmp_path):
     res = run("drive", "table", "--out", tmp_path / "law.md", cwd=tmp_path)
     assert res.returncode == 0, res.stderr
     assert (tmp_path / "law.md").read_text().startswith("#")
+
+
+def test_model_exchange_run_is_compared_at_its_communication_points_only():
+    """FMPy's model exchange records an event time twice (before, after):
+    those rows are left out, or the jump would count as the FMU's error."""
+    import numpy as np
+    from loomfmu.verify import FmuRun, _output_points
+    t = np.array([0.0, 0.001, 0.0015, 0.0015, 0.002, 0.003, 0.003, 0.004])
+    y = np.arange(len(t), dtype=float)
+    run = _output_points(FmuRun(t, {"a": y}, 0.1))
+    assert list(run.t) == [0.0, 0.001, 0.002, 0.003, 0.004]
+    assert list(run.y["a"]) == [0.0, 1.0, 4.0, 6.0, 7.0]  # on the grid: the value after
