@@ -433,7 +433,10 @@ def test_bench_charts_on_dask_equal_the_serial_run_but_for_the_times(tmp_path):
     assert rows("dask") == rows("serial")
     assert all(math.isfinite(r["err_max"]) and r["status"] == "ok" for r in par["rows"])
     assert {(t["family"], t["method"]) for t in par["tasks"]} == only
-    assert all(t["cpu_s"] > 0 and t["wall_s"] > 0 for t in par["tasks"])
+    # a short task's thread CPU time can round to 0 (clock granularity): the
+    # times are recorded, non-negative, and the tasks together took time
+    assert all(t["cpu_s"] >= 0 and t["wall_s"] >= 0 for t in par["tasks"])
+    assert sum(t["wall_s"] for t in par["tasks"]) > 0
     for f in ("drive_wp.png", "points.csv", "summary.md", "speed_table.json"):
         assert (tmp_path / "dask" / f).stat().st_size > 0
     table = json.loads((tmp_path / "dask" / "speed_table.json").read_text())
