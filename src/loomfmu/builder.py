@@ -16,6 +16,7 @@ from fmpy.validation import validate_fmu
 
 from .checks import check_bool
 from .codegen import generate_sources
+from .compile_cache import BuildError, CompileStats, compile_objects, run
 from .declare import Model
 from .fmi_xml import check_variant, model_description, terminals_and_icons
 from .fmu_doc import write_documentation
@@ -100,34 +101,24 @@ class BuildResult:
     problems: list[str] = field(default_factory=list)
     fmi_version: int = 2
     interface: str = "cs"
+    #: C files compiled and objects reused from the build cache
+    compile_stats: CompileStats = field(default_factory=CompileStats)
 
 
-class BuildError(RuntimeError):
-    """gcc failed; the message carries the command and the compiler's output."""
-
-
-def _run(cmd: list[str], cwd: Path) -> None:
-    proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True)
-    if proc.returncode != 0:
-        raise BuildError(f"command failed ({proc.returncode}): {' '.join(cmd)}\n"
-                         f"{proc.stdout}{proc.stderr}")
-
-
-def compile_binary(src: Path, out: Path, generated_c: list[str], cc: str = "gcc") -> None:
-    """Compile every .c in ``src`` into the shared library ``out``."""
+def compile_binary(src: Path, out: Path, generated_c: list[str], cc: str = "gcc") -> CompileStats:
+    """Compile every .c in ``src`` into the shared library ``out`` (in
+    parallel, objects reused from the cache of :mod:`loomfmu.compile_cache`)."""
     include = ["-I", str(src), "-I", str(fmi_headers_dir())]
-    objs = []
+    jobs = [(c, GENERATED_FLAGS if c.name in generated_c else STRICT_FLAGS)
+            for c in sorted(src.glob("*.c"))]
     with tempfile.TemporaryDirectory() as tmp:
-        for c_file in sorted(src.glob("*.c")):
-            flags = GENERATED_FLAGS if c_file.name in generated_c else STRICT_FLAGS
-            obj = Path(tmp) / (c_file.stem + ".o")
-            _run([cc, *flags, *include, "-c", str(c_file), "-o", str(obj)], src)
-            objs.append(str(obj))
+        objs, stats = compile_objects(jobs, include, Path(tmp), cc)
         out.parent.mkdir(parents=True, exist_ok=True)
         _check_symbols(objs, model_identifier=out.stem)
         # --no-undefined: a facade function missing from the sources is a build error,
         # not a library that fails to load in the importer
-        _run([cc, "-shared", "-Wl,--no-undefined", "-o", str(out), *objs, "-lm"], src)
+        run([cc, "-shared", "-Wl,--no-undefined", "-o", str(out), *objs, "-lm"], src)
+    return stats
 
 
 def _check_symbols(objs: list[str], model_identifier: str) -> None:
@@ -187,8 +178,8 @@ def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 
                 (root / "terminalsAndIcons").mkdir()
                 (root / "terminalsAndIcons" / "terminalsAndIcons.xml").write_text(terminals)
         generated_c = [f for f in gen_files if f.endswith("_casadi.c")]
-        compile_binary(src, root / "binaries" / PLATFORM[fmi_version] / f"{model.name}.so",
-                       generated_c)
+        stats = compile_binary(src, root / "binaries" / PLATFORM[fmi_version] /
+                               f"{model.name}.so", generated_c)
         fmu = out_dir / fmu_file_name(model.name, fmi_version, interface)
         _zip_dir(root, fmu)
     # documentation/index.html; `loomfmu build` rewrites it with the verification
@@ -197,7 +188,7 @@ def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 
     if validate and fmi_version == 3 and model.ports:  # FMPy does not read this file
         problems += terminals_problems(terminals_and_icons(model))
     return BuildResult(model.name, fmu, guid, time.perf_counter() - t0, problems, fmi_version,
-                       interface)
+                       interface, stats)
 
 
 def _out_dir(out_dir) -> Path:
