@@ -24,18 +24,53 @@ static LfStatus factor_dFdw(LfInstance *c, double t, const double *x, const doub
     return LF_OK;
 }
 
-/* Newton on F(t, x, w) = 0 from c->w_cur, with the exact dF/dw.  Converged
- * when every |dw_i| <= LF_NEWTON_ATOL + LF_NEWTON_RTOL max(|w_i|, |w_cur_i|),
- * or when the scaled step stops shrinking at rounding level (a component
- * near 0 coupled to large terms cannot get below its terms' rounding). */
+/* -DLF_NEWTON_STATS: counts of the solves in steps (c->wc_on), printed to
+ * stderr at exit (tests/test_newton_predictor.py; one instance at a time) */
+#ifdef LF_NEWTON_STATS
+#include <stdio.h>
+static long st_solves, st_hits, st_full, st_full_it, st_simp, st_simp_it, st_fallback;
+static void __attribute__((destructor)) st_print(void) {
+    fprintf(stderr, "newton_stats: solves %ld hits %ld full %ld full_it %ld simplified %ld "
+            "simplified_it %ld fallbacks %ld\n", st_solves, st_hits, st_full, st_full_it,
+            st_simp, st_simp_it, st_fallback);
+}
+#define STAT(x) (c->wc_on ? (void)(x) : (void)0)
+#else
+#define STAT(x) ((void)0)
+#endif
+
+/* Newton's memory (lf_newton_mem.h) is usable in this generation */
+static inline int nm_on(const LfInstance *c) { return LF_IMPLICIT && c->wc_on; }
+
+/* keep the factorization in c->jac_ww, c->piv and dF/dx, dF/dt in
+ * c->jac_wx, c->jac_wt (just evaluated together) for this generation */
+static void nm_keep_lu(LfInstance *c) {
+    LfNewtonMem *m = &c->nm;
+    memcpy(m->lu, c->jac_ww, sizeof(double) * LF_NW * LF_NW);
+    memcpy(m->piv, c->piv, sizeof(size_t) * LF_NW);
+    memcpy(m->fx, c->jac_wx, sizeof(double) * LF_NW * LF_NX);
+    memcpy(m->ft, c->jac_wt, sizeof(double) * LF_NW);
+    m->lu_gen = c->wc_gen;
+    m->stale = 0;
+    m->tan_ok = 0;
+}
+
+/* Newton on F(t, x, w) = 0 from w, with the exact dF/dw.  Converged
+ * when every |dw_i| <= LF_NEWTON_ATOL + LF_NEWTON_RTOL max(|w_i|, |w0_i|)
+ * (w0: the start), or when the scaled step stops shrinking at rounding
+ * level (a component near 0 coupled to large terms cannot get below its
+ * terms' rounding). */
 static LfStatus newton(LfInstance *c, double t, const double *x, double *w) {
+    double w0[LF_DIM(LF_NW)];
     int it, i;
     double prev = INFINITY;
     LfStatus st;
-    memcpy(w, c->w_cur, sizeof(double) * LF_NW);
+    STAT(st_full++);
+    memcpy(w0, w, sizeof w0);
     for (it = 0; it < LF_NEWTON_MAX_ITER; it++) {
         int done = 1;
         double size = 0.0;
+        STAT(st_full_it++);
         if (lf_eval_fn(c, LF_FN_RES, t, x, w, c->res_F, NULL, NULL) != LF_OK) return LF_ERROR;
         if (lf_first_nonfinite(c->res_F, LF_NW) >= 0) {
             lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: algebraic loop: residual of "
@@ -45,9 +80,10 @@ static LfStatus newton(LfInstance *c, double t, const double *x, double *w) {
         }
         st = factor_dFdw(c, t, x, w);
         if (st != LF_OK) return st;
+        if (nm_on(c)) nm_keep_lu(c);
         lf_lu_solve(c->jac_ww, LF_NW, c->piv, c->res_F);
         for (i = 0; i < LF_NW; i++) {
-            double scale = fmax(fabs(w[i]), fabs(c->w_cur[i]));
+            double scale = fmax(fabs(w[i]), fabs(w0[i]));
             w[i] -= c->res_F[i];
             if (fabs(c->res_F[i]) > LF_NEWTON_ATOL + LF_NEWTON_RTOL * scale) done = 0;
             size = fmax(size, fabs(c->res_F[i]) / (LF_NEWTON_ATOL + scale));
@@ -63,16 +99,96 @@ static LfStatus newton(LfInstance *c, double t, const double *x, double *w) {
     return LF_DISCARD;
 }
 
+/* The predictor: w at (t, x) to first order from the generation's last
+ * solution (tb, xb, wb): w ~ wb + dw/dx (x - xb) + dw/dt (t - tb), with
+ * [dw/dx, dw/dt] = -(dF/dw)^-1 [dF/dx, dF/dt] where the kept LU was factored
+ * (formed at the first prediction after it was kept: m->tan_ok). */
+static void nm_predict(LfInstance *c, double t, const double *x, double *w) {
+    LfNewtonMem *m = &c->nm;
+    double dt = t - m->tb;
+    int i, j;
+    if (!m->tan_ok) {
+        for (j = 0; j < LF_NX; j++) lf_lu_solve(m->lu, LF_NW, m->piv, &m->fx[j * LF_NW]);
+        lf_lu_solve(m->lu, LF_NW, m->piv, m->ft);
+        m->tan_ok = 1;
+    }
+    for (i = 0; i < LF_NW; i++) w[i] = m->wb[i] - m->ft[i] * dt;
+    for (j = 0; j < LF_NX; j++) {
+        double dx = x[j] - m->xb[j];
+        const double *col = &m->fx[j * LF_NW];
+        if (dx != 0.0)
+            for (i = 0; i < LF_NW; i++) w[i] -= col[i] * dx;
+    }
+}
+
+/* Simplified Newton from w (the kept LU for every iteration).  q: the
+ * largest |dw_i| / (LF_NEWTON_ATOL + LF_NEWTON_RTOL max(|w_i|, |w0_i|)),
+ * Newton's stopping test is q <= 1; the rate theta = q / q_before.  While
+ * theta <= LF_SIMPLE_RATE the iterate's error is at most about
+ * theta / (1 - theta) times its last step: converged when that is within
+ * Newton's tolerance, or when the step itself is (Newton's test).
+ * 1: converged (w the solution), 0: not (w unchanged), < 0: the residual
+ * failed. */
+#define LF_SIMPLE_MAX_ITER 6
+#define LF_SIMPLE_RATE 0.25
+static int simplified(LfInstance *c, double t, const double *x, double *w) {
+    double w1[LF_DIM(LF_NW)], prev = INFINITY;
+    int it, i;
+    STAT(st_simp++);
+    memcpy(w1, w, sizeof w1);
+    for (it = 0; it < LF_SIMPLE_MAX_ITER; it++) {
+        double q = 0.0, theta;
+        STAT(st_simp_it++);
+        if (lf_eval_fn(c, LF_FN_RES, t, x, w1, c->res_F, NULL, NULL) != LF_OK) return -1;
+        if (lf_first_nonfinite(c->res_F, LF_NW) >= 0) break;
+        lf_lu_solve(c->nm.lu, LF_NW, c->nm.piv, c->res_F);
+        for (i = 0; i < LF_NW; i++) {
+            double a = fabs(w1[i]), b = fabs(w[i]), d = fabs(c->res_F[i]);
+            w1[i] -= c->res_F[i];
+            d /= LF_NEWTON_ATOL + LF_NEWTON_RTOL * (a > b ? a : b);
+            if (d > q) q = d;
+        }
+        theta = q / prev;
+        if (!(theta <= LF_SIMPLE_RATE) || lf_first_nonfinite(w1, LF_NW) >= 0) break;
+        if (q <= 1.0 || (it > 0 && theta * q <= 1.0 - theta)) {
+            memcpy(w, w1, sizeof w1);
+            if (it >= 3) c->nm.stale = 1;
+            return 1;
+        }
+        prev = q;
+    }
+    STAT(st_fallback++);
+    c->nm.stale = 1;
+    return 0;
+}
+
 /* The unknowns w = [der(x); z] at (t, x) (inline in lf_rhs, the solvers'
  * hot path). */
 static inline LfStatus solve_w(LfInstance *c, double t, const double *x, double *w) {
     LfStatus st;
     int bad;
-    if (LF_WC_USED && c->wc_on && lf_wc_take(c, t, x, w)) return LF_OK;
+    STAT(st_solves++);
+    if (LF_WC_USED && c->wc_on && lf_wc_take(c, t, x, w)) {
+        STAT(st_hits++);
+        return LF_OK;
+    }
     if (LF_WK_USED && c->wc_on && lf_wk_take(c, t, x, w)) return LF_OK;
     if (LF_IMPLICIT) {
-        st = newton(c, t, x, w);
-        if (st != LF_OK) return st;
+        int done = 0;
+        if (nm_on(c) && c->nm.lu_gen == c->wc_gen && c->nm.b_gen == c->wc_gen) {
+            nm_predict(c, t, x, w);
+            if (lf_first_nonfinite(w, LF_NW) >= 0) memcpy(w, c->w_cur, sizeof(double) * LF_NW);
+            if (!c->nm.stale) {
+                done = simplified(c, t, x, w);
+                if (done < 0) return LF_ERROR;
+            }
+        } else {
+            memcpy(w, c->w_cur, sizeof(double) * LF_NW);
+        }
+        if (!done) {
+            st = newton(c, t, x, w);
+            if (st != LF_OK) return st;
+        }
     } else if (lf_eval_fn(c, LF_FN_WSOL, t, x, w, w, NULL, NULL) != LF_OK) {
         return LF_ERROR;
     }
@@ -83,6 +199,12 @@ static inline LfStatus solve_w(LfInstance *c, double t, const double *x, double 
         return LF_DISCARD;
     }
     memcpy(c->w_cur, w, sizeof(double) * LF_NW);
+    if (nm_on(c)) {
+        c->nm.b_gen = c->wc_gen;
+        c->nm.tb = t;
+        memcpy(c->nm.xb, x, sizeof(double) * LF_NX);
+        memcpy(c->nm.wb, w, sizeof(double) * LF_NW);
+    }
     if (LF_WC_USED && c->wc_on) lf_wc_keep(c, t, x, w);
     if (LF_WK_USED && c->wc_on) lf_wk_keep(c, t, x);
     return LF_OK;
@@ -138,6 +260,7 @@ static LfStatus jac_cb(void *ctx, double t, const double *x, double *J, double *
         st = lf_solve_w(c, t, x, c->w_tmp);
         if (st == LF_OK) st = factor_dFdw(c, t, x, c->w_tmp);
         if (st != LF_OK) return st;
+        if (nm_on(c)) nm_keep_lu(c); /* at the solution: the stages' simplified Newton */
         for (j = 0; j < LF_NX; j++) lf_lu_solve(c->jac_ww, LF_NW, c->piv, &c->jac_wx[j * LF_NW]);
         lf_lu_solve(c->jac_ww, LF_NW, c->piv, c->jac_wt);
         for (i = 0; i < LF_NW * LF_NX; i++) c->jac_wx[i] = -c->jac_wx[i];

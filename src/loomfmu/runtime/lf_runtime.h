@@ -8,6 +8,7 @@
 #include "lf_solver.h"
 
 #define LF_DIM(n) ((n) > 0 ? (n) : 1)
+#include "lf_newton_mem.h"
 /* samples of history kept per delayed expression */
 #define LF_HIST_CAP 65536
 /* pending discontinuities of delayed values (history jumps + tau): an input
@@ -173,6 +174,8 @@ typedef struct {
     /* -- model exchange -- */
     /* -- FMI 3.0 facade -- */
     /* -- solvers and statistics -- */
+    /* -- algebraic loops: Newton's memory (lf_newton_mem.h) -- */
+    LfNewtonMem nm;
 } LfInstance;
 
 LfInstance *lf_instantiate(const char *name, LfLogFn log, void *log_env,

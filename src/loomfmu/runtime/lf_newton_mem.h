@@ -1,0 +1,45 @@
+/* loomfmu shared runtime: Newton's memory for models solved by Newton
+ * (lf_newton.c), a field of LfInstance (lf_runtime.h includes this header
+ * after LF_DIM).
+ *
+ * While a step runs (c->wc_on), the solves of the unknowns w at the
+ * solver's stages, the event and validity scans' points and the outputs
+ * are close to each other.  Newton's memory keeps, from the solves of the
+ * current generation (the solve cache's c->wc_gen: advanced when a step
+ * starts and wherever a mode is set, so parameters, inputs and modes are
+ * the same for every solve that uses it):
+ *  - the LU of dF/dw and dF/dx, dF/dt where it was last factored, for
+ *    (a) the first-order predictor of w at a new point (t, x) from the last
+ *    solution (tb, xb, wb): w ~ wb - (dF/dw)^-1 (dF/dx (x - xb) + dF/dt
+ *    (t - tb)), and (b) simplified Newton iterations from it (the residual
+ *    and a solve with the kept LU, no new dF/dw), accepted by the same
+ *    stopping test as Newton's while they contract fast; otherwise Newton
+ *    with the exact dF/dw takes over (and its factorization is kept).
+ *  - the last solution (tb, xb, wb) of the generation.
+ * Not part of the FMU state: each step starts without it (a new
+ * generation), so a restored state continues bit for bit. */
+#ifndef LF_NEWTON_MEM_H
+#define LF_NEWTON_MEM_H
+
+#include <stddef.h>
+
+#ifndef LF_DIM
+#error "lf_newton_mem.h needs LF_DIM (include lf_runtime.h)"
+#endif
+
+typedef struct {
+    unsigned long lu_gen;   /* generation of the kept LU (0: none) */
+    unsigned long b_gen;    /* generation of the kept solution (0: none) */
+    double lu[LF_IMPLICIT ? LF_DIM(LF_NW * LF_NW) : 1];
+    size_t piv[LF_IMPLICIT ? LF_DIM(LF_NW) : 1];
+    /* dF/dx, dF/dt where lu was factored; once tan_ok: (dF/dw)^-1 times them */
+    double fx[LF_IMPLICIT ? LF_DIM(LF_NW * LF_NX) : 1];
+    double ft[LF_IMPLICIT ? LF_DIM(LF_NW) : 1];
+    int tan_ok;
+    double tb;
+    double xb[LF_IMPLICIT ? LF_DIM(LF_NX) : 1];
+    double wb[LF_IMPLICIT ? LF_DIM(LF_NW) : 1];
+    int stale;              /* the last simplified solve contracted slowly */
+} LfNewtonMem;
+
+#endif
