@@ -38,6 +38,13 @@ static int any_predictable(const LfInstance *c) {
     return 0;
 }
 
+static int all_predictable(const LfInstance *c) {
+    int k;
+    for (k = 0; k < LF_NE; k++)
+        if (!predictable(c, k)) return 0;
+    return 1;
+}
+
 /* der(x_j) of the clock states at the solver's point (constant while the
  * parameters and the held inputs are: kept until c->kb_ready is cleared).
  * Newton's start is left as the step loop had it. */
@@ -144,6 +151,19 @@ static int chunk_unresolved(const LfInstance *c, const double *ea, const double 
     return 0;
 }
 
+/* The step about to be taken ends at t_end: the events' scan after it may
+ * rely on the prediction (c->kb_cert, lf_handle_events) if every indicator
+ * is predicted and the scan vouches for no root up to t_end: every chunk
+ * from where the scan (re)started resolved (no sign change, no extremum
+ * near zero), chained by the same rules as the solver's steps (each at
+ * most LF_EVENT_GROWTH times the last, bounded by its curvature), the
+ * first one no longer than the solver's proposed step.  A chunk in which a
+ * root was found vouches for nothing: an earlier root may hide in it. */
+static double certified(LfInstance *c, double t_end) {
+    c->kb_cert = t_end <= c->kb_sure && all_predictable(c);
+    return t_end;
+}
+
 /* chunks shorter than this fraction of the solver's step are not split
  * further (an indicator grazing zero: left to the events' own scan) */
 #define LF_KB_MIN_CHUNK 1e-3
@@ -153,22 +173,30 @@ double lf_known_break(LfInstance *c, double t_bound) {
     double em[LF_DIM(LF_NE)], eb[LF_DIM(LF_NE)], t0 = s->t, margin, tl = 0.0, tr = 0.0;
     double h = s->h > 0 ? s->h : t_bound - t0;
     int k = -1;
+    c->kb_cert = 0; /* set where the scan vouches for the whole step */
     if (LF_NE == 0 || !any_predictable(c)) return t_bound;
     if (!c->kb_ready) {
         c->kb_index = -1;
+        c->kb_sure = -INFINITY;
         if (clock_rates(c) != LF_OK) return t_bound;
         c->kb_clear = t0;
         memcpy(c->kb_e, c->e_old, sizeof c->kb_e);
         c->kb_dt = h;
+        /* the first chunk is the solver's proposed step (as fine as the
+         * events' scan of that step), or, with none proposed yet, the
+         * whole remaining interval: vouched for only in the first case */
+        if (s->h > 0) c->kb_sure = t0;
     }
     if (c->kb_index >= 0) { /* a break located before, still ahead: no root before it */
-        if (c->kb_t_land > t0) return fmin(c->kb_t_land, t_bound);
+        if (c->kb_t_land > t0) return certified(c, fmin(c->kb_t_land, t_bound));
         c->kb_index = -1;
         c->kb_clear = t0;
+        c->kb_sure = -INFINITY;
         memcpy(c->kb_e, c->e_old, sizeof c->kb_e);
     }
     if (c->kb_clear < t0) { /* the solver moved past the scan (cannot happen) */
         c->kb_clear = t0;
+        c->kb_sure = -INFINITY;
         memcpy(c->kb_e, c->e_old, sizeof c->kb_e);
     }
     /* scan the prediction ahead in chunks until t_bound is covered or a
@@ -179,16 +207,20 @@ double lf_known_break(LfInstance *c, double t_bound) {
             predicted(c, tb, eb) != LF_OK)
             return t_bound;
         if (first_root(c, ta, c->kb_e, em, tb, eb, &tl, &tr, &k)) break;
-        if (chunk_unresolved(c, c->kb_e, em, eb, c->kb_dt, &dt_next) &&
-            c->kb_dt > LF_KB_MIN_CHUNK * h) {
-            c->kb_dt *= 0.25;
-            continue;
+        if (chunk_unresolved(c, c->kb_e, em, eb, c->kb_dt, &dt_next)) {
+            if (c->kb_dt > LF_KB_MIN_CHUNK * h) {
+                c->kb_dt *= 0.25;
+                continue;
+            }
+            c->kb_sure = -INFINITY; /* accepted unresolved: vouch for nothing more */
+        } else if (c->kb_sure == ta) {
+            c->kb_sure = tb;
         }
         c->kb_clear = tb;
         memcpy(c->kb_e, eb, sizeof c->kb_e);
         c->kb_dt = fmax(dt_next, 0.25 * c->kb_dt);
     }
-    if (c->kb_clear >= t_bound) return t_bound;
+    if (c->kb_clear >= t_bound) return certified(c, t_bound);
     /* land a margin before the root (as the step redone up to an event
      * stops: lf_events.c), and only if that is at least another margin
      * past the step's start.  A solver already standing about a margin
@@ -209,5 +241,5 @@ double lf_known_break(LfInstance *c, double t_bound) {
     c->kb_index = k;
     c->kb_t_land = tl - margin;
     c->kb_t_right = tr;
-    return fmin(c->kb_t_land, t_bound);
+    return certified(c, fmin(c->kb_t_land, t_bound));
 }

@@ -263,6 +263,26 @@ typedef struct {
     double h_bound;                 /* bound on the next step (rule 2) */
 } EventScan;
 
+/* Rule 2: the bound on the next step from the samples ga, gm, gb of the
+ * indicators at the start, middle and end of a step of length h. */
+static void curvature_bound(const double *ga, const double *gm, const double *gb, double h,
+                            double *h_bound) {
+    int k;
+    for (k = 0; k < LF_NE; k++) {
+        double d2 = fabs(ga[k] - 2.0 * gm[k] + gb[k]), th;
+        double size = fmax(fabs(ga[k]), fmax(fabs(gm[k]), fabs(gb[k])));
+        if (d2 > 0 && size > 0) *h_bound = fmin(*h_bound, h * sqrt(LF_EVENT_CURV * size / d2));
+        /* at an inflection d2 vanishes: a varying indicator's step grows
+         * at most LF_EVENT_GROWTH-fold until its curvature shows again */
+        if (fabs(gb[k] - ga[k]) > LF_EVENT_CURV * size)
+            *h_bound = fmin(*h_bound, LF_EVENT_GROWTH * h);
+        /* an extremum near zero just after the step: the next step
+         * ends short of twice its distance */
+        if (lf_near_zero_extremum(ga[k], gm[k], gb[k], &th) && th > 1.0 && th < 2.0)
+            *h_bound = fmin(*h_bound, 2.0 * (th - 1.0) * h);
+    }
+}
+
 /* Scan (ta, tb] of the accepted step (rule 1); depth 0 also sets rule 2's
  * bound.  Stops at the first interval with a sign change. */
 static LfStatus scan_events(LfInstance *c, double ta, const double *ga, double tb,
@@ -274,23 +294,9 @@ static LfStatus scan_events(LfInstance *c, double ta, const double *ga, double t
         c->solver.method->dense(&c->solver, tm, xm);
         st = lf_eval_events(c, tm, xm, gm);
         if (st != LF_OK) return st;
-        for (k = 0; k < LF_NE; k++) {
+        for (k = 0; k < LF_NE; k++)
             if (may_hide_roots(ga[k], gm[k], gb[k])) resolved = 0;
-            if (depth == 0) {
-                double d2 = fabs(ga[k] - 2.0 * gm[k] + gb[k]), h = tb - ta, th;
-                double size = fmax(fabs(ga[k]), fmax(fabs(gm[k]), fabs(gb[k])));
-                if (d2 > 0 && size > 0)
-                    out->h_bound = fmin(out->h_bound, h * sqrt(LF_EVENT_CURV * size / d2));
-                /* at an inflection d2 vanishes: a varying indicator's step grows
-                 * at most LF_EVENT_GROWTH-fold until its curvature shows again */
-                if (fabs(gb[k] - ga[k]) > LF_EVENT_CURV * size)
-                    out->h_bound = fmin(out->h_bound, LF_EVENT_GROWTH * h);
-                /* an extremum near zero just after the step: the next step
-                 * ends short of twice its distance */
-                if (lf_near_zero_extremum(ga[k], gm[k], gb[k], &th) && th > 1.0 && th < 2.0)
-                    out->h_bound = fmin(out->h_bound, 2.0 * (th - 1.0) * h);
-            }
-        }
+        if (depth == 0) curvature_bound(ga, gm, gb, tb - ta, &out->h_bound);
         if (!resolved) {
             st = scan_events(c, ta, ga, tm, gm, depth + 1, out);
             if (st != LF_OK || out->found) return st;
@@ -404,6 +410,29 @@ static LfStatus handle_events(LfInstance *c, double *h_bound) {
     if (st != LF_OK) return st;
     scan.found = 0;
     scan.h_bound = INFINITY;
+    if (c->kb_cert && !any_crossed(c->e_old, e_end)) {
+        /* Every indicator is known ahead (a function of time, the
+         * parameters, the held inputs and the clock states, not of w), and
+         * the scan of their prediction (lf_breaks.c), which resolves them by
+         * the same rules, found no root in this step: rule 1 has nothing to
+         * add.  Rule 2's bound from the same samples as scan_events takes
+         * (the midpoint on the dense output), the indicators evaluated
+         * without solving for w, which they do not read. */
+        double tm = 0.5 * (s->t_old + s->t), xm[LF_DIM(LF_NX)], gm[LF_DIM(LF_NE)];
+        if (tm > s->t_old && tm < s->t) {
+            c->solver.method->dense(&c->solver, tm, xm);
+            if (lf_eval_fn(c, LF_FN_EVT, tm, xm, c->w_cur, gm, NULL, NULL) != LF_OK ||
+                lf_first_nonfinite(gm, LF_NE) >= 0) {
+                lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: event indicators not finite",
+                       tm);
+                return LF_DISCARD;
+            }
+            curvature_bound(c->e_old, gm, e_end, h_step, &scan.h_bound);
+        }
+        *h_bound = fmax(scan.h_bound, 0.25 * h_step);
+        memcpy(c->e_old, e_end, sizeof(double) * LF_NE);
+        return LF_OK;
+    }
     st = scan_events(c, s->t_old, c->e_old, s->t, e_end, 0, &scan);
     if (st != LF_OK) return st;
     /* rule 2: at most 4 times shorter than this step */

@@ -7,6 +7,7 @@
 #ifndef LF_FACADE_H
 #define LF_FACADE_H
 
+#include <math.h>
 #include <stddef.h>
 
 #include "lf_runtime.h"
@@ -71,5 +72,18 @@ void lf_blobs_free(LfInstance *c, LfBlob **list);
  * time and step, h > 0, starting at the FMU's time, an end later than the
  * FMU's time.  Otherwise logged and 0, with nothing changed. */
 int lf_step_integrable(LfInstance *c, const char *fn, double t, double h);
+
+/* The hot path of fmi2DoStep's checks: 1 if (t, h) passes both
+ * lf_step_integrable and lf_check_step (lf_runtime.h), computed without the
+ * calls that prepare their log lines; 0 leaves the answer (and the log) to
+ * them.  The same conditions: finite t, h > 0 and t + h; t within 1e-9 of
+ * the FMU's time (relative beyond 1); an end later than the FMU's time and
+ * not past stopTime. */
+static inline int lf_step_args_ok(const LfInstance *c, double t, double h) {
+    double t_end = t + h, tc = c->t;
+    return isfinite(t) && isfinite(h) && h > 0 && isfinite(t_end) &&
+           fabs(t - tc) <= 1e-9 * (fabs(tc) > 1.0 ? fabs(tc) : 1.0) && t_end > tc &&
+           !(t_end > c->t_stop * (1 + 1e-12) + 1e-12);
+}
 
 #endif

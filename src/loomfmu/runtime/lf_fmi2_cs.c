@@ -8,7 +8,8 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSet
     (void)noSetPrior;
     CHECK("fmi2DoStep", LF_ST_STEP_COMPLETE);
     /* an invalid call (bad step, past stopTime) is refused and changes nothing */
-    if (!lf_step_integrable(inst, "fmi2DoStep", t, h) || lf_check_step(inst, t, h) != LF_OK)
+    if (!lf_step_args_ok(inst, t, h) &&
+        (!lf_step_integrable(inst, "fmi2DoStep", t, h) || lf_check_step(inst, t, h) != LF_OK))
         return fmi2Error;
     st = lf_do_checked_step(inst, t, h);
     if (st == LF_DISCARD) inst->state = LF_ST_STEP_FAILED;

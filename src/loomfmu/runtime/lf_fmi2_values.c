@@ -64,7 +64,18 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     size_t i;
     CHECK("fmi2GetReal", GET_STATES);
     if (!lf_fmi2_check_vrs(inst, "fmi2GetReal", vr, nvr, value, F2_N_REAL)) return fmi2Error;
-    for (i = 0; i < nvr; i++) {
+    i = 0;
+    if (!ENV(inst)->me && inst->outputs_valid && inst->solver_ready) {
+        /* the hot path (co-simulation, outputs up to date, solver started):
+         * what lf_get_real gives for every Real but an input, read directly;
+         * the first other reference goes on by the loop below */
+        for (; i < nvr; i++) {
+            fmi2ValueReference v = vr[i];
+            if (v >= LF_NREAL || lf_model.real_kind[v] == LF_KIND_INPUT) break;
+            value[i] = inst->r[v];
+        }
+    }
+    for (; i < nvr; i++) {
         LfStatus st;
         if (!checked && ENV(inst)->me && (vr[i] >= LF_VR_Y0) &&
             (inst->state & LF_ST_STEP_COMPLETE)) {

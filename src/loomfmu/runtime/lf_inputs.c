@@ -136,7 +136,9 @@ int lf_inputs_moved(LfInstance *c) {
     for (k = 0; k < LF_NU; k++) {
         double dt, slope, value, old;
         if (!c->u_poly && c->seen_d1[k] == 0 && c->seen_d2[k] == 0) {
-            if (differ(c->r[LF_VR_U0 + k], c->seen_u[k])) return 1;
+            /* (equal values: the common case, decided without differ) */
+            if (c->r[LF_VR_U0 + k] != c->seen_u[k] && differ(c->r[LF_VR_U0 + k], c->seen_u[k]))
+                return 1;
             continue;
         }
         dt = c->t - c->seen_t;

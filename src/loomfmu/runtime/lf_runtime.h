@@ -159,6 +159,13 @@ typedef struct {
      * next chunk of the scan is kb_dt long */
     double kb_clear, kb_dt;
     double kb_e[LF_DIM(LF_NE)];
+    /* set by lf_known_break before each step, read by lf_handle_events after
+     * it: every indicator is predicted and the scan vouches for no root of
+     * the prediction in the step about to be taken (lf_breaks.c); it vouches
+     * up to kb_sure (-INFINITY: nothing; reset with the scan, and when an
+     * FMU state is set) */
+    int kb_cert;
+    double kb_sure;
     long n_known_breaks;            /* known breaks crossed (statistics) */
     /* the solve cache (lf_wcache.h; not part of the FMU state): on while a
      * step runs; entry j holds w of (wc_t[j], wc_x[j]) of generation wc_g[j] */

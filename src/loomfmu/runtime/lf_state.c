@@ -515,6 +515,7 @@ static void apply_values(LfInstance *c, const LfStateValues *v, const double *hi
     c->kb_dt = v->kb_dt;
     memcpy(c->kb_xdot, v->kb_xdot, sizeof v->kb_xdot);
     memcpy(c->kb_e, v->kb_e, sizeof v->kb_e);
+    c->kb_sure = -INFINITY; /* not part of the state: vouch again from a new scan */
     c->state = (LfState)v->state;
     for (k = 0; k < LF_ND; k++) {
         c->hist_start[k] = 0;

@@ -76,6 +76,7 @@ LfStatus lf_initialize(LfInstance *c) {
     c->solver_ready = 1;
     c->kb_ready = 0;
     c->kb_index = -1;
+    c->kb_sure = -INFINITY;
     c->event_pending = 0;
     c->event_index = -1;
     c->inputs_changed = 0;
