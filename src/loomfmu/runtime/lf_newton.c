@@ -99,29 +99,59 @@ static LfStatus newton(LfInstance *c, double t, const double *x, double *w) {
     return LF_DISCARD;
 }
 
-/* The predictor: w at (t, x) to first order from the generation's last
- * solution (tb, xb, wb): w ~ wb + dw/dx (x - xb) + dw/dt (t - tb), with
- * [dw/dx, dw/dt] = -(dF/dw)^-1 [dF/dx, dF/dt] where the kept LU was factored
- * (formed at the first prediction after it was kept: m->tan_ok). */
-static void nm_predict(LfInstance *c, double t, const double *x, double *w) {
-    LfNewtonMem *m = &c->nm;
-    double dt = t - m->tb;
-    int i, j;
-    if (!m->tan_ok) {
-        for (j = 0; j < LF_NX; j++) lf_lu_solve(m->lu, LF_NW, m->piv, &m->fx[j * LF_NW]);
-        lf_lu_solve(m->lu, LF_NW, m->piv, m->ft);
-        m->tan_ok = 1;
+/* The kept dF/dw's inverse and the tangent [dw/dx, dw/dt] = -(dF/dw)^-1
+ * [dF/dx, dF/dt], formed at their first use after the LU was kept: a
+ * product with the inverse costs about half an LU solve at the sizes of
+ * our models' loops, and a stage's solve takes two or more. */
+static void nm_tangent(LfNewtonMem *m) {
+    int i, j, k;
+    memset(m->inv, 0, sizeof(double) * LF_NW * LF_NW);
+    for (j = 0; j < LF_NW; j++) {
+        m->inv[j + j * LF_NW] = 1.0;
+        lf_lu_solve(m->lu, LF_NW, m->piv, &m->inv[j * LF_NW]);
     }
-    for (i = 0; i < LF_NW; i++) w[i] = m->wb[i] - m->ft[i] * dt;
-    for (j = 0; j < LF_NX; j++) {
-        double dx = x[j] - m->xb[j];
-        const double *col = &m->fx[j * LF_NW];
-        if (dx != 0.0)
-            for (i = 0; i < LF_NW; i++) w[i] -= col[i] * dx;
+    for (i = 0; i < LF_NW; i++) m->wt[i] = 0.0;
+    for (i = 0; i < LF_NW * LF_NX; i++) m->wx[i] = 0.0;
+    for (k = 0; k < LF_NW; k++) {
+        const double *col = &m->inv[k * LF_NW];
+        for (i = 0; i < LF_NW; i++) m->wt[i] -= col[i] * m->ft[k];
+        for (j = 0; j < LF_NX; j++)
+            for (i = 0; i < LF_NW; i++) m->wx[i + j * LF_NW] -= col[i] * m->fx[k + j * LF_NW];
     }
+    m->tan_ok = 1;
 }
 
-/* Simplified Newton from w (the kept LU for every iteration).  q: the
+/* dw := (dF/dw)^-1 f with the kept inverse */
+static inline void nm_apply(const LfNewtonMem *m, const double *f, double *dw) {
+    double v[LF_DIM(LF_NW)];
+    int i, k;
+    for (i = 0; i < LF_NW; i++) v[i] = 0.0;
+    for (k = 0; k < LF_NW; k++) {
+        const double *col = &m->inv[k * LF_NW];
+        double fk = f[k];
+        for (i = 0; i < LF_NW; i++) v[i] += col[i] * fk;
+    }
+    memcpy(dw, v, sizeof v);
+}
+
+/* The predictor: w at (t, x) to first order from the generation's last
+ * solution (tb, xb, wb): w ~ wb + dw/dx (x - xb) + dw/dt (t - tb) with the
+ * tangent where the kept LU was factored. */
+static void nm_predict(LfInstance *c, double t, const double *x, double *w) {
+    LfNewtonMem *m = &c->nm;
+    double p[LF_DIM(LF_NW)], dt = t - m->tb;
+    int i, j;
+    if (!m->tan_ok) nm_tangent(m);
+    for (i = 0; i < LF_NW; i++) p[i] = m->wb[i] + m->wt[i] * dt;
+    for (j = 0; j < LF_NX; j++) {
+        double dx = x[j] - m->xb[j];
+        if (dx != 0.0)
+            for (i = 0; i < LF_NW; i++) p[i] += m->wx[i + j * LF_NW] * dx;
+    }
+    memcpy(w, p, sizeof p);
+}
+
+/* Simplified Newton from w (the kept LU of dF/dw for every iteration).  q: the
  * largest |dw_i| / (LF_NEWTON_ATOL + LF_NEWTON_RTOL max(|w_i|, |w0_i|)),
  * Newton's stopping test is q <= 1; the rate theta = q / q_before.  While
  * theta <= LF_SIMPLE_RATE the iterate's error is at most about
@@ -132,7 +162,7 @@ static void nm_predict(LfInstance *c, double t, const double *x, double *w) {
 #define LF_SIMPLE_MAX_ITER 6
 #define LF_SIMPLE_RATE 0.25
 static int simplified(LfInstance *c, double t, const double *x, double *w) {
-    double w1[LF_DIM(LF_NW)], prev = INFINITY;
+    double w1[LF_DIM(LF_NW)], dw[LF_DIM(LF_NW)], prev = INFINITY;
     int it, i;
     STAT(st_simp++);
     memcpy(w1, w, sizeof w1);
@@ -141,10 +171,10 @@ static int simplified(LfInstance *c, double t, const double *x, double *w) {
         STAT(st_simp_it++);
         if (lf_eval_fn(c, LF_FN_RES, t, x, w1, c->res_F, NULL, NULL) != LF_OK) return -1;
         if (lf_first_nonfinite(c->res_F, LF_NW) >= 0) break;
-        lf_lu_solve(c->nm.lu, LF_NW, c->nm.piv, c->res_F);
+        nm_apply(&c->nm, c->res_F, dw);
         for (i = 0; i < LF_NW; i++) {
-            double a = fabs(w1[i]), b = fabs(w[i]), d = fabs(c->res_F[i]);
-            w1[i] -= c->res_F[i];
+            double a = fabs(w1[i]), b = fabs(w[i]), d = fabs(dw[i]);
+            w1[i] -= dw[i];
             d /= LF_NEWTON_ATOL + LF_NEWTON_RTOL * (a > b ? a : b);
             if (d > q) q = d;
         }

@@ -8,13 +8,13 @@
  * current generation (the solve cache's c->wc_gen: advanced when a step
  * starts and wherever a mode is set, so parameters, inputs and modes are
  * the same for every solve that uses it):
- *  - the LU of dF/dw and dF/dx, dF/dt where it was last factored, for
- *    (a) the first-order predictor of w at a new point (t, x) from the last
- *    solution (tb, xb, wb): w ~ wb - (dF/dw)^-1 (dF/dx (x - xb) + dF/dt
- *    (t - tb)), and (b) simplified Newton iterations from it (the residual
- *    and a solve with the kept LU, no new dF/dw), accepted by the same
- *    stopping test as Newton's while they contract fast; otherwise Newton
- *    with the exact dF/dw takes over (and its factorization is kept).
+ *  - dF/dw where it was last factored (its LU and inverse) and the
+ *    tangent there, for (a) the first-order predictor of w at a new point
+ *    (t, x) from the last solution (tb, xb, wb): w ~ wb + dw/dx (x - xb) +
+ *    dw/dt (t - tb), and (b) simplified Newton iterations from it (the
+ *    residual and a product with the kept inverse, no new dF/dw), accepted
+ *    by Newton's tolerance while they contract fast; otherwise Newton with
+ *    the exact dF/dw takes over (and its factorization is kept).
  *  - the last solution (tb, xb, wb) of the generation.
  * Not part of the FMU state: each step starts without it (a new
  * generation), so a restored state continues bit for bit. */
@@ -30,13 +30,18 @@
 typedef struct {
     unsigned long lu_gen;   /* generation of the kept LU (0: none) */
     unsigned long b_gen;    /* generation of the kept solution (0: none) */
+    /* dF/dw factored (LU, pivots) and dF/dx, dF/dt at the same point */
     double lu[LF_IMPLICIT ? LF_DIM(LF_NW * LF_NW) : 1];
     size_t piv[LF_IMPLICIT ? LF_DIM(LF_NW) : 1];
-    /* dF/dx, dF/dt where lu was factored; once tan_ok: (dF/dw)^-1 times them */
     double fx[LF_IMPLICIT ? LF_DIM(LF_NW * LF_NX) : 1];
     double ft[LF_IMPLICIT ? LF_DIM(LF_NW) : 1];
+    /* formed from them at first use (tan_ok): (dF/dw)^-1 and the
+     * tangent dw/dx = -(dF/dw)^-1 dF/dx, dw/dt = -(dF/dw)^-1 dF/dt */
     int tan_ok;
-    double tb;
+    double inv[LF_IMPLICIT ? LF_DIM(LF_NW * LF_NW) : 1];
+    double wx[LF_IMPLICIT ? LF_DIM(LF_NW * LF_NX) : 1];
+    double wt[LF_IMPLICIT ? LF_DIM(LF_NW) : 1];
+    double tb;              /* the last solution (tb, xb, wb) */
     double xb[LF_IMPLICIT ? LF_DIM(LF_NX) : 1];
     double wb[LF_IMPLICIT ? LF_DIM(LF_NW) : 1];
     int stale;              /* the last simplified solve contracted slowly */
