@@ -39,8 +39,14 @@ static void __attribute__((destructor)) st_print(void) {
 #define STAT(x) ((void)0)
 #endif
 
-/* Newton's memory (lf_newton_mem.h) is usable in this generation */
-static inline int nm_on(const LfInstance *c) { return LF_IMPLICIT && c->wc_on; }
+/* -DLF_NEWTON_MEMORY=0: Newton from the last solve at every solve, as
+ * before the memory (tests compare the two) */
+#ifndef LF_NEWTON_MEMORY
+#define LF_NEWTON_MEMORY 1
+#endif
+
+/* Newton's memory (lf_newton_mem.h) is kept and used while a step runs */
+static inline int nm_on(const LfInstance *c) { return LF_NEWTON_MEMORY && LF_IMPLICIT && c->wc_on; }
 
 /* keep the factorization in c->jac_ww, c->piv and dF/dx, dF/dt in
  * c->jac_wx, c->jac_wt (just evaluated together) for this generation */
