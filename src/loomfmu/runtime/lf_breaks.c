@@ -145,8 +145,8 @@ static int chunk_unresolved(const LfInstance *c, const double *ea, const double 
         if (lf_near_zero_extremum(ea[k], em[k], eb[k], &th) && th > -0.5 && th < 1.5)
             return 1;
         d2 = fabs(ea[k] - 2.0 * em[k] + eb[k]);
-        size = fmax(fabs(ea[k]), fmax(fabs(em[k]), fabs(eb[k])));
-        if (d2 > 0 && size > 0) *dt_next = fmin(*dt_next, dt * sqrt(LF_EVENT_CURV * size / d2));
+        size = lf_max(fabs(ea[k]), lf_max(fabs(em[k]), fabs(eb[k])));
+        if (d2 > 0 && size > 0) *dt_next = lf_min(*dt_next, dt * sqrt(LF_EVENT_CURV * size / d2));
     }
     return 0;
 }
@@ -188,7 +188,7 @@ double lf_known_break(LfInstance *c, double t_bound) {
         if (s->h > 0) c->kb_sure = t0;
     }
     if (c->kb_index >= 0) { /* a break located before, still ahead: no root before it */
-        if (c->kb_t_land > t0) return certified(c, fmin(c->kb_t_land, t_bound));
+        if (c->kb_t_land > t0) return certified(c, lf_min(c->kb_t_land, t_bound));
         c->kb_index = -1;
         c->kb_clear = t0;
         c->kb_sure = -INFINITY;
@@ -218,7 +218,7 @@ double lf_known_break(LfInstance *c, double t_bound) {
         }
         c->kb_clear = tb;
         memcpy(c->kb_e, eb, sizeof c->kb_e);
-        c->kb_dt = fmax(dt_next, 0.25 * c->kb_dt);
+        c->kb_dt = lf_max(dt_next, 0.25 * c->kb_dt);
     }
     if (c->kb_clear >= t_bound) return certified(c, t_bound);
     /* land a margin before the root (as the step redone up to an event
@@ -241,5 +241,5 @@ double lf_known_break(LfInstance *c, double t_bound) {
     c->kb_index = k;
     c->kb_t_land = tl - margin;
     c->kb_t_right = tr;
-    return certified(c, fmin(c->kb_t_land, t_bound));
+    return certified(c, lf_min(c->kb_t_land, t_bound));
 }

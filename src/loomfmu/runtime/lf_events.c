@@ -228,14 +228,6 @@ static LfStatus cross_gap(LfInstance *c, int k, double t_left, const double *x_l
  * than LF_EVENT_VERTEX_MARGIN times the midpoint's distance from the chord
  * (or cross it)?  *th: where the extremum lies, in units of the interval
  * (0 start, 1 end; may lie outside). */
-int lf_near_zero_extremum(double ga, double gm, double gb, double *th) {
-    double a = 2.0 * (ga - 2.0 * gm + gb), b = 4.0 * gm - 3.0 * ga - gb, v;
-    double sgn = (ga > 0 || (ga == 0 && gb > 0)) ? 1.0 : -1.0;
-    if (a == 0) return 0;
-    *th = -b / (2.0 * a); /* extremum of ga + b th + a th^2 */
-    v = ga + *th * (b + a * *th);
-    return sgn * v < LF_EVENT_VERTEX_MARGIN * 0.25 * fabs(a);
-}
 
 /* Could the samples hide a sign change?  Not if the ends differ in sign
  * (one crossing, which locate_root brackets); yes if two sign changes show,
@@ -270,16 +262,16 @@ static void curvature_bound(const double *ga, const double *gm, const double *gb
     int k;
     for (k = 0; k < LF_NE; k++) {
         double d2 = fabs(ga[k] - 2.0 * gm[k] + gb[k]), th;
-        double size = fmax(fabs(ga[k]), fmax(fabs(gm[k]), fabs(gb[k])));
-        if (d2 > 0 && size > 0) *h_bound = fmin(*h_bound, h * sqrt(LF_EVENT_CURV * size / d2));
+        double size = lf_max(fabs(ga[k]), lf_max(fabs(gm[k]), fabs(gb[k])));
+        if (d2 > 0 && size > 0) *h_bound = lf_min(*h_bound, h * sqrt(LF_EVENT_CURV * size / d2));
         /* at an inflection d2 vanishes: a varying indicator's step grows
          * at most LF_EVENT_GROWTH-fold until its curvature shows again */
         if (fabs(gb[k] - ga[k]) > LF_EVENT_CURV * size)
-            *h_bound = fmin(*h_bound, LF_EVENT_GROWTH * h);
+            *h_bound = lf_min(*h_bound, LF_EVENT_GROWTH * h);
         /* an extremum near zero just after the step: the next step
          * ends short of twice its distance */
         if (lf_near_zero_extremum(ga[k], gm[k], gb[k], &th) && th > 1.0 && th < 2.0)
-            *h_bound = fmin(*h_bound, 2.0 * (th - 1.0) * h);
+            *h_bound = lf_min(*h_bound, 2.0 * (th - 1.0) * h);
     }
 }
 

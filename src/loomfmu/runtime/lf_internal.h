@@ -69,7 +69,18 @@ LfStatus lf_cross_known_break(LfInstance *c, double t_limit);
 /* Does the quadratic through ga, gm, gb (start, middle, end) come closer to
  * zero at its extremum than LF_EVENT_VERTEX_MARGIN times the midpoint's
  * distance from the chord?  *th: where, in units of the interval. */
-int lf_near_zero_extremum(double ga, double gm, double gb, double *th);
+static inline int lf_near_zero_extremum(double ga, double gm, double gb, double *th) {
+    double a = 2.0 * (ga - 2.0 * gm + gb), b = 4.0 * gm - 3.0 * ga - gb, v;
+    double sgn = (ga > 0 || (ga == 0 && gb > 0)) ? 1.0 : -1.0;
+    if (a == 0) return 0;
+    *th = -b / (2.0 * a); /* extremum of ga + b th + a th^2 */
+    v = ga + *th * (b + a * *th);
+    return sgn * v < LF_EVENT_VERTEX_MARGIN * 0.25 * fabs(a);
+}
+/* fmax and fmin of numbers that are not NaN, without the library call (the
+ * same result: the larger, the smaller; b where they compare equal) */
+static inline double lf_max(double a, double b) { return a > b ? a : b; }
+static inline double lf_min(double a, double b) { return a < b ? a : b; }
 
 /* lf_inputs.c: the inputs (u, du/dt) at time t: the instance's values, or
  * their polynomials; did they change since the solver last started? */
