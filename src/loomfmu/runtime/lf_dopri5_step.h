@@ -1,6 +1,8 @@
 /* loomfmu runtime: the step of dopri5 (lf_dopri5.c), included there twice:
  * DP_STEP_FN names the function (a scalar build and, with GCC, a
- * vectorized one).  Needs the tableau's DP_* names of lf_dopri5.c. */
+ * vectorized one).  Needs the tableau's DP_* names of lf_dopri5.c and
+ * DP_CHECK_IN_LOOP(v), DP_CHECK_AFTER(vec): how a stage's argument is
+ * checked for finiteness (setting `bad`). */
 static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
     const size_t n = s->ode.n;
     double *w = LF_PRIV(s);
@@ -10,7 +12,7 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
     double *x = s->x;
     const double t = s->t, hmax = s->opt.h_max;
     double h;
-    int rejected = 0, cause = CAUSE_NONE, attempts = 0;
+    int rejected = 0, cause = CAUSE_NONE, attempts = 0, bad;
     size_t i;
     LfStatus st;
 
@@ -30,29 +32,49 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
         if (++attempts > LF_MAX_ATTEMPTS) return lf_sv_give_up(s, h, 0.0, cause, 1);
         if (lf_sv_plan_step(s, t_bound, &h, &t_new, &last, &hmin)) return lf_sv_give_up(s, h, hmin, cause, 0);
 
-        for (i = 0; i < n; i++) y[i] = x[i] + h * DP_A21 * k1[i];
-        st = lf_sv_eval_rhs(s, t + DP_C2 * h, y, k2);
+        for (i = 0, bad = 0; i < n; i++) {
+            y[i] = x[i] + h * DP_A21 * k1[i];
+            DP_CHECK_IN_LOOP(y[i]);
+        }
+        DP_CHECK_AFTER(y);
+        st = lf_sv_eval_rhs_checked(s, t + DP_C2 * h, y, k2, bad);
         if (st != LF_OK) goto failed;
-        for (i = 0; i < n; i++) y[i] = x[i] + h * (DP_A31 * k1[i] + DP_A32 * k2[i]);
-        st = lf_sv_eval_rhs(s, t + DP_C3 * h, y, k3);
+        for (i = 0, bad = 0; i < n; i++) {
+            y[i] = x[i] + h * (DP_A31 * k1[i] + DP_A32 * k2[i]);
+            DP_CHECK_IN_LOOP(y[i]);
+        }
+        DP_CHECK_AFTER(y);
+        st = lf_sv_eval_rhs_checked(s, t + DP_C3 * h, y, k3, bad);
         if (st != LF_OK) goto failed;
-        for (i = 0; i < n; i++)
+        for (i = 0, bad = 0; i < n; i++) {
             y[i] = x[i] + h * (DP_A41 * k1[i] + DP_A42 * k2[i] + DP_A43 * k3[i]);
-        st = lf_sv_eval_rhs(s, t + DP_C4 * h, y, k4);
+            DP_CHECK_IN_LOOP(y[i]);
+        }
+        DP_CHECK_AFTER(y);
+        st = lf_sv_eval_rhs_checked(s, t + DP_C4 * h, y, k4, bad);
         if (st != LF_OK) goto failed;
-        for (i = 0; i < n; i++)
+        for (i = 0, bad = 0; i < n; i++) {
             y[i] = x[i] + h * (DP_A51 * k1[i] + DP_A52 * k2[i] + DP_A53 * k3[i] + DP_A54 * k4[i]);
-        st = lf_sv_eval_rhs(s, t + DP_C5 * h, y, k5);
+            DP_CHECK_IN_LOOP(y[i]);
+        }
+        DP_CHECK_AFTER(y);
+        st = lf_sv_eval_rhs_checked(s, t + DP_C5 * h, y, k5, bad);
         if (st != LF_OK) goto failed;
-        for (i = 0; i < n; i++)
+        for (i = 0, bad = 0; i < n; i++) {
             y[i] = x[i] + h * (DP_A61 * k1[i] + DP_A62 * k2[i] + DP_A63 * k3[i] +
                                DP_A64 * k4[i] + DP_A65 * k5[i]);
-        st = lf_sv_eval_rhs(s, t_new, y, k6);
+            DP_CHECK_IN_LOOP(y[i]);
+        }
+        DP_CHECK_AFTER(y);
+        st = lf_sv_eval_rhs_checked(s, t_new, y, k6, bad);
         if (st != LF_OK) goto failed;
-        for (i = 0; i < n; i++)
+        for (i = 0, bad = 0; i < n; i++) {
             ynew[i] = x[i] + h * (DP_A71 * k1[i] + DP_A73 * k3[i] + DP_A74 * k4[i] +
                                   DP_A75 * k5[i] + DP_A76 * k6[i]);
-        st = lf_sv_eval_rhs(s, t_new, ynew, k7);
+            DP_CHECK_IN_LOOP(ynew[i]);
+        }
+        DP_CHECK_AFTER(ynew);
+        st = lf_sv_eval_rhs_checked(s, t_new, ynew, k7, bad);
         if (st != LF_OK) goto failed;
 
         for (i = 0; i < n; i++)

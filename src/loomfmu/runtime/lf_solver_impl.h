@@ -31,15 +31,27 @@ void lf_sv_copy_vec(double *dst, const double *src, size_t n);
 /* f at (t, x): LF_OK only with finite values; LF_DISCARD for non-finite
  * arguments/results or an f that reports LF_DISCARD; errors passed through.
  * Inline: every stage of every method calls it. */
+static inline LfStatus lf_sv_eval_rhs_checked(LfSolver *s, double t, const double *x,
+                                              double *dx, int x_bad);
 static inline LfStatus lf_sv_eval_rhs(LfSolver *s, double t, const double *x, double *dx) {
-    LfStatus st;
     size_t i, n = s->ode.n;
     for (i = 0; i < n; i++)
         if (!isfinite(x[i])) return LF_DISCARD;
+    return lf_sv_eval_rhs_checked(s, t, x, dx, 0);
+}
+/* 1 if v is not finite (isfinite's answer as an expression that vectorizes:
+ * a method that forms x in a loop checks it there, LF_SV_NOT_FINITE ORed
+ * over the elements, and passes the result as x_bad) */
+#define LF_SV_NOT_FINITE(v) (!(fabs(v) <= DBL_MAX))
+/* lf_sv_eval_rhs where the caller checked x: x_bad != 0 gives LF_DISCARD */
+static inline LfStatus lf_sv_eval_rhs_checked(LfSolver *s, double t, const double *x,
+                                              double *dx, int x_bad) {
+    LfStatus st;
+    if (x_bad) return LF_DISCARD;
     s->n_rhs++;
     st = s->ode.rhs(s->ode.ctx, t, x, dx);
     if (st == LF_OK || st == LF_WARNING)
-        return s->rhs_finite || lf_sv_all_finite(dx, n) ? LF_OK : LF_DISCARD;
+        return s->rhs_finite || lf_sv_all_finite(dx, s->ode.n) ? LF_OK : LF_DISCARD;
     if (st == LF_DISCARD) return LF_DISCARD;
     return st == LF_FATAL ? LF_FATAL : LF_ERROR;
 }
