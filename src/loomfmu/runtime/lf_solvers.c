@@ -191,6 +191,7 @@ static LfStatus rk_step(LfSolver *s, double t_bound) {
     const double t = s->t;
     double h = s->opt.h_fixed, t_new, h2;
     size_t i;
+    int bad;
     LfStatus st;
 
     if (!(t_bound > t)) return lf_sv_bad_bound(s, t_bound);
@@ -208,17 +209,31 @@ static LfStatus rk_step(LfSolver *s, double t_bound) {
         t_new = t + h;
     }
     h2 = 0.5 * h;
-    for (i = 0; i < n; i++) y[i] = x[i] + h2 * k1[i];
-    st = lf_sv_eval_rhs(s, t + h2, y, k2);
+    /* each stage's argument checked where it is formed (lf_sv_eval_rhs_checked) */
+    for (i = 0, bad = 0; i < n; i++) {
+        y[i] = x[i] + h2 * k1[i];
+        bad |= LF_SV_NOT_FINITE(y[i]);
+    }
+    st = lf_sv_eval_rhs_checked(s, t + h2, y, k2, bad);
     if (st != LF_OK) goto failed;
-    for (i = 0; i < n; i++) y[i] = x[i] + h2 * k2[i];
-    st = lf_sv_eval_rhs(s, t + h2, y, k3);
+    for (i = 0, bad = 0; i < n; i++) {
+        y[i] = x[i] + h2 * k2[i];
+        bad |= LF_SV_NOT_FINITE(y[i]);
+    }
+    st = lf_sv_eval_rhs_checked(s, t + h2, y, k3, bad);
     if (st != LF_OK) goto failed;
-    for (i = 0; i < n; i++) y[i] = x[i] + h * k3[i];
-    st = lf_sv_eval_rhs(s, t_new, y, k4);
+    for (i = 0, bad = 0; i < n; i++) {
+        y[i] = x[i] + h * k3[i];
+        bad |= LF_SV_NOT_FINITE(y[i]);
+    }
+    st = lf_sv_eval_rhs_checked(s, t_new, y, k4, bad);
     if (st != LF_OK) goto failed;
-    for (i = 0; i < n; i++) y[i] = x[i] + (h / 6.0) * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
-    st = lf_sv_eval_rhs(s, t_new, y, k2); /* f at the new point: dense output + next k1 */
+    for (i = 0, bad = 0; i < n; i++) {
+        y[i] = x[i] + (h / 6.0) * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
+        bad |= LF_SV_NOT_FINITE(y[i]);
+    }
+    /* f at the new point: dense output + next k1 */
+    st = lf_sv_eval_rhs_checked(s, t_new, y, k2, bad);
     if (st != LF_OK) goto failed;
 
     lf_sv_copy_vec(fold, k1, n);
