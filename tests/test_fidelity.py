@@ -58,9 +58,17 @@ def test_the_selector_picks_the_rigid_frame_for_hinge_loads_at_one_percent(loom_
     # documented case (docs/heald_fidelity.md): the rigid frame's kinetostatic
     # hinge load is within 0.9 % of the spatial model's range
     sel = loom_eval.select(0.01, ["frame_a.N_rem"])
-    assert sel.best.levels["frames"] == "heald_frame_rigid"
     rigid = [r for r in sel.rows if r.levels["frames"] == "heald_frame_rigid"]
     assert all(0.001 < r.error <= 0.01 for r in rigid)
+    # which passing row is cheapest is a CPU-time measurement: the scene's
+    # cost is mostly the master and the backrest, so on a loaded machine the
+    # frames' levels can swap places; the rule is what is checked: the choice
+    # passes, costs within COST_NOISE of the cheapest passing row, and no
+    # lower-ranked passing row is that cheap
+    passing = [r for r in sel.rows if r.error <= 0.01]
+    near = [r for r in passing if r.cpu_s <= min(p.cpu_s for p in passing) * (1 + sf.COST_NOISE)]
+    assert sel.best in near
+    assert loom_eval._rank(sel.best) == min(loom_eval._rank(r) for r in near)
     tight = loom_eval.select(0.001, ["frame_a.N_rem"])
     passing = [r for r in tight.rows if r.error <= 0.001]
     # at 0.1 % the rigid frame fails and the planar frame passes; which of the

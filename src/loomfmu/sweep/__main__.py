@@ -169,17 +169,17 @@ def _check_out_dir(out_dir: Path, out: Path) -> None:
     allowed = "allowed: a directory (existing or to be made) that this user can write"
     existed = out_dir.exists()
     if existed and not out_dir.is_dir():
-        raise ValueError(f"--out-dir {str(out_dir)!r:.80}: an existing file, not a "
+        raise ValueError(f"--out-dir {str(out_dir)!r}: an existing file, not a "
                          f"directory; {allowed}")
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise ValueError(f"--out-dir {str(out_dir)!r:.80}: cannot be made "
+        raise ValueError(f"--out-dir {str(out_dir)!r}: cannot be made "
                          f"({exc.strerror or exc}); {allowed}") from None
     if existed and not os.access(out_dir, os.W_OK | os.X_OK):
-        raise ValueError(f"--out-dir {str(out_dir)!r:.80}: not writable; {allowed}")
+        raise ValueError(f"--out-dir {str(out_dir)!r}: not writable; {allowed}")
     if out.is_dir():
-        raise ValueError(f"--out-dir {str(out_dir)!r:.80}: {out.name} in it is a directory; "
+        raise ValueError(f"--out-dir {str(out_dir)!r}: {out.name} in it is a directory; "
                          "allowed: a directory where that name is free or a results file")
 
 
