@@ -17,7 +17,7 @@ def test_charts_command_runs_on_one_model(tmp_path):
     assert (tmp_path / "drive_delay.png").stat().st_size > 0
     assert "| drive |" in (tmp_path / "summary.md").read_text()
     fmu = [r for r in rows if r["study"] == "wp" and r["family"] == "fmu"]
-    assert {r["method"] for r in fmu} == {"dopri5", "rodas4", "rk4"}
+    assert {r["method"] for r in fmu} == {"dopri5", "rodas4", "ros34pw2", "rk4"}
     for r in fmu:
         assert r["status"] == "ok" and math.isfinite(float(r["err_max"]))
         assert math.isfinite(float(r["err_final"])) and float(r["seconds"]) > 0

@@ -20,7 +20,7 @@ from .scenes import Scene
 
 SCIPY_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
 CASADI_PLUGINS = ("cvodes", "idas")
-FMU_ADAPTIVE = ("dopri5", "rodas4")
+FMU_ADAPTIVE = ("dopri5", "rodas4", "ros34pw2")
 RK4_FACTORS = (16.0, 8.0, 4.0, 2.0, 1.0, 0.5)  # rk4 steps: model.h_fixed x these
 
 
