@@ -139,6 +139,11 @@ def model_guid(model: Model, dae: DaeForm) -> str:
 FUNCTIONS = ("wsol", "wjac", "res", "rjac", "out", "evt", "valid", "reinit", "init",
              "hist", "tau", "cons", "djac", "yder", "vld", "pre", "dirw", "diry")
 
+#: Models with delays only: one more generated function, after FUNCTIONS,
+#: with hist's outputs (g, g_dot) and out's (y) together (model_decl.h:
+#: LF_HISTOUT_FN).
+HISTOUT = "histout"
+
 #: Names of the generated functions' arguments, in order (the runtime fills
 #: c->arg[] in this order, lf_eval_fn).  k: the folded parameter-only
 #: subexpressions (output of ``pre``, kept by the runtime).
@@ -203,9 +208,20 @@ def casadi_functions(dae: DaeForm, *, fold: bool = True) -> list[ca.Function]:
     # structural nonzeros (a structural zero entry is never written, and the
     # entries after it land in its place), while the runtime reads every
     # output as a dense column-major array.
-    return [ca.Function(f"{name}_{f}", [*dae.args, ud, dd, k],
-                        [ca.densify(e) for e in outs[f][0]], list(ARGUMENTS), outs[f][1])
-            for f in FUNCTIONS]
+    fns = [ca.Function(f"{name}_{f}", [*dae.args, ud, dd, k],
+                       [ca.densify(e) for e in outs[f][0]], list(ARGUMENTS), outs[f][1])
+           for f in FUNCTIONS]
+    if dae.model.delays:
+        # histout: hist's and out's outputs in one function (the same
+        # expressions, so the subexpressions they share, such as the drive's
+        # cam series, are computed once); the runtime takes it for the
+        # history sample at a step's end and keeps the outputs for
+        # lf_update_outputs at the same point (lf_delay.c).
+        parts = outs["hist"][0] + outs["out"][0]
+        fns.append(ca.Function(f"{name}_{HISTOUT}", [*dae.args, ud, dd, k],
+                               [ca.densify(e) for e in parts], list(ARGUMENTS),
+                               outs["hist"][1] + outs["out"][1]))
+    return fns
 
 
 def n_folded(fns: list[ca.Function]) -> int:
@@ -388,6 +404,8 @@ def declaration_header(model: Model, dae: DaeForm, n_k: int = 0) -> str:
         f"#define LF_N_SOLVERS {len(SOLVERS)}",
         f"#define LF_NK {n_k}",
     ]
+    if model.delays:  # the combined history and output function (codegen.HISTOUT)
+        lines.append(f"#define LF_HISTOUT_FN {model.name}_lf_{HISTOUT}")
     lines += [f"#define {s.macro} {i}" for i, s in enumerate(SETTINGS)]
     cats = ", ".join(_c_str(name) for name, _ in LOG_CATEGORIES)
     lines.append(f"#define LF_LOG_CATEGORY_NAMES {{{cats}}}")
@@ -445,6 +463,9 @@ def declaration_source(model: Model, dae: DaeForm, guid: str) -> str:
     {{{fns}}}
 }};
 """)
+    if model.delays:
+        out.append(f"const LfFunction {name}_lf_{HISTOUT} = "
+                   f"{{{name}_{HISTOUT}, {name}_{HISTOUT}_work}};\n")
     return "\n".join(out)
 
 

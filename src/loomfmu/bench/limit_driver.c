@@ -237,7 +237,8 @@ static double time_call(LfOde ode, double t, const double *x, int jac, int best_
 
 /* Seconds per evaluation of the outputs at the instance's current point
  * (lf_update_outputs, as after every fmi2DoStep: the unknowns w and the
- * generated output function), best of `best_of` batches; < 0 on failure. */
+ * generated output function; not the outputs a history sample kept at the
+ * same point, lf_hist_outputs), best of `best_of` batches; < 0 on failure. */
 static double time_outputs(LfInstance *c, int best_of) {
     double best = INFINITY;
     long calls = 1, i;
@@ -248,6 +249,7 @@ static double time_outputs(LfInstance *c, int best_of) {
             t0 = now();
             for (i = 0; i < calls; i++) {
                 c->outputs_valid = 0;
+                c->ho_valid = 0; /* the whole evaluation, not the kept outputs */
                 if (lf_update_outputs(c) != LF_OK) return -1.0;
             }
             t1 = now();

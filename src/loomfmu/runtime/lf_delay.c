@@ -238,7 +238,7 @@ LfStatus lf_hist_push(LfInstance *c, double t, const double *x, int jump) {
     double g[LF_DIM(2 * LF_ND)];
     LfStatus st;
     if (LF_ND == 0) return LF_OK;
-    st = lf_hist_sample(c, t, x, g);
+    st = lf_hist_sample_end(c, t, x, g);
     if (st != LF_OK) return st;
     return hist_append(c, t, g, jump);
 }
@@ -257,6 +257,88 @@ LfStatus lf_hist_sample(LfInstance *c, double t, const double *x, double *g) {
     LfStatus st = lf_solve_w(c, t, x, c->w_tmp);
     if (st != LF_OK) return st;
     return lf_eval_fn(c, LF_FN_HIST, t, x, c->w_tmp, g, &g[LF_ND], NULL);
+}
+
+#ifdef LF_HISTOUT_FN
+/* The point the generated functions see at (t, x) with w: the inputs at t
+ * and their rates as lf_eval_fn passes them. */
+static void inputs_of(LfInstance *c, double t, const double **u, const double **u_rate) {
+    if (c->u_poly) {
+        lf_inputs_at(c, t, u, u_rate);
+    } else {
+        *u = &c->r[LF_VR_U0];
+        *u_rate = c->u_zero;
+    }
+}
+#endif
+
+/* lf_hist_sample at a step's end (or where the solver (re)starts), where
+ * the outputs are likely read next at the same point: with the combined
+ * function (LF_HISTOUT_FN) g, dg/dt and the outputs at once, the outputs
+ * kept with their point (c->ho_*) for lf_hist_outputs.  The delayed values
+ * d at t are those lf_eval_fn computes for the call (the history as it is
+ * before this sample is appended). */
+LfStatus lf_hist_sample_end(LfInstance *c, double t, const double *x, double *g) {
+#ifdef LF_HISTOUT_FN
+    double y[LF_DIM(LF_NY + LF_NZ)];
+    const double *u, *u_rate;
+    LfStatus st;
+    c->ho_valid = 0;
+    st = lf_solve_w(c, t, x, c->w_tmp);
+    if (st != LF_OK) return st;
+    if (lf_eval_fn(c, LF_FN_HISTOUT, t, x, c->w_tmp, g, &g[LF_ND], y) != LF_OK) return LF_ERROR;
+    if (lf_first_nonfinite(y, LF_NY + LF_NZ) >= 0) return LF_OK; /* reported where read */
+    inputs_of(c, t, &u, &u_rate);
+    c->ho_t = t;
+    memcpy(c->ho_x, x, sizeof(double) * LF_NX);
+    memcpy(c->ho_u, u, sizeof(double) * LF_NU);
+    memcpy(c->ho_ur, u_rate, sizeof(double) * LF_NU);
+    memcpy(c->ho_p, &c->r[LF_VR_P0], sizeof(double) * LF_NP);
+    memcpy(c->ho_q, c->q, sizeof(double) * LF_NQ);
+    memcpy(c->ho_d, c->dval, sizeof(double) * LF_ND);
+    memcpy(c->ho_w, c->w_tmp, sizeof(double) * LF_NW);
+    memcpy(c->ho_y, y, sizeof(double) * (LF_NY + LF_NZ));
+    c->ho_valid = 1;
+    return LF_OK;
+#else
+    return lf_hist_sample(c, t, x, g);
+#endif
+}
+
+/* The outputs kept by lf_hist_sample_end, if they are those of the
+ * instance's point now (t, the states, inputs and their rates, parameters,
+ * modes and the delayed values at t, and w if given: implicit models' w
+ * depends on Newton's start) bit for bit: copied to y, 1; else 0.  Explicit
+ * models (w NULL): w_tmp and w_cur are set to the kept w, as the solve
+ * there would set them. */
+int lf_hist_outputs(LfInstance *c, const double *w, double *y) {
+#ifdef LF_HISTOUT_FN
+    const double *x = &c->r[LF_VR_X0], *u, *u_rate;
+    if (!c->ho_valid || memcmp(&c->ho_t, &c->t, sizeof c->t) ||
+        memcmp(c->ho_x, x, sizeof(double) * LF_NX) ||
+        memcmp(c->ho_p, &c->r[LF_VR_P0], sizeof(double) * LF_NP) ||
+        memcmp(c->ho_q, c->q, sizeof(double) * LF_NQ))
+        return 0;
+    inputs_of(c, c->t, &u, &u_rate);
+    if (memcmp(c->ho_u, u, sizeof(double) * LF_NU) ||
+        memcmp(c->ho_ur, u_rate, sizeof(double) * LF_NU))
+        return 0;
+    if (w && memcmp(c->ho_w, w, sizeof(double) * LF_NW)) return 0;
+    if (lf_delayed_values(c, c->t, x) != LF_OK ||
+        memcmp(c->ho_d, c->dval, sizeof(double) * LF_ND))
+        return 0;
+    if (!w) {
+        memcpy(c->w_tmp, c->ho_w, sizeof(double) * LF_NW);
+        memcpy(c->w_cur, c->ho_w, sizeof(double) * LF_NW);
+    }
+    memcpy(y, c->ho_y, sizeof(double) * (LF_NY + LF_NZ));
+    return 1;
+#else
+    (void)c;
+    (void)w;
+    (void)y;
+    return 0;
+#endif
 }
 
 /* Cubic Hermite through (0, g0, d0), (h, g1, d1) at th * h. */
@@ -411,7 +493,7 @@ LfStatus lf_hist_step(LfInstance *c) {
     if (c->delay_interp == LF_DELAY_LINEAR || !(s->t > s->t_old) ||
         !stored_start(c, s->t_old, ga))
         return lf_hist_push(c, s->t, s->x, 0);
-    st = lf_hist_sample(c, s->t, s->x, gb);
+    st = lf_hist_sample_end(c, s->t, s->x, gb);
     if (st != LF_OK) return st;
     return hist_refine(c, s->t_old, ga, s->t, gb, 0);
 }

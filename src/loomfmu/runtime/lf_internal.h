@@ -39,6 +39,8 @@ LfStatus lf_hist_push(LfInstance *c, double t, const double *x, int jump);
 LfStatus lf_hist_step(LfInstance *c);
 /* g and dg/dt of the delayed expressions at (t, x): one history sample */
 LfStatus lf_hist_sample(LfInstance *c, double t, const double *x, double *g);
+LfStatus lf_hist_sample_end(LfInstance *c, double t, const double *x, double *g);
+int lf_hist_outputs(LfInstance *c, const double *w, double *y);
 LfStatus lf_init_delays(LfInstance *c, LfSolverOptions *opt);
 
 /* lf_events.c: event indicators, modes, event location after a step. */

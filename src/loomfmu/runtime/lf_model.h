@@ -58,6 +58,16 @@ enum {
     LF_N_FN = 18
 };
 
+/* Models with delays: one more function, LF_HISTOUT_FN (model_decl.c), of
+ * the same arguments -> g, dg/dt (as hist) and the outputs and algebraic
+ * locals (as out), their shared subexpressions computed once; lf_eval_fn's
+ * id LF_FN_HISTOUT.  The history sample at a step's end takes it and keeps
+ * the outputs for lf_update_outputs (lf_delay.c). */
+#define LF_FN_HISTOUT LF_N_FN
+#ifdef LF_HISTOUT_FN
+extern const LfFunction LF_HISTOUT_FN;
+#endif
+
 /* Real value references are laid out as
  *   settings | parameters | states | inputs | outputs | algebraic locals */
 #define LF_VR_P0 (LF_NSET)

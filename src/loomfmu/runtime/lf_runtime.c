@@ -31,13 +31,27 @@ static void *lf_calloc(LfInstance *c, size_t n, size_t size) {
     return c->alloc.calloc(n > 0 ? n : 1, size);
 }
 
+/* Generated function `fn` (an LfFunctionId, or LF_FN_HISTOUT). */
+static const LfFunction *function_of(int fn) {
+#ifdef LF_HISTOUT_FN
+    if (fn == LF_FN_HISTOUT) return &LF_HISTOUT_FN;
+#endif
+    return &lf_model.fn[fn];
+}
+
+#ifdef LF_HISTOUT_FN
+#define LF_N_FN_ALL (LF_N_FN + 1)
+#else
+#define LF_N_FN_ALL LF_N_FN
+#endif
+
 /* Size the CasADi work arrays for the largest of the generated functions. */
 static int alloc_casadi_work(LfInstance *c) {
     long long n_arg = 0, n_res = 0, n_iw = 0, n_w = 0;
     int k;
-    for (k = 0; k < LF_N_FN; k++) {
+    for (k = 0; k < LF_N_FN_ALL; k++) {
         long long a = 0, r = 0, i = 0, w = 0;
-        if (lf_model.fn[k].work(&a, &r, &i, &w)) return 0;
+        if (function_of(k)->work(&a, &r, &i, &w)) return 0;
         if (a > n_arg) n_arg = a;
         if (r > n_res) n_res = r;
         if (i > n_iw) n_iw = i;
@@ -81,6 +95,7 @@ void lf_reset_values(LfInstance *c) {
     c->rtol_importer = 0.0;
     for (k = 0; k < LF_N_LOG; k++) c->log_on[k] = c->log_on_start;
     c->outputs_valid = 0;
+    c->ho_valid = 0;
     c->inputs_changed = 0;
     c->wants_terminate = 0;
     c->vld_t = NAN;
@@ -170,7 +185,7 @@ LfStatus lf_eval_fn(LfInstance *c, int fn, double t, const double *x, const doub
     c->res[0] = out0; /* functions with fewer outputs do not read the rest */
     c->res[1] = out1;
     c->res[2] = out2;
-    return lf_model.fn[fn].eval(c->arg, c->res, c->iw, c->w, 0) ? LF_ERROR : LF_OK;
+    return function_of(fn)->eval(c->arg, c->res, c->iw, c->w, 0) ? LF_ERROR : LF_OK;
 }
 
 /* Before the solver starts, the states and modes read (and the outputs
@@ -183,14 +198,19 @@ LfStatus lf_prepare_initial(LfInstance *c) {
 
 LfStatus lf_update_outputs(LfInstance *c) {
     double y[LF_DIM(LF_NY + LF_NZ)];
-    int bad;
+    int bad, kept;
     if (c->outputs_valid || LF_NY + LF_NZ == 0) return LF_OK;
     if (lf_prepare_initial(c) != LF_OK) return LF_ERROR;
-    if (lf_solve_w(c, c->t, &c->r[LF_VR_X0], c->w_tmp) != LF_OK) {
+    /* the outputs kept by the history sample at this point, if any (explicit
+     * models: w is a function of the point; implicit: w compared too) */
+    kept = !LF_IMPLICIT && lf_hist_outputs(c, NULL, y);
+    if (!kept && lf_solve_w(c, c->t, &c->r[LF_VR_X0], c->w_tmp) != LF_OK) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: model equations cannot be solved", c->t);
         return LF_ERROR;
     }
-    if (lf_eval_fn(c, LF_FN_OUT, c->t, &c->r[LF_VR_X0], c->w_tmp, y, NULL, NULL) != LF_OK) {
+    if (!kept && LF_IMPLICIT) kept = lf_hist_outputs(c, c->w_tmp, y);
+    if (!kept &&
+        lf_eval_fn(c, LF_FN_OUT, c->t, &c->r[LF_VR_X0], c->w_tmp, y, NULL, NULL) != LF_OK) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: output function failed", c->t);
         return LF_ERROR;
     }
@@ -218,6 +238,7 @@ LfStatus lf_set_real(LfInstance *c, unsigned vr, double value) {
     }
     name = lf_model.real_names[vr];
     kind = lf_model.real_kind[vr];
+    c->ho_valid = 0; /* (the kept outputs' key would tell too: lf_hist_outputs) */
     if (kind == LF_KIND_OUTPUT || kind == LF_KIND_LOCAL) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s is calculated and cannot be set",
                c->t, name);

@@ -178,6 +178,16 @@ typedef struct {
     double wk_t;
     double wk_x[LF_DIM(LF_NX)];
     int args_set;                   /* arg[4..6, 8, 9] point at p, q, d, d_rate, k */
+    /* -- delays: the outputs of the last history sample at a step's end
+     * (lf_delay.c, models with LF_HISTOUT_FN; a cache, not part of the FMU
+     * state): y at the point (t, x, u, u_rate, p, q, d, w) they were computed
+     * at, taken by lf_update_outputs where every one of these matches bit for
+     * bit -- */
+    int ho_valid;
+    double ho_t;
+    double ho_x[LF_DIM(LF_NX)], ho_u[LF_DIM(LF_NU)], ho_ur[LF_DIM(LF_NU)];
+    double ho_p[LF_DIM(LF_NP)], ho_q[LF_DIM(LF_NQ)], ho_d[LF_DIM(LF_ND)];
+    double ho_w[LF_DIM(LF_NW)], ho_y[LF_DIM(LF_NY + LF_NZ)];
     /* -- model exchange -- */
     /* -- FMI 3.0 facade -- */
     /* -- solvers and statistics -- */

@@ -503,6 +503,7 @@ static void apply_values(LfInstance *c, const LfStateValues *v, const double *hi
     c->n_newton_fail = v->n_newton_fail;
     c->solver_id = v->solver_id;
     c->outputs_valid = 0;
+    c->ho_valid = 0; /* the outputs a history sample kept (a cache, not state) */
     c->inputs_changed = v->inputs_changed;
     c->delay_interp = v->delay_interp;
     c->n_bp = v->n_bp;
