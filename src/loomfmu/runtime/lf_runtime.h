@@ -147,7 +147,9 @@ typedef struct {
     /* delays: where the last history lookup of each delay ended (a hint for
      * the next one, checked before use; not part of the FMU state) */
     long hist_cursor[LF_DIM(LF_ND)];
-    /* known breaks (lf_breaks.c; a cache, not part of the FMU state):
+    /* known breaks (lf_breaks.c; a cache that lf_state.c saves with the FMU
+     * state, so that a restored state steps as the original did; kb_cert
+     * and kb_sure below are not saved):
      * kb_ready: kb_xdot holds der(x) of the clock states (0 elsewhere);
      * kb_index >= 0: the steps land at kb_t_land, a margin before the
      * predicted root of that indicator, whose bracket ends at kb_t_right */
