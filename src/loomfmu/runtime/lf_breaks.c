@@ -153,14 +153,21 @@ static int chunk_unresolved(const LfInstance *c, const double *ea, const double 
 
 /* The step about to be taken ends at t_end: the events' scan after it may
  * rely on the prediction (c->kb_cert, lf_handle_events) if every indicator
- * is predicted and the scan vouches for no root up to t_end: every chunk
+ * is predicted and the scan vouches for no root up to t_end.  The scan
+ * vouches for everything up to kb_clear while kb_ready is set: every chunk
  * from where the scan (re)started resolved (no sign change, no extremum
  * near zero), chained by the same rules as the solver's steps (each at
  * most LF_EVENT_GROWTH times the last, bounded by its curvature), the
- * first one no longer than the solver's proposed step.  A chunk in which a
- * root was found vouches for nothing: an earlier root may hide in it. */
+ * first one no longer than the solver's proposed step (bounded by rule 2,
+ * lf_events.c).  A scan that cannot vouch so (no step proposed yet, a
+ * chunk accepted unresolved) is not kept: kb_ready is cleared and the scan
+ * starts again at the next step.  So the vouch is a function of the FMU
+ * state (kb_ready, kb_clear), the same after a state is set again, which
+ * matters because it decides whether rule 2's bound is taken
+ * (lf_event_bound_pending).  A chunk in which a root was found vouches for
+ * nothing: an earlier root may hide in it. */
 static double certified(LfInstance *c, double t_end) {
-    c->kb_cert = t_end <= c->kb_sure && all_predictable(c);
+    c->kb_cert = t_end <= c->kb_clear && all_predictable(c);
     return t_end;
 }
 
@@ -168,58 +175,74 @@ static double certified(LfInstance *c, double t_end) {
  * further (an indicator grazing zero: left to the events' own scan) */
 #define LF_KB_MIN_CHUNK 1e-3
 
-double lf_known_break(LfInstance *c, double t_bound) {
-    const LfSolver *s = &c->solver;
+/* the scan is not kept: it starts again at the next step */
+static double drop_scan(LfInstance *c, double t_bound) {
+    c->kb_ready = 0;
+    c->kb_index = -1;
+    c->kb_dt = 0.0;
+    return t_bound;
+}
+
+/* The solver restarted since its last step with the scan kept (the inputs
+ * changed: restart_for_inputs, lf_step.c), so rule 2's bound, if it was left
+ * pending, can no longer be taken from that step's dense output: the step
+ * is no longer than the chunk the scan was to take next, bounded by the
+ * same rules.  kb_dt is 0 where there is none (after an event or a break,
+ * at the start, a scan not kept), and part of the FMU state with the scan:
+ * the same after a state is set. */
+static void restart_bound(LfInstance *c) {
+    LfSolver *s = &c->solver;
+    if (s->t == s->t_old && s->n_steps > 0 && c->kb_dt > 0 && s->h > c->kb_dt) s->h = c->kb_dt;
+}
+
+static double scan(LfInstance *c, double t_bound) {
+    LfSolver *s = &c->solver;
     double em[LF_DIM(LF_NE)], eb[LF_DIM(LF_NE)], t0 = s->t, margin, tl = 0.0, tr = 0.0;
-    double h = s->h > 0 ? s->h : t_bound - t0;
-    int k = -1;
-    c->kb_cert = 0; /* set where the scan vouches for the whole step */
-    if (LF_NE == 0 || !any_predictable(c)) return t_bound;
+    double h;
+    int k = -1, unresolved = 0;
+    if (c->kb_ready && c->kb_index >= 0 && !(c->kb_t_land > t0))
+        c->kb_ready = 0; /* past the break located before: scan again from here */
+    if (c->kb_ready && c->kb_index < 0 && c->kb_clear < t0)
+        c->kb_ready = 0; /* the solver moved past the scan (cannot happen) */
     if (!c->kb_ready) {
+        /* no step proposed yet (the start): nothing to vouch with */
+        if (!(s->h > 0)) return drop_scan(c, t_bound);
+        /* the first chunk is the solver's proposed step: rule 2's bound on
+         * it taken first, if left pending (lf_events.c) */
+        if (all_predictable(c) && lf_event_bound_pending(c) != LF_OK)
+            return drop_scan(c, t_bound);
+        restart_bound(c);
         c->kb_index = -1;
-        c->kb_sure = -INFINITY;
-        if (clock_rates(c) != LF_OK) return t_bound;
+        if (clock_rates(c) != LF_OK) return drop_scan(c, t_bound);
         c->kb_clear = t0;
         memcpy(c->kb_e, c->e_old, sizeof c->kb_e);
-        c->kb_dt = h;
-        /* the first chunk is the solver's proposed step (as fine as the
-         * events' scan of that step), or, with none proposed yet, the
-         * whole remaining interval: vouched for only in the first case */
-        if (s->h > 0) c->kb_sure = t0;
+        c->kb_dt = s->h;
     }
-    if (c->kb_index >= 0) { /* a break located before, still ahead: no root before it */
-        if (c->kb_t_land > t0) return certified(c, lf_min(c->kb_t_land, t_bound));
-        c->kb_index = -1;
-        c->kb_clear = t0;
-        c->kb_sure = -INFINITY;
-        memcpy(c->kb_e, c->e_old, sizeof c->kb_e);
-    }
-    if (c->kb_clear < t0) { /* the solver moved past the scan (cannot happen) */
-        c->kb_clear = t0;
-        c->kb_sure = -INFINITY;
-        memcpy(c->kb_e, c->e_old, sizeof c->kb_e);
-    }
+    h = s->h;
+    if (c->kb_index >= 0) /* a break located before, still ahead: no root before it */
+        return certified(c, lf_min(c->kb_t_land, t_bound));
     /* scan the prediction ahead in chunks until t_bound is covered or a
      * root is found: no root before kb_clear */
     while (c->kb_clear < t_bound) {
         double ta = c->kb_clear, tb = ta + c->kb_dt, dt_next;
         if (!(tb > ta) || predicted(c, 0.5 * (ta + tb), em) != LF_OK ||
             predicted(c, tb, eb) != LF_OK)
-            return t_bound;
+            return drop_scan(c, t_bound);
         if (first_root(c, ta, c->kb_e, em, tb, eb, &tl, &tr, &k)) break;
         if (chunk_unresolved(c, c->kb_e, em, eb, c->kb_dt, &dt_next)) {
             if (c->kb_dt > LF_KB_MIN_CHUNK * h) {
                 c->kb_dt *= 0.25;
                 continue;
             }
-            c->kb_sure = -INFINITY; /* accepted unresolved: vouch for nothing more */
-        } else if (c->kb_sure == ta) {
-            c->kb_sure = tb;
+            unresolved = 1; /* accepted unresolved: vouches for nothing more */
         }
         c->kb_clear = tb;
         memcpy(c->kb_e, eb, sizeof c->kb_e);
         c->kb_dt = lf_max(dt_next, 0.25 * c->kb_dt);
     }
+    /* a chunk accepted unresolved lies before t_bound (and before any root
+     * found after it): the step is not vouched for, and lands nowhere */
+    if (unresolved) return drop_scan(c, t_bound);
     if (c->kb_clear >= t_bound) return certified(c, t_bound);
     /* land a margin before the root (as the step redone up to an event
      * stops: lf_events.c), and only if that is at least another margin
@@ -235,11 +258,27 @@ double lf_known_break(LfInstance *c, double t_bound) {
      * event at the stop time lost).  Such a root is left to the step
      * that straddles it (lf_handle_events locates it as any event). */
     margin = LF_EVENT_GAP * fmax(1.0, fabs(tl));
-    c->kb_ready = 0; /* after the break: scan again from there */
-    if (!(tl - margin > t0 + margin)) return t_bound;
-    c->kb_ready = 1;
+    if (!(tl - margin > t0 + margin)) return drop_scan(c, t_bound); /* scan again after it */
     c->kb_index = k;
     c->kb_t_land = tl - margin;
     c->kb_t_right = tr;
     return certified(c, lf_min(c->kb_t_land, t_bound));
+}
+
+double lf_known_break(LfInstance *c, double t_bound) {
+    double t;
+    c->kb_cert = 0; /* set where the scan vouches for the whole step */
+    if (LF_NE == 0 || !any_predictable(c)) {
+        if (!c->kb_ready) restart_bound(c);
+        drop_scan(c, t_bound);
+        return t_bound;
+    }
+    t = scan(c, t_bound);
+    /* the events' scan of a step not vouched for needs rule 2's bound on it,
+     * left pending after a step that was (lf_events.c) */
+    if (!c->kb_cert && all_predictable(c) && lf_event_bound_pending(c) != LF_OK) {
+        c->kb_cert = 0;
+        return t_bound;
+    }
+    return t;
 }

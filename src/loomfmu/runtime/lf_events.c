@@ -347,6 +347,7 @@ static LfStatus apply_event(LfInstance *c, int first, double t_ok, const double 
     LfStatus st;
     c->n_events++;
     c->kb_ready = 0; /* states may be reinitialized: predict the known breaks again */
+    c->kb_dt = 0.0;  /* no chunk length to carry over the restart (lf_known_break) */
     if (changed) *changed = 0;
     if (LF_NQ > 0) {
         memcpy(c->x_tmp, s->x, sizeof(double) * LF_NX);
@@ -387,6 +388,34 @@ LfStatus lf_apply_pending_event(LfInstance *c, int *changed) {
     return apply_event(c, k, c->ev_t_ok, c->ev_x_ok, c->ev_q_ok, changed);
 }
 
+/* Rule 2's bound left pending after a step the known-break scan vouched for
+ * (c->kb_sure == -INFINITY; also after an FMU state is set, and at the
+ * start): taken now, from the last step's samples as scan_events takes them
+ * (its start from x_old, its midpoint on the dense output, its end e_old),
+ * the indicators evaluated without solving for w (every one predicted: none
+ * reads w; the caller checks).  Taking it again changes nothing (the same
+ * samples, the same bound).  Nothing to take where the solver restarted
+ * since (no dense output): lf_known_break bounds that step instead. */
+LfStatus lf_event_bound_pending(LfInstance *c) {
+    LfSolver *s = &c->solver;
+    double ga[LF_DIM(LF_NE)], gm[LF_DIM(LF_NE)], xm[LF_DIM(LF_NX)], hb = INFINITY;
+    double tm = 0.5 * (s->t_old + s->t), h_step = s->t - s->t_old;
+    if (c->kb_sure != -INFINITY) return LF_OK;
+    c->kb_sure = s->t;
+    if (!(tm > s->t_old && tm < s->t)) return LF_OK;
+    s->method->dense(s, tm, xm);
+    if (lf_eval_fn(c, LF_FN_EVT, s->t_old, s->x_old, c->w_cur, ga, NULL, NULL) != LF_OK ||
+        lf_eval_fn(c, LF_FN_EVT, tm, xm, c->w_cur, gm, NULL, NULL) != LF_OK ||
+        lf_first_nonfinite(ga, LF_NE) >= 0 || lf_first_nonfinite(gm, LF_NE) >= 0) {
+        lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: event indicators not finite", tm);
+        return LF_DISCARD;
+    }
+    curvature_bound(ga, gm, c->e_old, h_step, &hb);
+    hb = fmax(hb, 0.25 * h_step);
+    if (s->h > hb) s->h = hb;
+    return LF_OK;
+}
+
 /* After an accepted step: find the earliest crossing (scan_events).  The
  * step is then redone from t_old to the root's old side, so that no stage
  * straddles the discontinuity (the dense output of the straddling step is
@@ -407,10 +436,20 @@ static LfStatus handle_events(LfInstance *c, double *h_bound) {
          * parameters, the held inputs and the clock states, not of w), and
          * the scan of their prediction (lf_breaks.c), which resolves them by
          * the same rules, found no root in this step: rule 1 has nothing to
-         * add.  Rule 2's bound from the same samples as scan_events takes
-         * (the midpoint on the dense output), the indicators evaluated
-         * without solving for w, which they do not read. */
+         * add.  Rule 2's bound exists for the events' scan of the next step;
+         * it is left pending (c->kb_sure = -INFINITY) and taken before the
+         * next step only if that step is not vouched for in turn
+         * (lf_event_bound_pending, from lf_known_break), while this step's
+         * dense output is still there.  Taken now where the solver restarts
+         * before the next step: a known break crossed here, a delay's
+         * breakpoint (a restart loses the dense output). */
         double tm = 0.5 * (s->t_old + s->t), xm[LF_DIM(LF_NX)], gm[LF_DIM(LF_NE)];
+        if (LF_ND == 0 && !(c->kb_index >= 0 && s->t == c->kb_t_land)) {
+            memcpy(c->e_old, e_end, sizeof(double) * LF_NE);
+            c->kb_sure = -INFINITY;
+            return LF_OK;
+        }
+        c->kb_sure = s->t;
         if (tm > s->t_old && tm < s->t) {
             c->solver.method->dense(&c->solver, tm, xm);
             if (lf_eval_fn(c, LF_FN_EVT, tm, xm, c->w_cur, gm, NULL, NULL) != LF_OK ||
@@ -425,6 +464,7 @@ static LfStatus handle_events(LfInstance *c, double *h_bound) {
         memcpy(c->e_old, e_end, sizeof(double) * LF_NE);
         return LF_OK;
     }
+    c->kb_sure = s->t; /* rule 2's bound for this step: taken below */
     st = scan_events(c, s->t_old, c->e_old, s->t, e_end, 0, &scan);
     if (st != LF_OK) return st;
     /* rule 2: at most 4 times shorter than this step */

@@ -57,6 +57,10 @@ LfStatus lf_apply_pending_event(LfInstance *c, int *changed);
  * an event (the gap may reach up to t_limit) */
 double lf_known_break(LfInstance *c, double t_bound);
 LfStatus lf_cross_known_break(LfInstance *c, double t_limit);
+/* lf_events.c: rule 2's bound on the next step, left pending after a step
+ * the known-break scan vouched for (c->kb_sure == -INFINITY), taken from the
+ * last step's samples (every indicator predicted; lf_known_break) */
+LfStatus lf_event_bound_pending(LfInstance *c);
 /* Scanning a function of time between samples (event indicators, validity
  * conditions; lf_events.c explains the rules): halves scanned again down to
  * LF_EVENT_SCAN_DEPTH levels where the quadratic through three samples

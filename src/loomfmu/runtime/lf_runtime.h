@@ -161,11 +161,14 @@ typedef struct {
      * next chunk of the scan is kb_dt long */
     double kb_clear, kb_dt;
     double kb_e[LF_DIM(LF_NE)];
-    /* set by lf_known_break before each step, read by lf_handle_events after
-     * it: every indicator is predicted and the scan vouches for no root of
-     * the prediction in the step about to be taken (lf_breaks.c); it vouches
-     * up to kb_sure (-INFINITY: nothing; reset with the scan, and when an
-     * FMU state is set) */
+    /* kb_cert: set by lf_known_break before each step, read by
+     * lf_handle_events after it: every indicator is predicted and the scan
+     * vouches for no root of the prediction in the step about to be taken
+     * (lf_breaks.c; it vouches up to kb_clear while kb_ready).  kb_sure:
+     * -INFINITY while rule 2's bound on the step after the solver's last one
+     * is pending (left so after a vouched step, and unknown when an FMU state
+     * is set or at the start: taken if the next step is not vouched,
+     * lf_event_bound_pending); otherwise the time it was taken at */
     int kb_cert;
     double kb_sure;
     long n_known_breaks;            /* known breaks crossed (statistics) */
