@@ -370,7 +370,8 @@ def cmd_simulate(args) -> int:
         from .verify import quiet_callbacks
         try:
             with quiet_callbacks():
-                res = fmpy.simulate_fmu(
+                from .fmpy_logger import simulate as fmpy_simulate
+                res = fmpy_simulate(
                     str(fmu), validate=False, stop_time=stop,
                     fmi_type="ModelExchange" if me_only else "CoSimulation",
                     output_interval=step, relative_tolerance=args.rtol, start_values=start,

@@ -19,6 +19,7 @@ import numpy as np
 
 from .checks import (check_bool, check_choice, check_int, check_mapping, check_name_list,
                      check_number, check_optional_number, check_text)
+from . import fmpy_logger
 from .codegen import SOLVERS
 from .declare import Model
 from .reference import MAX_OUTPUTS, RTOL_MIN, Reference, check_model, reference
@@ -136,12 +137,12 @@ def simulate(fmu: Path | str, *, solver: str = "dopri5", rtol: float = 1e-6,
     wall = time.perf_counter()
     try:
         with quiet_callbacks():
-            res = fmpy.simulate_fmu(str(fmu), validate=False, stop_time=stop_time,
-                                    fmi_type="CoSimulation" if interface == "cs"
-                                    else "ModelExchange",
-                                    relative_tolerance=rtol, output_interval=output_interval,
-                                    start_values=start, output=output, logger=logger,
-                                    model_description=model_description)
+            res = fmpy_logger.simulate(str(fmu), validate=False, stop_time=stop_time,
+                                       fmi_type="CoSimulation" if interface == "cs"
+                                       else "ModelExchange",
+                                       relative_tolerance=rtol, output_interval=output_interval,
+                                       start_values=start, output=output, logger=logger,
+                                       model_description=model_description)
     except Exception as e:  # noqa: BLE001 (FMPy raises bare Exceptions)
         tail = "; ".join(log[-3:]) or "no log"
         raise RuntimeError(f"simulate {Path(fmu).name}: {e} (log: {tail})") from e

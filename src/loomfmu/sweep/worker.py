@@ -26,6 +26,8 @@ from typing import Callable
 import fmpy
 import numpy as np
 
+from .. import fmpy_logger
+
 #: FMI status codes -> the status a row records
 FMI_STATUS = {2: "discard", 3: "error", 4: "fatal"}
 #: statuses a row can have
@@ -74,8 +76,8 @@ class _Slot:
 
     def get_instance(self):
         if self.instance is None:
-            self.instance = fmpy.instantiate_fmu(self.unzipdir, self.md, "CoSimulation",
-                                                 logger=self.logger)
+            self.instance = fmpy_logger.instantiate(self.unzipdir, self.md, "CoSimulation",
+                                                    self.logger)
             self.used = False
         return self.instance
 
@@ -160,7 +162,7 @@ def run_case(blob: FmuBlob, setup: Setup, index: int, key: str, case: dict,
             res = fmpy.simulate_fmu(slot.unzipdir, fmu_instance=inst, **kwargs)
         else:
             row["instance"] = "plain"
-            res = fmpy.simulate_fmu(slot.unzipdir, logger=slot.logger, **kwargs)
+            res = fmpy_logger.simulate(slot.unzipdir, logger=slot.logger, **kwargs)
     except Exception as exc:  # noqa: BLE001 (FMPy raises FMICallException or bare Exception)
         status = FMI_STATUS.get(getattr(exc, "status", None), "error")
         row.update(status=status, message=_message(slot.log, exc))
