@@ -98,6 +98,13 @@ def test_cli_writes_the_table(tmp_path):
     rows = json.loads(out.read_text())["rows"]
     assert [(r["model"], r["solver"]) for r in rows] == [(MODEL, "rk4")]
     assert f"| {MODEL} | rk4 |" in page.read_text()
+    # notes written below the marker survive the next run; the tables are new
+    page.write_text(page.read_text().replace(f"| {MODEL} | rk4 |", "| stale | rk4 |")
+                    + "\n" + L.NOTES_MARKER + "\n\nmeasured by hand\n")
+    L.write(json.loads(out.read_text()), None, page, "cmd")
+    text = page.read_text()
+    assert text.count(L.NOTES_MARKER) == 1 and text.endswith("measured by hand\n")
+    assert "| stale |" not in text and f"| {MODEL} | rk4 |" in text
     with pytest.raises(SystemExit):
         main(["limit", "--models", "no_such_model"])
 

@@ -331,6 +331,11 @@ def summary_md(rows) -> str:
     return head + "\n".join(lines) + "\n"
 
 
+#: The page's text from this line on is kept when the page is written again
+#: (notes measured by hand, e.g. instruction counts with callgrind)
+NOTES_MARKER = "<!-- notes below this line are kept by loomfmu bench limit -->"
+
+
 def page_md(result: dict, cmd: str) -> str:
     rows = result["rows"]
     over = [r for r in rows if r["ratio"] is not None and r["ratio"] > 2]
@@ -356,7 +361,12 @@ def write(result: dict, json_path: Path | None, page: Path | None, cmd: str) -> 
         json_path.write_text(json.dumps({"command": cmd, **result}, indent=1, default=str))
     if page is not None:
         page.parent.mkdir(parents=True, exist_ok=True)
-        page.write_text(page_md(result, cmd))
+        notes = ""
+        if page.is_file():  # written notes below NOTES_MARKER stay (measured by hand)
+            old = page.read_text()
+            if NOTES_MARKER in old:
+                notes = "\n" + old[old.index(NOTES_MARKER):]
+        page.write_text(page_md(result, cmd) + notes)
 
 
 # -- the speed table at C level ------------------------------------------------------
