@@ -11,6 +11,7 @@ and the shared library's exported functions (nm).
 from __future__ import annotations
 
 import importlib.util
+import re
 import subprocess
 import zipfile
 from pathlib import Path
@@ -25,7 +26,7 @@ from lxml import etree
 from loomfmu import build_fmu, load_model
 from loomfmu.builder import fmi_headers_dir, terminals_problems
 from loomfmu.codegen import model_guid, real_table
-from loomfmu.fmi_xml import (INDICATOR_PREFIX, model_description, terminals_and_icons,
+from loomfmu.fmi_xml import (INDICATOR_PREFIX, fmi3_text, model_description, terminals_and_icons,
                              variable_table)
 from loomfmu.fmu_doc import DOC_MEMBER
 from loomfmu.ode import dae_form
@@ -75,8 +76,9 @@ def _by_name(md):
 @pytest.mark.parametrize("name", XML_MODELS)
 def test_one_table_gives_both_versions_the_same_variables(declared, name, tmp_path):
     """Names, causality, variability, initial, unit, start, range and
-    description agree between FMI 2.0 and 3.0; FMI 3.0 adds only `time` and
-    the event-indicator variables of model exchange."""
+    description agree between FMI 2.0 and 3.0 (descriptions with the FMI
+    function names of their version); FMI 3.0 adds only `time` and the
+    event-indicator variables of model exchange."""
     v2 = _by_name(read_model_description(str(_md(declared, name, 2, "both", tmp_path))))
     v3 = _by_name(read_model_description(str(_md(declared, name, 3, "both", tmp_path))))
     extra = set(v3) - set(v2)
@@ -85,9 +87,10 @@ def test_one_table_gives_both_versions_the_same_variables(declared, name, tmp_pa
     assert set(v2) <= set(v3)
     for n, a in v2.items():
         b = v3[n]
-        for attr in ("causality", "variability", "initial", "unit", "start", "min", "max",
-                     "description"):
+        for attr in ("causality", "variability", "initial", "unit", "start", "min", "max"):
             assert getattr(a, attr) == getattr(b, attr), (n, attr)
+        assert fmi3_text(a.description) == b.description, n
+        assert not re.findall(r"fmi2[A-Z]", b.description), (n, b.description)
         assert {"Real": "Float64", "Integer": "Int32"}.get(a.type, a.type) == b.type, n
     # co-simulation only: the same table less the derivatives
     cs = _by_name(read_model_description(str(_md(declared, name, 2, "cs", tmp_path))))

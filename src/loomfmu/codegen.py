@@ -60,6 +60,8 @@ class Setting:
     max: float
 
 
+#: Descriptions use FMI 2.0 names; FMI 3.0 model descriptions and pages
+#: translate them (loomfmu.fmi_xml.fmi3_text: fmi3DoStep, lastSuccessfulTime).
 SETTINGS = (
     Setting("solver_rtol", "LF_SET_RTOL", "", "relative tolerance of the adaptive solvers",
             1e-14, 0.1),
@@ -70,10 +72,9 @@ SETTINGS = (
     Setting("solver_h_fixed", "LF_SET_H_FIXED", "s", "step of the fixed-step solver rk4",
             1e-9, 1e3),
     Setting("solver_max_steps", "LF_SET_MAX_STEPS", "", "most solver steps (accepted and "
-            "rejected, event location included) in one doStep call: past it the call returns "
-            "Discard with a log line, the outputs readable at the last accepted time (FMI 2: "
-            "fmi2GetRealStatus(fmi2LastSuccessfulTime); FMI 3: lastSuccessfulTime of "
-            "fmi3DoStep); bounds the wall time of one call",
+            "rejected, event location included) in one fmi2DoStep: past it the call returns "
+            "fmi2Discard with a log line, the outputs readable at the last accepted time "
+            "(fmi2GetRealStatus(fmi2LastSuccessfulTime)); bounds the wall time of one call",
             1.0, 1e9),
 )
 

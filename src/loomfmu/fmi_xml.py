@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import importlib.metadata
 import math
+import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 
@@ -322,6 +323,28 @@ def _fmi2(model, dae, guid, sources, interface, table, structure: Structure) -> 
 _FMI3_TYPE = {"Real": "Float64", "Integer": "Int32", "Enumeration": "Enumeration"}
 
 
+#: FMI 2.0 names whose FMI 3.0 counterpart is not fmi3 + the same name.
+_FMI3_NAMES = {
+    "fmi2GetRealStatus(fmi2LastSuccessfulTime)":
+        "the lastSuccessfulTime argument of fmi3DoStep",
+    "fmi2SetupExperiment": "fmi3EnterInitializationMode",
+    "fmi2GetReal": "fmi3GetFloat64", "fmi2SetReal": "fmi3SetFloat64",
+    "fmi2GetDerivatives": "fmi3GetContinuousStateDerivatives",
+    "fmi2GetContinuousStates": "fmi3GetContinuousStates",
+    "fmi2SetContinuousStates": "fmi3SetContinuousStates",
+    "fmi2NewDiscreteStates": "fmi3UpdateDiscreteStates",
+    "fmi2Component": "fmi3Instance",
+}
+
+
+def fmi3_text(text: str) -> str:
+    """``text`` written with FMI 2.0 names (fmi2DoStep, fmi2Discard, ...) with
+    the FMI 3.0 names: for the FMI 3 model description and documentation page."""
+    for old, new in _FMI3_NAMES.items():
+        text = text.replace(old, new)
+    return re.sub(r"\bfmi2(?=[A-Z])", "fmi3", text)
+
+
 def _fmi3(model, dae, guid, sources, interface, table, structure: Structure) -> ET.Element:
     me, cs = interface in ("me", "both"), interface in ("cs", "both")
     root = ET.Element("fmiModelDescription", {
@@ -342,7 +365,8 @@ def _fmi3(model, dae, guid, sources, interface, table, structure: Structure) -> 
     vr = {v.name: v.vr3 for v in table}
     mv = ET.SubElement(root, "ModelVariables")
     for v in table:
-        attrs = {"name": v.name, "valueReference": str(v.vr3), "description": v.description,
+        attrs = {"name": v.name, "valueReference": str(v.vr3),
+                 "description": fmi3_text(v.description),
                  "causality": v.causality, "variability": v.variability}
         if v.initial:
             attrs["initial"] = v.initial

@@ -29,6 +29,7 @@ import casadi as ca
 
 from .codegen import SETTINGS, SOLVER_DESCRIPTIONS, SOLVERS
 from .declare import Model
+from .fmi_xml import fmi3_text
 from .registry import MODELS
 
 #: Where FMI 2.0 puts the documentation's entry point.
@@ -526,28 +527,12 @@ def _variables(model: Model, md: ET.Element) -> str:
     return "".join(out)
 
 
-#: FMI 2.0 names whose FMI 3.0 counterpart is not fmi3 + the same name.
-_FMI3_NAMES = {
-    "fmi2GetRealStatus(fmi2LastSuccessfulTime)":
-        "the lastSuccessfulTime argument of fmi3DoStep",
-    "fmi2SetupExperiment": "fmi3EnterInitializationMode",
-    "fmi2GetReal": "fmi3GetFloat64", "fmi2SetReal": "fmi3SetFloat64",
-    "fmi2GetDerivatives": "fmi3GetContinuousStateDerivatives",
-    "fmi2GetContinuousStates": "fmi3GetContinuousStates",
-    "fmi2SetContinuousStates": "fmi3SetContinuousStates",
-    "fmi2NewDiscreteStates": "fmi3UpdateDiscreteStates",
-    "fmi2Component": "fmi3Instance",
-}
-
-
 def _fmi(md: ET.Element, text: str) -> str:
     """``text`` (written with FMI 2.0 names: fmi2DoStep, fmi2Discard, ...)
     with the names of the FMU's FMI version."""
     if not md.get("fmiVersion", "").startswith("3"):
         return text
-    for old, new in _FMI3_NAMES.items():
-        text = text.replace(old, new)
-    return re.sub(r"\bfmi2(?=[A-Z])", "fmi3", text)
+    return fmi3_text(text)
 
 
 def _fn(md: ET.Element, name: str) -> str:
