@@ -102,3 +102,67 @@ def test_prune_keeps_the_most_recently_used(tmp_path):
         os.utime(p, (1000 + i, 1000 + i))
     prune(tmp_path, max_bytes=2500)
     assert sorted(p.name for p in tmp_path.glob("*.o")) == ["3.o", "4.o"]
+
+
+def test_a_poisoned_entry_is_compiled_again_when_the_objects_do_not_link(tmp_path,
+                                                                          monkeypatch):
+    """An entry replaced by another file's valid object (its SHA-256 right): the
+    link fails, the builder compiles everything again, overwrites the entries
+    and links the same binary as before."""
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("LOOMFMU_BUILD_CACHE", str(cache))
+    model = load_model("two_mass_force")
+    first = build_fmu(model, out_dir=tmp_path / "a", validate=False)
+    entries = sorted(cache.glob("*.o"), key=lambda p: p.stat().st_size)
+    entries[-1].write_bytes(entries[0].read_bytes())   # the biggest holds the smallest
+    again = build_fmu(model, out_dir=tmp_path / "b", validate=False)
+    assert again.compile_stats.compiled == first.compile_stats.compiled
+    assert _binary(first.path) == _binary(again.path)
+    third = build_fmu(model, out_dir=tmp_path / "c", validate=False)   # healed
+    assert third.compile_stats.compiled == 0 and _binary(third.path) == _binary(first.path)
+
+
+def test_a_read_only_cache_is_still_read(tmp_path, monkeypatch):
+    import loomfmu.compile_cache as cc
+    monkeypatch.setenv("LOOMFMU_BUILD_CACHE", str(tmp_path / "cache"))
+    model = load_model("two_mass_force")
+    build_fmu(model, out_dir=tmp_path / "a", validate=False)
+
+    def refuse(*a, **k):
+        raise OSError(30, "Read-only file system")
+    import os
+    import types
+    monkeypatch.setattr(cc, "os", types.SimpleNamespace(**{**vars(os), "utime": refuse}))
+    monkeypatch.setattr(cc, "tempfile", types.SimpleNamespace(mkstemp=refuse))
+    again = build_fmu(model, out_dir=tmp_path / "b", validate=False)
+    assert again.compile_stats.compiled == 0
+
+
+def test_a_failed_write_leaves_no_partial_file(tmp_path, monkeypatch):
+    import loomfmu.compile_cache as cc
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("LOOMFMU_BUILD_CACHE", str(cache))
+
+    def disk_full(*a, **k):
+        raise OSError(28, "No space left on device")
+    import os
+    import types
+    # the cache module's os only (the builder's packaging uses os.replace too)
+    monkeypatch.setattr(cc, "os", types.SimpleNamespace(**{**vars(os), "replace": disk_full}))
+    result = build_fmu(load_model("two_mass_force"), out_dir=tmp_path / "a", validate=False)
+    assert result.compile_stats.compiled > 20
+    assert list(cache.glob("*")) == []
+    assert len(simulate_fmu(str(result.path), stop_time=0.01)) > 1
+
+
+def test_a_missing_compiler_is_a_build_error_naming_it(tmp_path):
+    from loomfmu.builder import BuildError
+    (tmp_path / "f.c").write_text("int f(void) { return 1; }\n")
+    with pytest.raises(BuildError, match="'no_such_cc_xyz' cannot be run.*on PATH"):
+        compile_objects([(tmp_path / "f.c", ("-O2",))], [], tmp_path, cc="no_such_cc_xyz")
+
+
+def test_cache_dir_expands_the_home_folder(monkeypatch):
+    from pathlib import Path
+    monkeypatch.setenv("LOOMFMU_BUILD_CACHE", "~/lf_objects")
+    assert cache_dir() == Path.home() / "lf_objects"

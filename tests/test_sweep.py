@@ -441,3 +441,21 @@ def test_bench_charts_on_dask_equal_the_serial_run_but_for_the_times(tmp_path):
         assert (tmp_path / "dask" / f).stat().st_size > 0
     table = json.loads((tmp_path / "dask" / "speed_table.json").read_text())
     assert len(table["dask_tasks"]) == len(only)
+
+
+def test_the_worker_logs_fmi2_and_fmi3_messages_and_reports_the_first_failure():
+    """FMPy calls an FMI 3 logger with 4 arguments (an FMI 2 one with 5): both
+    land in the row's log; the row's message names the first Discard or worse
+    (FMPy may call the FMU again after a Discard; the last line is then only
+    the refusal of that call)."""
+    from types import SimpleNamespace
+
+    from loomfmu.sweep.worker import _message, _Slot
+    slot = SimpleNamespace(log=[])
+    _Slot.logger(slot, None, b"inst", 2, b"logStatusDiscard", b"max steps spent")
+    _Slot.logger(slot, b"inst", 3, b"logStatusError", b"doStep in state StepFailed")
+    assert slot.log == [(2, "[logStatusDiscard] max steps spent"),
+                        (3, "[logStatusError] doStep in state StepFailed")]
+    msg = _message(slot.log, RuntimeError("doStep failed"))
+    assert msg.startswith("doStep failed; log: [logStatusDiscard] max steps spent ... ")
+    assert _message([(0, "[ok] fine")], RuntimeError("x")) == "x; log: [ok] fine"

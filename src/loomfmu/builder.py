@@ -114,11 +114,24 @@ def compile_binary(src: Path, out: Path, generated_c: list[str], cc: str = "gcc"
     with tempfile.TemporaryDirectory() as tmp:
         objs, stats = compile_objects(jobs, include, Path(tmp), cc)
         out.parent.mkdir(parents=True, exist_ok=True)
-        _check_symbols(objs, model_identifier=out.stem)
-        # --no-undefined: a facade function missing from the sources is a build error,
-        # not a library that fails to load in the importer
-        run([cc, "-shared", "-Wl,--no-undefined", "-o", str(out), *objs, "-lm"], src)
+        try:
+            _link(cc, src, out, objs)
+        except BuildError:
+            if stats.reused == 0:
+                raise
+            # objects from the cache that do not link (an entry poisoned by
+            # hand, binutils changed under the same gcc): compile everything
+            # again, overwriting the entries, and link once more
+            objs, stats = compile_objects(jobs, include, Path(tmp), cc, refresh=True)
+            _link(cc, src, out, objs)
     return stats
+
+
+def _link(cc: str, src: Path, out: Path, objs: list[str]) -> None:
+    _check_symbols(objs, model_identifier=out.stem)
+    # --no-undefined: a facade function missing from the sources is a build error,
+    # not a library that fails to load in the importer
+    run([cc, "-shared", "-Wl,--no-undefined", "-o", str(out), *objs, "-lm"], src)
 
 
 def _check_symbols(objs: list[str], model_identifier: str) -> None:

@@ -16,14 +16,15 @@ threads) share the one pointer as well.
 Here an FMI 2 instance gets its own thunk (kept alive by the instance's
 callbacks, as FMPy's ``instance.callbacks``) called directly by the FMU: no global
 state. The message is the FMI 2 format string; a loomfmu FMU passes no arguments
-and escapes '%' as '%%' (lf_fmi2.c), so replacing '%%' by '%' gives what FMPy's
-proxy prints (vsnprintf without arguments). FMI 3 has no proxy (its message is
+and escapes '%' as '%%' and '#' as '##' (lf_fmi2.c); both are printed as one
+character, as FMI 2.0 asks of an importer (FMPy's proxy leaves '##'). FMI 3 has no proxy (its message is
 not a format): FMPy's own instantiation is used.
 """
 from __future__ import annotations
 
 import ctypes
 import os
+import re
 import shutil
 from typing import Callable
 
@@ -32,6 +33,11 @@ from fmpy import calloc, free
 from fmpy.fmi2 import (FMU2Model, FMU2Slave, fmi2CallbackAllocateMemoryTYPE,
                        fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
                        fmi2CallbackLoggerTYPE)
+
+
+#: FMI 2.0 (2.1.5): the message is a format string, '%%' prints '%', and '##'
+#: prints '#' ('#' marks variable references); one pass, left to right
+_UNESCAPE = re.compile(rb"([%#])\1")
 
 
 def instantiate(unzipdir, model_description, fmi_type: str, logger: Callable,
@@ -46,7 +52,7 @@ def instantiate(unzipdir, model_description, fmi_type: str, logger: Callable,
                                     debug_logging=debug_logging, logger=logger)
 
     def direct(env, instance, status, category, message):
-        logger(env, instance, status, category, message.replace(b"%%", b"%"))
+        logger(env, instance, status, category, _UNESCAPE.sub(rb"\1", message))
 
     callbacks = fmi2CallbackFunctions()
     callbacks.logger = fmi2CallbackLoggerTYPE(direct)

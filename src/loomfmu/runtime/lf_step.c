@@ -328,7 +328,7 @@ static LfStatus step_loop(LfInstance *c, double t0, double h) {
         }
         if (s->t < t_end && solver_work(s) - work0 >= c->max_steps) {
             char why[256];
-            snprintf(why, sizeof why, "solver_max_steps = %ld steps spent in this fmi2DoStep "
+            snprintf(why, sizeof why, "solver_max_steps = %ld steps spent in this doStep call "
                      "at t = %.17g of its end %.17g (step size now %g s); raise "
                      "solver_max_steps, or check the tolerances, solver_h_max and the delays",
                      c->max_steps, s->t, t_end, s->h > 0 ? s->h : s->t - s->t_old);

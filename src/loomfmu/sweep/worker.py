@@ -71,8 +71,11 @@ class _Slot:
         self.instance = None
         self.used = False
 
-    def logger(self, component, instance, status, category, message):
-        self.log.append((int(status), f"[{category.decode()}] {message.decode()}"))
+    def logger(self, *args):
+        # FMI 2: (environment, instance, status, category, message); FMI 3:
+        # FMPy passes (instance, status, category, message)
+        status, category, message = args[-3:]
+        self.log.append((int(status), f"[{_text(category)}] {_text(message)}"))
 
     def get_instance(self):
         if self.instance is None:
@@ -127,10 +130,19 @@ def case_values(setup: Setup, case: dict) -> tuple[dict, float]:
     return values, (setup.stop_time if stop is None else float(stop))
 
 
+def _text(b) -> str:
+    return b.decode(errors="replace") if isinstance(b, bytes) else str(b)
+
+
 def _message(log: list[tuple[int, str]], exc: Exception) -> str:
+    """The exception and the log's first line of status Discard or worse (the
+    cause: FMPy may call the FMU again after a Discard, and the last line is
+    then the refusal of that call), with the last one if it differs."""
     bad = [text for status, text in log if status >= 2]
-    last = bad[-1] if bad else (log[-1][1] if log else "no log")
-    return f"{exc}; log: {last}"
+    if not bad:
+        return f"{exc}; log: {log[-1][1] if log else 'no log'}"
+    tail = f" ... {bad[-1]}" if len(bad) > 1 else ""
+    return f"{exc}; log: {bad[0]}{tail}"
 
 
 def run_case(blob: FmuBlob, setup: Setup, index: int, key: str, case: dict,
