@@ -195,6 +195,29 @@ def test_rodas4_stiff_far_fewer_steps(harness):
     assert ro["lu"] == ro["steps"] + ro["rejected"]
 
 
+@pytest.mark.parametrize("ncomm", [1, 100])
+def test_dopri5_step_control_is_stabilized_on_the_stability_boundary(harness, tmp_path, ncomm):
+    """dopri5 on a stiff problem sits on its stability boundary, where the
+    classical controller h*0.9*err^-1/5 (the build with -DLF_DP_BETA=0)
+    oscillates and rejects about one step in six; Hairer's controller with
+    Lund stabilization (beta = 0.04, the default) keeps the step steady:
+    almost no rejections, fewer RHS calls, the same accuracy.  With 100
+    communication intervals the steps shortened to land on them must not
+    unsettle it (their errors are not remembered)."""
+    exe = tmp_path / "solver_harness_classical"
+    cmd = ["gcc", *CFLAGS, "-DLF_DP_BETA=0", f"-I{RUNTIME}", str(HARNESS), *map(str, SOURCES),
+           "-lm", "-o", str(exe)]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    pi = solve(harness, "dopri5", "stiff", rtol=1e-6, ncomm=ncomm)
+    classical = solve(exe, "dopri5", "stiff", rtol=1e-6, ncomm=ncomm)
+    assert pi["status"] == 0 and classical["status"] == 0
+    assert classical["rejected"] > 1000, classical       # the oscillation exists
+    assert pi["rejected"] * 100 < classical["rejected"], (pi, classical)
+    assert pi["rhs"] < 0.9 * classical["rhs"], (pi["rhs"], classical["rhs"])
+    assert pi["err_max"] < 1e-5 and classical["err_max"] < 1e-5, (pi, classical)
+
+
 def test_rodas4_stiff_nonautonomous(harness):
     """Prothero-Robinson x' = L(x - sin t) + cos t, L = -1e4."""
     ro = solve(harness, "rodas4", "pr", rtol=1e-6)

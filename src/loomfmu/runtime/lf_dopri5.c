@@ -53,7 +53,18 @@
 /* private vectors: stages k1..k7, stage argument, new state, dense r3..r5 */
 enum { DP_K1, DP_K2, DP_K3, DP_K4, DP_K5, DP_K6, DP_K7, DP_Y, DP_YNEW, DP_R3, DP_R4, DP_R5, DP_NVEC };
 
-static size_t dp_work_size(size_t n) { return DP_NVEC * n; }
+/* step-size control (lf_dopri5_step.h): Hairer's DOPRI5 defaults, beta =
+ * 0.04 (his code's choice for dopri5) and err_old = 1e-4 at a start; build
+ * with -DLF_DP_BETA=0 for the classical controller */
+#ifndef LF_DP_BETA
+#define LF_DP_BETA 0.04
+#endif
+#define DP_BETA ((double)(LF_DP_BETA))
+#define DP_EXPO1 (0.2 - DP_BETA * 0.75)
+#define DP_LERR_OLD0 (-9.210340371976182) /* log(1e-4) */
+
+/* the vectors, then one scalar: log of the last accepted step's error */
+static size_t dp_work_size(size_t n) { return DP_NVEC * n + 1; }
 
 /* The stage sums are loops over the states whose elements do not depend on
  * each other.  GCC's -O2 keeps them scalar (its cheap cost model wants trip

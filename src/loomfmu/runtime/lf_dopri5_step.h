@@ -9,7 +9,7 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
     double *k1 = w + DP_K1 * n, *k2 = w + DP_K2 * n, *k3 = w + DP_K3 * n, *k4 = w + DP_K4 * n;
     double *k5 = w + DP_K5 * n, *k6 = w + DP_K6 * n, *k7 = w + DP_K7 * n;
     double *y = w + DP_Y * n, *ynew = w + DP_YNEW * n;
-    double *x = s->x;
+    double *x = s->x, *lerr_old = w + DP_NVEC * n;
     const double t = s->t, hmax = s->opt.h_max;
     double h;
     int rejected = 0, cause = CAUSE_NONE, attempts = 0, bad;
@@ -21,13 +21,14 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
         st = lf_sv_eval_rhs(s, t, x, k1);
         if (st != LF_OK) return lf_sv_start_failure(s, st);
         s->fsal_valid = 1;
+        *lerr_old = DP_LERR_OLD0; /* a fresh start: no previous step to remember */
     }
     h = s->h;
     if (!(h > 0.0)) h = lf_sv_initial_step(s, k1, k2, k3, 5.0, fmin(hmax, t_bound - t));
     if (h > hmax) h = hmax;
 
     for (;;) {
-        double h_prop = h, t_new, hmin, err, fac;
+        double h_prop = h, t_new, hmin, err, fac, lerr;
         int last;
         if (++attempts > LF_MAX_ATTEMPTS) return lf_sv_give_up(s, h, 0.0, cause, 1);
         if (lf_sv_plan_step(s, t_bound, &h, &t_new, &last, &hmin)) return lf_sv_give_up(s, h, hmin, cause, 0);
@@ -85,13 +86,24 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
             st = LF_DISCARD;
             goto failed;
         }
+        /* Hairer's DOPRI5 controller with Lund stabilization (Hairer, Norsett,
+         * Wanner I, IV.2, and his code): 1/fac = err^(1/5 - 3/4 beta)
+         * err_old^-beta / 0.9, h_new = h fac within [h/5, 10 h]; the last
+         * accepted step's error damps the step size's oscillation where
+         * stability, not accuracy, limits the step (beta = 0: the classical
+         * 0.9 err^-1/5).  In logarithms: one log and one exp a step, the
+         * slot keeps log(max(err_old, 1e-4)). */
+        lerr = log(err); /* -inf for err = 0: fac 0, clamped below */
         if (err <= 1.0) {
             double hnew, *r3 = w + DP_R3 * n, *r4 = w + DP_R4 * n, *r5 = w + DP_R5 * n;
-            fac = err > 0.0 ? 0.9 * pow(err, -0.2) : 10.0;
-            if (fac > 10.0) fac = 10.0;
-            if (fac < 0.2) fac = 0.2;
-            if (rejected && fac > 1.0) fac = 1.0;
-            hnew = h * fac;
+            fac = exp(DP_EXPO1 * lerr - DP_BETA * *lerr_old) / 0.9;
+            if (fac < 0.1) fac = 0.1;
+            if (fac > 5.0) fac = 5.0;
+            if (rejected && fac < 1.0) fac = 1.0;
+            hnew = h / fac;
+            /* a step shortened to land on t_bound has an error that says
+             * nothing of the step size's trend: the full step's is kept */
+            if (!(last && h < h_prop)) *lerr_old = lerr > DP_LERR_OLD0 ? lerr : DP_LERR_OLD0;
             if (!s->dense_unused) {
                 for (i = 0; i < n; i++) {
                     double dy = ynew[i] - x[i];
@@ -114,9 +126,9 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
             s->n_steps++;
             return LF_OK;
         }
-        fac = 0.9 * pow(err, -0.2);
-        if (fac < 0.2) fac = 0.2;
-        h *= fac;
+        fac = exp(DP_EXPO1 * lerr) / 0.9;
+        if (fac > 5.0) fac = 5.0;
+        h /= fac;
         rejected = 1;
         cause = CAUSE_ERRTEST;
         s->n_rejected++;
