@@ -1,10 +1,11 @@
-/* loomfmu runtime: the step of dopri5 (lf_dopri5.c), included there twice:
- * DP_STEP_FN names the function (a scalar build and, with GCC, a
- * vectorized one).  Needs the tableau's DP_* names of lf_dopri5.c and
+/* loomfmu runtime: the step of dopri5 (lf_dopri5.c), included there four times:
+ * DP_STEP_FN names the function (scalar builds for 1, 2 and n states and,
+ * with GCC, a vectorized one).  Needs the tableau's DP_* names of lf_dopri5.c and
  * DP_CHECK_IN_LOOP(v), DP_CHECK_AFTER(vec): how a stage's argument is
- * checked for finiteness (setting `bad`). */
+ * checked for finiteness (setting `bad`); DP_N: the number of states (a
+ * constant in the builds for one and two states, s->ode.n otherwise). */
 static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
-    const size_t n = s->ode.n;
+    const size_t n = DP_N;
     double *w = LF_PRIV(s);
     double *k1 = w + DP_K1 * n, *k2 = w + DP_K2 * n, *k3 = w + DP_K3 * n, *k4 = w + DP_K4 * n;
     double *k5 = w + DP_K5 * n, *k6 = w + DP_K6 * n, *k7 = w + DP_K7 * n;

@@ -18,6 +18,9 @@ LfStatus lf_eval_fn(LfInstance *c, int fn, double t, const double *x, const doub
                     double *out0, double *out1, double *out2);
 static inline int lf_first_nonfinite(const double *v, size_t n) {
     size_t i;
+    /* the common case without a branch per element (a few elements: the
+     * loop below is as cheap, and keeps its callers small enough to inline) */
+    if (n >= 8 && lf_all_finite(v, n)) return -1;
     for (i = 0; i < n; i++)
         if (!isfinite(v[i])) return (int)i;
     return -1;

@@ -29,7 +29,7 @@ LfStatus lf_rb_jacobian(LfSolver *s, const LfRosenbrock *m) {
     s->n_jac++;
     st = s->ode.jac(s->ode.ctx, s->t, s->x, J, ft);
     if (st == LF_OK || st == LF_WARNING) {
-        if (lf_sv_all_finite(J, n * n) && lf_sv_all_finite(ft, n)) return LF_OK;
+        if (lf_all_finite(J, n * n) && lf_all_finite(ft, n)) return LF_OK;
         lf_sv_set_msg(s, "%s: Jacobian or df/dt not finite at t=%.17g", m->name, s->t);
         return LF_DISCARD;
     }
@@ -225,7 +225,7 @@ LfStatus lf_rb_step(LfSolver *s, const LfRosenbrock *m, double t_bound) {
             errv = dy;
         }
         err = lf_sv_err_norm(s, errv, x, y);
-        if (!isfinite(err) || !lf_sv_all_finite(y, n)) {
+        if (!isfinite(err) || !lf_all_finite(y, n)) {
             st = LF_DISCARD;
             goto failed;
         }

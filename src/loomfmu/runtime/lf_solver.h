@@ -108,4 +108,22 @@ LfStatus lf_solver_init(LfSolver *s, const LfMethod *m, LfOde ode,
 void lf_solver_reset(LfSolver *s, double t, const double *x);
 void lf_solver_free(LfSolver *s, const LfAllocator *alloc);
 
+/* 1 if every v[i] is finite (the solvers' and the runtime's check of every
+ * stage argument and every result).  v * 0 is +-0 for a finite v and NaN
+ * for an infinite or NaN one, and a NaN stays in the sums: two loads,
+ * multiplications and additions per two elements and no branch, where
+ * isfinite with an exit per element costs about three times as much (at
+ * -O2 without -ffast-math, which no build of ours uses: x * 0 is not 0
+ * under IEEE 754). */
+static inline int lf_all_finite(const double *v, size_t n) {
+    double a = 0.0, b = 0.0;
+    size_t i;
+    for (i = 0; i + 1 < n; i += 2) {
+        a += v[i] * 0.0;
+        b += v[i + 1] * 0.0;
+    }
+    if (i < n) a += v[i] * 0.0;
+    return a + b == 0.0;
+}
+
 #endif

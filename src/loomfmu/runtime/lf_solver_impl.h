@@ -26,7 +26,6 @@ extern const LfMethod lf_rk4;
 extern const LfMethod lf_ros34pw2;
 
 void lf_sv_set_msg(LfSolver *s, const char *fmt, ...);
-int lf_sv_all_finite(const double *v, size_t n);
 void lf_sv_copy_vec(double *dst, const double *src, size_t n);
 /* f at (t, x): LF_OK only with finite values; LF_DISCARD for non-finite
  * arguments/results or an f that reports LF_DISCARD; errors passed through.
@@ -34,10 +33,7 @@ void lf_sv_copy_vec(double *dst, const double *src, size_t n);
 static inline LfStatus lf_sv_eval_rhs_checked(LfSolver *s, double t, const double *x,
                                               double *dx, int x_bad);
 static inline LfStatus lf_sv_eval_rhs(LfSolver *s, double t, const double *x, double *dx) {
-    size_t i, n = s->ode.n;
-    for (i = 0; i < n; i++)
-        if (!isfinite(x[i])) return LF_DISCARD;
-    return lf_sv_eval_rhs_checked(s, t, x, dx, 0);
+    return lf_sv_eval_rhs_checked(s, t, x, dx, !lf_all_finite(x, s->ode.n));
 }
 /* 1 if v is not finite (isfinite's answer as an expression that vectorizes:
  * a method that forms x in a loop checks it there, LF_SV_NOT_FINITE ORed
@@ -51,7 +47,7 @@ static inline LfStatus lf_sv_eval_rhs_checked(LfSolver *s, double t, const doubl
     s->n_rhs++;
     st = s->ode.rhs(s->ode.ctx, t, x, dx);
     if (st == LF_OK || st == LF_WARNING)
-        return s->rhs_finite || lf_sv_all_finite(dx, s->ode.n) ? LF_OK : LF_DISCARD;
+        return s->rhs_finite || lf_all_finite(dx, s->ode.n) ? LF_OK : LF_DISCARD;
     if (st == LF_DISCARD) return LF_DISCARD;
     return st == LF_FATAL ? LF_FATAL : LF_ERROR;
 }

@@ -47,13 +47,6 @@ void lf_sv_set_msg(LfSolver *s, const char *fmt, ...) {
     va_end(ap);
 }
 
-int lf_sv_all_finite(const double *v, size_t n) {
-    size_t i;
-    for (i = 0; i < n; i++)
-        if (!isfinite(v[i])) return 0;
-    return 1;
-}
-
 void lf_sv_copy_vec(double *dst, const double *src, size_t n) {
     if (n) memmove(dst, src, n * sizeof(double));
 }
