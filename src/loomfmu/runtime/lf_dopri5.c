@@ -50,8 +50,12 @@
 #define DP_D6 (-1453857185.0 / 822651844.0)
 #define DP_D7 (69997945.0 / 29380423.0)
 
-/* private vectors: stages k1..k7, stage argument, new state, dense r3..r5 */
-enum { DP_K1, DP_K2, DP_K3, DP_K4, DP_K5, DP_K6, DP_K7, DP_Y, DP_YNEW, DP_R3, DP_R4, DP_R5, DP_NVEC };
+/* private vectors: stages k1..k7, stage argument, new state, the accepted
+ * step's k1 (k1 holds the next step's, FSAL); then the scalars: log of the
+ * last accepted step's error (step-size control) and the accepted step's h
+ * (dense output) */
+enum { DP_K1, DP_K2, DP_K3, DP_K4, DP_K5, DP_K6, DP_K7, DP_Y, DP_YNEW, DP_K1OLD, DP_NVEC };
+enum { DP_S_LERR, DP_S_H, DP_NSCAL };
 
 /* step-size control (lf_dopri5_step.h): Hairer's DOPRI5 defaults, beta =
  * 0.04 (his code's choice for dopri5) and err_old = 1e-4 at a start; build
@@ -63,8 +67,7 @@ enum { DP_K1, DP_K2, DP_K3, DP_K4, DP_K5, DP_K6, DP_K7, DP_Y, DP_YNEW, DP_R3, DP
 #define DP_EXPO1 (0.2 - DP_BETA * 0.75)
 #define DP_LERR_OLD0 (-9.210340371976182) /* log(1e-4) */
 
-/* the vectors, then one scalar: log of the last accepted step's error */
-static size_t dp_work_size(size_t n) { return DP_NVEC * n + 1; }
+static size_t dp_work_size(size_t n) { return DP_NVEC * n + DP_NSCAL; }
 
 /* The stage sums are loops over the states whose elements do not depend on
  * each other.  GCC's -O2 keeps them scalar (its cheap cost model wants trip
@@ -132,12 +135,18 @@ static LfStatus dp_step(LfSolver *s, double t_bound) {
     return dp_step_scalar(s, t_bound);
 }
 
-/* (not after steps taken with s->dense_unused set) */
+/* Hairer's CONTD5 from the accepted step's stages, which stay in the work
+ * buffer until the next step starts (the step stores no coefficients: most
+ * runs never read the dense output between two steps, the event scans read
+ * it once in a while).  The same arithmetic as coefficients stored at the
+ * step's end: bit for bit the same values.  (Not after steps taken with
+ * s->dense_unused set.) */
 static void dp_dense(const LfSolver *s, double tq, double *out) {
     const size_t n = s->ode.n;
     const double *w = LF_CPRIV(s);
-    const double *r3 = w + DP_R3 * n, *r4 = w + DP_R4 * n, *r5 = w + DP_R5 * n;
-    const double *x0 = s->x_old, *x1 = s->x;
+    const double *k1 = w + DP_K1OLD * n, *k3 = w + DP_K3 * n, *k4 = w + DP_K4 * n;
+    const double *k5 = w + DP_K5 * n, *k6 = w + DP_K6 * n, *k7 = w + DP_K7 * n;
+    const double *x0 = s->x_old, *x1 = s->x, hs = w[DP_NVEC * n + DP_S_H];
     double h = s->t - s->t_old, th, th1;
     size_t i;
     if (!(h > 0.0)) {
@@ -148,7 +157,10 @@ static void dp_dense(const LfSolver *s, double tq, double *out) {
     th1 = 1.0 - th;
     for (i = 0; i < n; i++) {
         double dy = x1[i] - x0[i];
-        out[i] = x0[i] + th * (dy + th1 * (r3[i] + th * (r4[i] + th1 * r5[i])));
+        double r3 = hs * k1[i] - dy, r4 = dy - hs * k7[i] - r3;
+        double r5 = hs * (DP_D1 * k1[i] + DP_D3 * k3[i] + DP_D4 * k4[i] + DP_D5 * k5[i] +
+                          DP_D6 * k6[i] + DP_D7 * k7[i]);
+        out[i] = x0[i] + th * (dy + th1 * (r3 + th * (r4 + th1 * r5)));
     }
 }
 

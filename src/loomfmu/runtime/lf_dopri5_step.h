@@ -10,7 +10,7 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
     double *k1 = w + DP_K1 * n, *k2 = w + DP_K2 * n, *k3 = w + DP_K3 * n, *k4 = w + DP_K4 * n;
     double *k5 = w + DP_K5 * n, *k6 = w + DP_K6 * n, *k7 = w + DP_K7 * n;
     double *y = w + DP_Y * n, *ynew = w + DP_YNEW * n;
-    double *x = s->x, *lerr_old = w + DP_NVEC * n;
+    double *x = s->x, *lerr_old = w + DP_NVEC * n + DP_S_LERR;
     const double t = s->t, hmax = s->opt.h_max;
     double h;
     int rejected = 0, cause = CAUSE_NONE, attempts = 0, bad;
@@ -96,7 +96,7 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
          * slot keeps log(max(err_old, 1e-4)). */
         lerr = log(err); /* -inf for err = 0: fac 0, clamped below */
         if (err <= 1.0) {
-            double hnew, *r3 = w + DP_R3 * n, *r4 = w + DP_R4 * n, *r5 = w + DP_R5 * n;
+            double hnew, *k1old = w + DP_K1OLD * n;
             fac = exp(DP_EXPO1 * lerr - DP_BETA * *lerr_old) / 0.9;
             if (fac < 0.1) fac = 0.1;
             if (fac > 5.0) fac = 5.0;
@@ -105,14 +105,11 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
             /* a step shortened to land on t_bound has an error that says
              * nothing of the step size's trend: the full step's is kept */
             if (!(last && h < h_prop)) *lerr_old = lerr > DP_LERR_OLD0 ? lerr : DP_LERR_OLD0;
+            /* the dense output's coefficients from the stages when it is
+             * read (dp_dense): k3..k7 stay until the next step, k1 is kept */
             if (!s->dense_unused) {
-                for (i = 0; i < n; i++) {
-                    double dy = ynew[i] - x[i];
-                    r3[i] = h * k1[i] - dy;
-                    r4[i] = dy - h * k7[i] - r3[i];
-                    r5[i] = h * (DP_D1 * k1[i] + DP_D3 * k3[i] + DP_D4 * k4[i] +
-                                 DP_D5 * k5[i] + DP_D6 * k6[i] + DP_D7 * k7[i]);
-                }
+                w[DP_NVEC * n + DP_S_H] = h;
+                for (i = 0; i < n; i++) k1old[i] = k1[i];
             }
             for (i = 0; i < n; i++) { /* (a loop: n is small, a memmove call is not) */
                 s->x_old[i] = x[i];
