@@ -459,3 +459,29 @@ def test_the_worker_logs_fmi2_and_fmi3_messages_and_reports_the_first_failure():
     msg = _message(slot.log, RuntimeError("doStep failed"))
     assert msg.startswith("doStep failed; log: [logStatusDiscard] max steps spent ... ")
     assert _message([(0, "[ok] fine")], RuntimeError("x")) == "x; log: [ok] fine"
+
+
+def test_slots_of_ended_threads_are_closed(blob):
+    """Batches run on one thread pool after another keep no more FMU
+    instances (and extracted copies) than there are live threads: a slot
+    whose thread has ended is closed, its directory removed."""
+    import concurrent.futures
+    import os
+
+    from loomfmu.sweep import worker
+
+    setup = _study().setup()
+    items = [(0, "a", {"omega": 40.0, "k_z": 5.0})]
+    dirs = set()
+    for _ in range(4):
+        with concurrent.futures.ThreadPoolExecutor(2) as pool:
+            rows = list(pool.map(lambda _: worker.run_batch(blob, setup, items)[0], range(2)))
+        assert all(r["status"] == "ok" for r in rows), rows
+        dirs.update(s.dir for s in worker._SLOTS.values())
+        assert len(worker._SLOTS) <= threading.active_count() + 2, len(worker._SLOTS)
+    worker.run_batch(blob, setup, items)  # the pools' threads have ended
+    alive = {t.ident for t in threading.enumerate()}
+    assert all(k[1] in alive for k in worker._SLOTS), list(worker._SLOTS)
+    kept = {s.dir for s in worker._SLOTS.values()}
+    assert all(not os.path.isdir(d) for d in dirs - kept), sorted(dirs - kept)
+    assert all(os.path.isdir(d) for d in kept)

@@ -104,9 +104,24 @@ _LOCK = threading.Lock()
 def _slot(blob: FmuBlob) -> _Slot:
     key = (blob.sha256, threading.get_ident())
     with _LOCK:
+        if len(_SLOTS) >= threading.active_count():
+            _close_dead_threads()
         if key not in _SLOTS:
             _SLOTS[key] = _Slot(blob)
         return _SLOTS[key]
+
+
+def _close_dead_threads() -> None:
+    """Close the slots of threads that have ended (a process that runs
+    batches on one thread pool after another would otherwise keep every
+    pool's instances and extracted FMUs until it exits).  Called with _LOCK
+    held when there are at least as many slots as threads (one FMU per
+    thread is the usual case): a thread's slot is used by that thread only,
+    so one whose thread has ended is in nobody's hands.  (A new thread given
+    an ended one's identifier takes its slot as it is, reset before use.)"""
+    alive = {t.ident for t in threading.enumerate()}
+    for key in [k for k in _SLOTS if k[1] not in alive]:
+        _SLOTS.pop(key).close()
 
 
 @atexit.register
