@@ -16,6 +16,24 @@
  * p, q and the delayed values at t; index of the first non-finite value. */
 LfStatus lf_eval_fn(LfInstance *c, int fn, double t, const double *x, const double *w,
                     double *out0, double *out1, double *out2);
+/* lf_eval_fn of a generated function with one output (wsol, out, evt: an
+ * LfFunctionId, not LF_FN_HISTOUT), inline where nothing is to be prepared
+ * (no delays, the folded terms current, the fixed arguments set, the inputs
+ * held): the same call with the same arguments, without lf_eval_fn's own
+ * call (the hot path: every right-hand side and output evaluation).  The
+ * outputs past res[0] are not set: a function with one output reads none. */
+static inline LfStatus lf_eval_fn1(LfInstance *c, int fn, double t, const double *x,
+                                   const double *w, double *out0) {
+    if (LF_ND > 0 || (LF_NK > 0 && c->k_stale) || !c->args_set || c->u_poly)
+        return lf_eval_fn(c, fn, t, x, w, out0, NULL, NULL);
+    c->arg[0] = &t;
+    c->arg[1] = x;
+    c->arg[2] = w;
+    c->arg[3] = &c->r[LF_VR_U0];
+    c->arg[7] = c->u_zero;
+    c->res[0] = out0;
+    return lf_model.fn[fn].eval(c->arg, c->res, c->iw, c->w, 0) ? LF_ERROR : LF_OK;
+}
 static inline int lf_first_nonfinite(const double *v, size_t n) {
     size_t i;
     /* the common case without a branch per element (a few elements: the

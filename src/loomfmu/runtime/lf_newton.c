@@ -77,7 +77,7 @@ static LfStatus newton(LfInstance *c, double t, const double *x, double *w) {
         int done = 1;
         double size = 0.0;
         STAT(st_full_it++);
-        if (lf_eval_fn(c, LF_FN_RES, t, x, w, c->res_F, NULL, NULL) != LF_OK) return LF_ERROR;
+        if (lf_eval_fn1(c, LF_FN_RES, t, x, w, c->res_F) != LF_OK) return LF_ERROR;
         if (lf_first_nonfinite(c->res_F, LF_NW) >= 0) {
             lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: algebraic loop: residual of "
                    "equation %d is not finite at Newton iteration %d", t,
@@ -175,7 +175,7 @@ static int simplified(LfInstance *c, double t, const double *x, double *w) {
     for (it = 0; it < LF_SIMPLE_MAX_ITER; it++) {
         double q = 0.0, theta;
         STAT(st_simp_it++);
-        if (lf_eval_fn(c, LF_FN_RES, t, x, w1, c->res_F, NULL, NULL) != LF_OK) return -1;
+        if (lf_eval_fn1(c, LF_FN_RES, t, x, w1, c->res_F) != LF_OK) return -1;
         if (lf_first_nonfinite(c->res_F, LF_NW) >= 0) break;
         nm_apply(&c->nm, c->res_F, dw);
         for (i = 0; i < LF_NW; i++) {
@@ -199,8 +199,14 @@ static int simplified(LfInstance *c, double t, const double *x, double *w) {
 }
 
 /* The unknowns w = [der(x); z] at (t, x) (inline in lf_rhs, the solvers'
- * hot path). */
-static inline LfStatus solve_w(LfInstance *c, double t, const double *x, double *w) {
+ * hot path: forced where the compiler can be told, since its size (Newton
+ * for implicit models, two callers) made gcc keep it a call). */
+#if defined(__GNUC__)
+#define LF_ALWAYS_INLINE __attribute__((always_inline))
+#else
+#define LF_ALWAYS_INLINE
+#endif
+static inline LF_ALWAYS_INLINE LfStatus solve_w(LfInstance *c, double t, const double *x, double *w) {
     LfStatus st;
     int bad;
     STAT(st_solves++);
@@ -225,7 +231,7 @@ static inline LfStatus solve_w(LfInstance *c, double t, const double *x, double 
             st = newton(c, t, x, w);
             if (st != LF_OK) return st;
         }
-    } else if (lf_eval_fn(c, LF_FN_WSOL, t, x, w, w, NULL, NULL) != LF_OK) {
+    } else if (lf_eval_fn1(c, LF_FN_WSOL, t, x, w, w) != LF_OK) {
         return LF_ERROR;
     }
     bad = lf_first_nonfinite(w, LF_NW);

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "lf_internal.h"
+#include "lf_wcache.h"
 
 const char *const lf_log_category_names[LF_N_LOG] = LF_LOG_CATEGORY_NAMES;
 
@@ -198,19 +199,23 @@ LfStatus lf_prepare_initial(LfInstance *c) {
 
 LfStatus lf_update_outputs(LfInstance *c) {
     double y[LF_DIM(LF_NY + LF_NZ)];
+    const double *x = &c->r[LF_VR_X0], *w = c->w_tmp;
     int bad, kept;
     if (c->outputs_valid || LF_NY + LF_NZ == 0) return LF_OK;
     if (lf_prepare_initial(c) != LF_OK) return LF_ERROR;
     /* the outputs kept by the history sample at this point, if any (explicit
      * models: w is a function of the point; implicit: w compared too) */
-    kept = !LF_IMPLICIT && lf_hist_outputs(c, NULL, y);
-    if (!kept && lf_solve_w(c, c->t, &c->r[LF_VR_X0], c->w_tmp) != LF_OK) {
+    kept = !LF_IMPLICIT && LF_ND > 0 && lf_hist_outputs(c, NULL, y);
+    /* (after a step: the solver's last stage solved w here, and w_cur holds
+     * it, lf_wcache.h; read there, without the copy a solve would make) */
+    if (!kept && LF_WK_USED && c->wc_on && lf_wk_take(c, c->t, x, c->w_cur)) {
+        w = c->w_cur;
+    } else if (!kept && lf_solve_w(c, c->t, x, c->w_tmp) != LF_OK) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: model equations cannot be solved", c->t);
         return LF_ERROR;
     }
     if (!kept && LF_IMPLICIT) kept = lf_hist_outputs(c, c->w_tmp, y);
-    if (!kept &&
-        lf_eval_fn(c, LF_FN_OUT, c->t, &c->r[LF_VR_X0], c->w_tmp, y, NULL, NULL) != LF_OK) {
+    if (!kept && lf_eval_fn1(c, LF_FN_OUT, c->t, x, w, y) != LF_OK) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: output function failed", c->t);
         return LF_ERROR;
     }
