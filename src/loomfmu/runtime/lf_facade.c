@@ -13,19 +13,18 @@
  * without touching the freed memory.  Limit: if the allocator has given the
  * freed address to a new instance of this FMU, the call goes to that one. */
 
-#define LF_MAX_LIVE 1024
-static void *live_slots[LF_MAX_LIVE];
-static int live_top; /* slots in use are below */
+void *lf_live_slots[LF_MAX_LIVE];
+int lf_live_top = 0; /* slots in use are below */
 
 int lf_live_add(void *c) {
     int i, top;
     for (i = 0; i < LF_MAX_LIVE; i++) {
         void *expected = NULL;
-        if (__atomic_compare_exchange_n(&live_slots[i], &expected, c, 0, __ATOMIC_SEQ_CST,
+        if (__atomic_compare_exchange_n(&lf_live_slots[i], &expected, c, 0, __ATOMIC_SEQ_CST,
                                         __ATOMIC_SEQ_CST)) {
-            top = __atomic_load_n(&live_top, __ATOMIC_SEQ_CST);
+            top = __atomic_load_n(&lf_live_top, __ATOMIC_SEQ_CST);
             while (top < i + 1 &&
-                   !__atomic_compare_exchange_n(&live_top, &top, i + 1, 0, __ATOMIC_SEQ_CST,
+                   !__atomic_compare_exchange_n(&lf_live_top, &top, i + 1, 0, __ATOMIC_SEQ_CST,
                                                 __ATOMIC_SEQ_CST)) {
             }
             return 1;
@@ -35,22 +34,14 @@ int lf_live_add(void *c) {
 }
 
 int lf_live_remove(void *c) {
-    int i, top = __atomic_load_n(&live_top, __ATOMIC_SEQ_CST);
+    int i, top = __atomic_load_n(&lf_live_top, __ATOMIC_SEQ_CST);
     for (i = 0; i < top; i++) {
         void *expected = c;
-        if (__atomic_compare_exchange_n(&live_slots[i], &expected, NULL, 0, __ATOMIC_SEQ_CST,
+        if (__atomic_compare_exchange_n(&lf_live_slots[i], &expected, NULL, 0, __ATOMIC_SEQ_CST,
                                         __ATOMIC_SEQ_CST))
             return 1;
     }
     return 0;
-}
-
-LfInstance *lf_live(void *c) {
-    int i, top = __atomic_load_n(&live_top, __ATOMIC_SEQ_CST);
-    if (!c) return NULL;
-    for (i = 0; i < top; i++)
-        if (__atomic_load_n(&live_slots[i], __ATOMIC_SEQ_CST) == c) return (LfInstance *)c;
-    return NULL;
 }
 
 /* ---- experiment ---------------------------------------------------------------- */

@@ -19,8 +19,20 @@
 int lf_live_add(void *c);
 /* 1 if c was live (and is not any more): only one caller can free it. */
 int lf_live_remove(void *c);
-/* The instance if c is live, else NULL (never dereferences c). */
-LfInstance *lf_live(void *c);
+/* The registry (lf_facade.c): the live instances among the first
+ * lf_live_top slots, the others NULL. */
+#define LF_MAX_LIVE 1024
+extern void *lf_live_slots[LF_MAX_LIVE];
+extern int lf_live_top;
+/* The instance if c is live, else NULL (never dereferences c; inline: every
+ * FMI call asks). */
+static inline LfInstance *lf_live(void *c) {
+    int i, top = __atomic_load_n(&lf_live_top, __ATOMIC_SEQ_CST);
+    if (!c) return NULL;
+    for (i = 0; i < top; i++)
+        if (__atomic_load_n(&lf_live_slots[i], __ATOMIC_SEQ_CST) == c) return (LfInstance *)c;
+    return NULL;
+}
 
 /* ---- experiment ------------------------------------------------------------ */
 

@@ -65,6 +65,20 @@ fmi2Status lf_fmi2_unsupported(fmi2Component c, const char *fn);
  * value reference below n_vars (else logs and gives 0). */
 int lf_fmi2_check_vrs(LfInstance *c, const char *fn, const fmi2ValueReference vr[], size_t nvr,
                       const void *value, unsigned n_vars);
+/* Longest value-reference array accepted (lf_fmi2_check_vrs, lf_fmi2_values.c) */
+#define LF_FMI2_NVR_LIMIT(n_vars) (16 * (size_t)(n_vars) + 16)
+/* The hot path of lf_fmi2_check_vrs (every get/set call): 1 if the arrays
+ * pass its checks, without the call that prepares a log line; 0 leaves the
+ * answer (and the log) to lf_fmi2_check_vrs. */
+static inline int lf_fmi2_vrs_ok(const fmi2ValueReference vr[], size_t nvr, const void *value,
+                                 unsigned n_vars) {
+    size_t i;
+    if (nvr == 0) return 1;
+    if (!vr || !value || nvr > LF_FMI2_NVR_LIMIT(n_vars)) return 0;
+    for (i = 0; i < nvr; i++)
+        if (vr[i] >= n_vars) return 0;
+    return 1;
+}
 /* Frees every FMU state the instance made. */
 void lf_fmi2_free_states(LfInstance *inst);
 

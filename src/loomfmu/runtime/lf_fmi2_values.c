@@ -14,7 +14,7 @@
  * than once, but a request this long cannot be a real one and is refused
  * before either array is read.  (Arrays shorter than nvr below this limit
  * cannot be detected in C.) */
-#define NVR_LIMIT(n_vars) (16 * (size_t)(n_vars) + 16)
+#define NVR_LIMIT(n_vars) LF_FMI2_NVR_LIMIT(n_vars)
 
 /* The arrays of a get/set call: present if nvr > 0, nvr plausible, every
  * value reference of the type (checked before any value is read or written). */
@@ -63,7 +63,9 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     int have_der = 0, checked = 0;
     size_t i;
     CHECK("fmi2GetReal", GET_STATES);
-    if (!lf_fmi2_check_vrs(inst, "fmi2GetReal", vr, nvr, value, F2_N_REAL)) return fmi2Error;
+    if (!lf_fmi2_vrs_ok(vr, nvr, value, F2_N_REAL) &&
+        !lf_fmi2_check_vrs(inst, "fmi2GetReal", vr, nvr, value, F2_N_REAL))
+        return fmi2Error;
     i = 0;
     if (!ENV(inst)->me && inst->outputs_valid && inst->solver_ready) {
         /* the hot path (co-simulation, outputs up to date, solver started):
@@ -101,7 +103,9 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     LfInstance *inst = (LfInstance *)c;
     size_t i;
     CHECK("fmi2SetReal", SET_STATES);
-    if (!lf_fmi2_check_vrs(inst, "fmi2SetReal", vr, nvr, value, F2_N_REAL)) return fmi2Error;
+    if (!lf_fmi2_vrs_ok(vr, nvr, value, F2_N_REAL) &&
+        !lf_fmi2_check_vrs(inst, "fmi2SetReal", vr, nvr, value, F2_N_REAL))
+        return fmi2Error;
     for (i = 0; i < nvr; i++)
         if (vr[i] >= LF_NREAL) {
             lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: fmi2SetReal: vr[%lu] = %u is "

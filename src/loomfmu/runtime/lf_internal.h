@@ -113,6 +113,18 @@ static inline double lf_min(double a, double b) { return a < b ? a : b; }
  * their polynomials; did they change since the solver last started? */
 void lf_inputs_at(LfInstance *c, double t, const double **u, const double **rate);
 int lf_inputs_moved(LfInstance *c);
+/* The common case of lf_inputs_moved, inline: 1 if every input is held now
+ * and was held when the solver last started, at a value equal to the one it
+ * had then: nothing moved.  0 leaves the answer to
+ * lf_inputs_moved. */
+static inline int lf_inputs_still(const LfInstance *c) {
+    int k;
+    if (c->u_poly) return 0;
+    for (k = 0; k < LF_NU; k++)
+        if (c->r[LF_VR_U0 + k] != c->seen_u[k] || c->seen_d1[k] != 0 || c->seen_d2[k] != 0)
+            return 0;
+    return 1;
+}
 void lf_inputs_seen(LfInstance *c);
 
 /* lf_validity.c: validity conditions (Model.require) after an accepted step;

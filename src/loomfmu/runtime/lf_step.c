@@ -130,7 +130,8 @@ static int runaway_state(const double *x) {
     int i;
     for (i = 0; i < LF_NX; i++) {
         unsigned vr = LF_VR_X0 + (unsigned)i;
-        if (!isfinite(x[i]) || fabs(x[i]) > LF_HUGE || x[i] < lf_model.real_min[vr] ||
+        /* (not finite or beyond LF_HUGE in one comparison: false for NaN) */
+        if (!(fabs(x[i]) <= LF_HUGE) || x[i] < lf_model.real_min[vr] ||
             x[i] > lf_model.real_max[vr])
             return i;
     }
@@ -277,7 +278,7 @@ static LfStatus step_loop(LfInstance *c, double t0, double h) {
         if (st != LF_OK)
             return c->wants_terminate ? st : fail_step(c, st, "event handling failed");
     }
-    if (c->inputs_changed || lf_inputs_moved(c)) {
+    if (c->inputs_changed || (!lf_inputs_still(c) && lf_inputs_moved(c))) {
         const char *what = "";
         st = restart_for_inputs(c, &what);
         if (st != LF_OK) return fail_step(c, st, what);
