@@ -69,7 +69,7 @@ static LfStatus predicted(LfInstance *c, double t, double *e) {
     double x[LF_DIM(LF_NX)];
     int j;
     for (j = 0; j < LF_NX; j++) x[j] = c->solver.x[j] + c->kb_xdot[j] * (t - c->solver.t);
-    if (lf_eval_fn(c, LF_FN_EVT, t, x, c->w_cur, e, NULL, NULL) != LF_OK) return LF_DISCARD;
+    if (lf_eval_fn1(c, LF_FN_EVT, t, x, c->w_cur, e) != LF_OK) return LF_DISCARD;
     return LF_OK;
 }
 

@@ -4,17 +4,25 @@
 #include <string.h>
 
 #include "lf_internal.h"
+#include "lf_wcache.h"
 
 #define LF_EVENT_MAX_ITER 200
 
 /* ---- stepping ------------------------------------------------------------ */
 
 LfStatus lf_eval_events(LfInstance *c, double t, const double *x, double *e) {
+    const double *w = c->w_tmp;
     LfStatus st;
     if (LF_NE == 0) return LF_OK;
-    st = lf_solve_w(c, t, x, c->w_tmp);
-    if (st != LF_OK) return st;
-    if (lf_eval_fn(c, LF_FN_EVT, t, x, c->w_tmp, e, NULL, NULL) != LF_OK ||
+    /* (at a step's end: the solver's last stage solved w there, and w_cur
+     * holds it, lf_wcache.h; read there, without the copy a solve makes) */
+    if (LF_WK_USED && c->wc_on && lf_wk_take(c, t, x, c->w_cur)) {
+        w = c->w_cur;
+    } else {
+        st = lf_solve_w(c, t, x, c->w_tmp);
+        if (st != LF_OK) return st;
+    }
+    if (lf_eval_fn1(c, LF_FN_EVT, t, x, w, e) != LF_OK ||
         lf_first_nonfinite(e, LF_NE) >= 0) {
         lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: event indicators not finite", t);
         return LF_DISCARD;
@@ -404,8 +412,8 @@ LfStatus lf_event_bound_pending(LfInstance *c) {
     c->kb_sure = s->t;
     if (!(tm > s->t_old && tm < s->t)) return LF_OK;
     s->method->dense(s, tm, xm);
-    if (lf_eval_fn(c, LF_FN_EVT, s->t_old, s->x_old, c->w_cur, ga, NULL, NULL) != LF_OK ||
-        lf_eval_fn(c, LF_FN_EVT, tm, xm, c->w_cur, gm, NULL, NULL) != LF_OK ||
+    if (lf_eval_fn1(c, LF_FN_EVT, s->t_old, s->x_old, c->w_cur, ga) != LF_OK ||
+        lf_eval_fn1(c, LF_FN_EVT, tm, xm, c->w_cur, gm) != LF_OK ||
         lf_first_nonfinite(ga, LF_NE) >= 0 || lf_first_nonfinite(gm, LF_NE) >= 0) {
         lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: event indicators not finite", tm);
         return LF_DISCARD;
@@ -452,7 +460,7 @@ static LfStatus handle_events(LfInstance *c, double *h_bound) {
         c->kb_sure = s->t;
         if (tm > s->t_old && tm < s->t) {
             c->solver.method->dense(&c->solver, tm, xm);
-            if (lf_eval_fn(c, LF_FN_EVT, tm, xm, c->w_cur, gm, NULL, NULL) != LF_OK ||
+            if (lf_eval_fn1(c, LF_FN_EVT, tm, xm, c->w_cur, gm) != LF_OK ||
                 lf_first_nonfinite(gm, LF_NE) >= 0) {
                 lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: event indicators not finite",
                        tm);
