@@ -93,9 +93,11 @@ int lf_step_integrable(LfInstance *c, const char *fn, double t, double h);
  * not past stopTime. */
 static inline int lf_step_args_ok(const LfInstance *c, double t, double h) {
     double t_end = t + h, tc = c->t;
-    return isfinite(t) && isfinite(h) && h > 0 && isfinite(t_end) &&
-           fabs(t - tc) <= 1e-9 * (fabs(tc) > 1.0 ? fabs(tc) : 1.0) && t_end > tc &&
-           !(t_end > c->t_stop * (1 + 1e-12) + 1e-12);
+    /* (a finite t + h has a finite t and h: an infinite or NaN term makes
+     * the sum so; t == tc, the common case, is within any tolerance) */
+    return isfinite(t_end) && h > 0 &&
+           (t == tc || fabs(t - tc) <= 1e-9 * (fabs(tc) > 1.0 ? fabs(tc) : 1.0)) &&
+           t_end > tc && !(t_end > c->t_stop * (1 + 1e-12) + 1e-12);
 }
 
 #endif

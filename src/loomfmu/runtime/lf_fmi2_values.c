@@ -73,7 +73,8 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
          * the first other reference goes on by the loop below */
         for (; i < nvr; i++) {
             fmi2ValueReference v = vr[i];
-            if (v >= LF_NREAL || lf_model.real_kind[v] == LF_KIND_INPUT) break;
+            /* (the inputs are the value references [LF_VR_U0, LF_VR_Y0): lf_model.h) */
+            if (v >= LF_NREAL || (v >= LF_VR_U0 && v < LF_VR_Y0)) break;
             value[i] = inst->r[v];
         }
     }

@@ -202,7 +202,7 @@ LfStatus lf_update_outputs(LfInstance *c) {
     const double *x = &c->r[LF_VR_X0], *w = c->w_tmp;
     int bad, kept;
     if (c->outputs_valid || LF_NY + LF_NZ == 0) return LF_OK;
-    if (lf_prepare_initial(c) != LF_OK) return LF_ERROR;
+    if (!c->solver_ready && lf_prepare_initial(c) != LF_OK) return LF_ERROR;
     /* the outputs kept by the history sample at this point, if any (explicit
      * models: w is a function of the point; implicit: w compared too) */
     kept = !LF_IMPLICIT && LF_ND > 0 && lf_hist_outputs(c, NULL, y);

@@ -283,7 +283,7 @@ static LfStatus step_loop(LfInstance *c, double t0, double h) {
         st = restart_for_inputs(c, &what);
         if (st != LF_OK) return fail_step(c, st, what);
     }
-    st = lf_validity_at_start(c);
+    st = LF_NV > 0 ? lf_validity_at_start(c) : LF_OK;
     if (st != LF_OK)
         return c->wants_terminate ? st : fail_step(c, st, "validity conditions not evaluable");
     while (s->t < t_end) {
