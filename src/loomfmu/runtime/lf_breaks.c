@@ -166,8 +166,8 @@ static int chunk_unresolved(const LfInstance *c, const double *ea, const double 
  * matters because it decides whether rule 2's bound is taken
  * (lf_event_bound_pending).  A chunk in which a root was found vouches for
  * nothing: an earlier root may hide in it. */
-static double certified(LfInstance *c, double t_end) {
-    c->kb_cert = t_end <= c->kb_clear && all_predictable(c);
+static double certified(LfInstance *c, double t_end, int all) {
+    c->kb_cert = t_end <= c->kb_clear && all;
     return t_end;
 }
 
@@ -195,7 +195,8 @@ static void restart_bound(LfInstance *c) {
     if (s->t == s->t_old && s->n_steps > 0 && c->kb_dt > 0 && s->h > c->kb_dt) s->h = c->kb_dt;
 }
 
-static double scan(LfInstance *c, double t_bound) {
+/* all: every indicator predictable (all_predictable, constant over the call) */
+static double scan(LfInstance *c, double t_bound, int all) {
     LfSolver *s = &c->solver;
     double em[LF_DIM(LF_NE)], eb[LF_DIM(LF_NE)], t0 = s->t, margin, tl = 0.0, tr = 0.0;
     double h;
@@ -209,7 +210,7 @@ static double scan(LfInstance *c, double t_bound) {
         if (!(s->h > 0)) return drop_scan(c, t_bound);
         /* the first chunk is the solver's proposed step: rule 2's bound on
          * it taken first, if left pending (lf_events.c) */
-        if (all_predictable(c) && lf_event_bound_pending(c) != LF_OK)
+        if (all && lf_event_bound_pending(c) != LF_OK)
             return drop_scan(c, t_bound);
         restart_bound(c);
         c->kb_index = -1;
@@ -220,7 +221,7 @@ static double scan(LfInstance *c, double t_bound) {
     }
     h = s->h;
     if (c->kb_index >= 0) /* a break located before, still ahead: no root before it */
-        return certified(c, lf_min(c->kb_t_land, t_bound));
+        return certified(c, lf_min(c->kb_t_land, t_bound), all);
     /* scan the prediction ahead in chunks until t_bound is covered or a
      * root is found: no root before kb_clear */
     while (c->kb_clear < t_bound) {
@@ -243,7 +244,7 @@ static double scan(LfInstance *c, double t_bound) {
     /* a chunk accepted unresolved lies before t_bound (and before any root
      * found after it): the step is not vouched for, and lands nowhere */
     if (unresolved) return drop_scan(c, t_bound);
-    if (c->kb_clear >= t_bound) return certified(c, t_bound);
+    if (c->kb_clear >= t_bound) return certified(c, t_bound, all);
     /* land a margin before the root (as the step redone up to an event
      * stops: lf_events.c), and only if that is at least another margin
      * past the step's start.  A solver already standing about a margin
@@ -262,21 +263,23 @@ static double scan(LfInstance *c, double t_bound) {
     c->kb_index = k;
     c->kb_t_land = tl - margin;
     c->kb_t_right = tr;
-    return certified(c, lf_min(c->kb_t_land, t_bound));
+    return certified(c, lf_min(c->kb_t_land, t_bound), all);
 }
 
 double lf_known_break(LfInstance *c, double t_bound) {
     double t;
+    /* which indicators are predictable depends on c->u_poly only: asked once */
+    int all = LF_NE > 0 && all_predictable(c);
     c->kb_cert = 0; /* set where the scan vouches for the whole step */
-    if (LF_NE == 0 || !any_predictable(c)) {
+    if (LF_NE == 0 || !(all || any_predictable(c))) {
         if (!c->kb_ready) restart_bound(c);
         drop_scan(c, t_bound);
         return t_bound;
     }
-    t = scan(c, t_bound);
+    t = scan(c, t_bound, all);
     /* the events' scan of a step not vouched for needs rule 2's bound on it,
      * left pending after a step that was (lf_events.c) */
-    if (!c->kb_cert && all_predictable(c) && lf_event_bound_pending(c) != LF_OK) {
+    if (!c->kb_cert && all && lf_event_bound_pending(c) != LF_OK) {
         c->kb_cert = 0;
         return t_bound;
     }
