@@ -114,7 +114,11 @@ void lf_solver_free(LfSolver *s, const LfAllocator *alloc);
  * multiplications and additions per two elements and no branch, where
  * isfinite with an exit per element costs about three times as much (at
  * -O2 without -ffast-math, which no build of ours uses: x * 0 is not 0
- * under IEEE 754). */
+ * under IEEE 754).  Inf * 0 raises the invalid-operation flag, where
+ * isfinite raises none: an importer that traps FE_INVALID but neither
+ * FE_OVERFLOW nor FE_DIVBYZERO (one of which made the Inf) would stop here
+ * rather than get the FMU's Discard; the comparison this replaced,
+ * fabs(v) <= DBL_MAX, raised it for every NaN. */
 static inline int lf_all_finite(const double *v, size_t n) {
     double a = 0.0, b = 0.0;
     size_t i;
