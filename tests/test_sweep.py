@@ -485,3 +485,36 @@ def test_slots_of_ended_threads_are_closed(blob):
     kept = {s.dir for s in worker._SLOTS.values()}
     assert all(not os.path.isdir(d) for d in dirs - kept), sorted(dirs - kept)
     assert all(os.path.isdir(d) for d in kept)
+
+
+def test_slots_of_threads_threading_does_not_know_stay_in_their_hands(blob):
+    """Threads started by _thread (or natively) are not in
+    threading.enumerate(): their slots must not be taken for ended ones and
+    closed while they run (a segfault or 'Cannot find shared library')."""
+    import _thread
+
+    from loomfmu.sweep import worker
+
+    setup = _study().setup()
+    items = [(0, "a", {"omega": 40.0, "k_z": 5.0})] * 12
+    lock = threading.Lock()
+    results, done = [], []
+
+    def job(k):
+        try:
+            rows = worker.run_batch(blob, setup, items)
+            with lock:
+                results.extend(r for r in rows if r["status"] != "ok")
+        except BaseException as exc:  # noqa: BLE001 (reported below)
+            with lock:
+                results.append(repr(exc))
+        finally:
+            with lock:
+                done.append(k)
+
+    for k in range(4):
+        _thread.start_new_thread(job, (k,))
+    deadline = time.monotonic() + 120
+    while len(done) < 4 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert len(done) == 4 and not results, results[:3]

@@ -70,6 +70,7 @@ class _Slot:
         self.log: list[tuple[int, str]] = []
         self.instance = None
         self.used = False
+        self.owner = threading.current_thread()
 
     def logger(self, *args):
         # FMI 2: (environment, instance, status, category, message); FMI 3:
@@ -103,24 +104,29 @@ _LOCK = threading.Lock()
 
 def _slot(blob: FmuBlob) -> _Slot:
     key = (blob.sha256, threading.get_ident())
+    # current_thread() also registers a thread not started by threading (a
+    # dummy that counts as alive for good), so every owner is a Thread
+    me = threading.current_thread()
     with _LOCK:
         if len(_SLOTS) >= threading.active_count():
             _close_dead_threads()
-        if key not in _SLOTS:
-            _SLOTS[key] = _Slot(blob)
-        return _SLOTS[key]
+        slot = _SLOTS.get(key)
+        if slot is None:
+            slot = _SLOTS[key] = _Slot(blob)
+        slot.owner = me  # (an ended thread's identifier given to a new one: its slot)
+        return slot
 
 
 def _close_dead_threads() -> None:
-    """Close the slots of threads that have ended (a process that runs
-    batches on one thread pool after another would otherwise keep every
-    pool's instances and extracted FMUs until it exits).  Called with _LOCK
-    held when there are at least as many slots as threads (one FMU per
-    thread is the usual case): a thread's slot is used by that thread only,
-    so one whose thread has ended is in nobody's hands.  (A new thread given
-    an ended one's identifier takes its slot as it is, reset before use.)"""
-    alive = {t.ident for t in threading.enumerate()}
-    for key in [k for k in _SLOTS if k[1] not in alive]:
+    """Close the slots whose thread has ended (a process that runs batches
+    on one thread pool after another would otherwise keep every pool's
+    instances and extracted FMUs until it exits).  Called with _LOCK held
+    when there are at least as many slots as threads (one FMU per thread is
+    the usual case).  A slot is used by its owner thread only, so one whose
+    owner has ended is in nobody's hands; a thread that threading does not
+    know (started by _thread or natively) is its dummy Thread, alive for
+    good: its slot is kept."""
+    for key in [k for k, slot in _SLOTS.items() if not slot.owner.is_alive()]:
         _SLOTS.pop(key).close()
 
 
