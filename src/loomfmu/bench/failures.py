@@ -398,6 +398,11 @@ def delay(case: Case, plan: Plan, out, quick: bool):
     ax[1].set(xlabel="requested fixed step h / tau  (tau = 0.02 s)", ylabel="max error / range",
               title="fixed steps around the delay")
     ax[1].grid(True, which="both", alpha=0.3)
+    # the span is about a decade and a half: labelled at the requested steps
+    # (matplotlib's own minor labels there run into each other)
+    ax[1].set_xticks(sorted({r for pts in fixed.values() for r, _ in pts}))
+    ax[1].xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+    ax[1].xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     ax[1].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(out / f"{case.name}_delay.png", dpi=110)
