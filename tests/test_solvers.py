@@ -258,6 +258,12 @@ def test_nonfinite_rhs_discards_at_last_accepted_point(harness, method):
     assert 0.45 < r["t"] <= 0.5, r
     assert r["x_finite"] == 1 and r["err_at_t"] < 1e-5
     assert r["live_blocks"] == 0
+    # the dense output after the failure is not made of the failed
+    # attempts' stages: dopri5, which computes it from the stages kept in
+    # its work buffer when it is read, shrinks the interval to the point
+    assert r["dense_mid_err"] < 1e-6, r
+    if method == "dopri5":
+        assert r["last_interval"] == 0.0, r
 
 
 @pytest.mark.parametrize("method", ["dopri5", "rodas4", "ros34pw2"])
@@ -275,6 +281,10 @@ def test_rhs_error_is_passed_through(harness, method):
     r = solve(harness, method, "error_after", t_end=2.0, ncomm=4)
     assert r["status"] == 3, r
     assert r["t"] == 0.5 and r["message"]
+    # the attempt that failed wrote stages: not read as the last step's
+    assert r["dense_mid_err"] < 1e-6, r
+    if method == "dopri5":
+        assert r["last_interval"] == 0.0, r
 
 
 @pytest.mark.parametrize("method", ["rodas4", "ros34pw2"])

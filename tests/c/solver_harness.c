@@ -407,6 +407,16 @@ static int cmd_run(int argc, char **argv) {
         for (i = 0; i < su.p->n; i++) finite &= isfinite(s.x[i]) ? 1 : 0;
         printf("x_finite %d\n", finite);
         if (su.p->exact(s.t, xe)) printf("err_at_t %.6e\n", max_abs_diff(s.x, xe, su.p->n));
+        /* the dense output inside the last interval (an interpolant of
+         * the last accepted step, or x's value if there is none), never
+         * made of a failed attempt's stages: its error at the midpoint */
+        {
+            double xm[2], tm = 0.5 * (s.t_old + s.t);
+            s.method->dense(&s, tm, xm);
+            if (su.p->n > 0 && su.p->exact(tm, xe))
+                printf("dense_mid_err %.6e\n", max_abs_diff(xm, xe, su.p->n));
+            printf("last_interval %.17g\n", s.t - s.t_old);
+        }
     }
     lf_solver_free(&s, &alloc);
     printf("live_blocks %ld\n", live_blocks);

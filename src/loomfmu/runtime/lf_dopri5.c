@@ -126,13 +126,26 @@ static size_t dp_work_size(size_t n) { return DP_NVEC * n + DP_NSCAL; }
 /* states from which the vectorized step pays (between 7 and 13, above) */
 #define DP_VECTOR_MIN_N 10
 
-static LfStatus dp_step(LfSolver *s, double t_bound) {
+static LfStatus dp_step_any(LfSolver *s, double t_bound) {
     if (s->ode.n == 1) return dp_step_1(s, t_bound);
     if (s->ode.n == 2) return dp_step_2(s, t_bound);
 #ifdef DP_HAVE_VECTOR
     if (s->ode.n >= DP_VECTOR_MIN_N) return dp_step_vector(s, t_bound);
 #endif
     return dp_step_scalar(s, t_bound);
+}
+
+/* A step that failed leaves t and x at the last accepted point, but its
+ * attempts overwrote the stages the dense output of the last step is made
+ * of (dp_dense): the interval shrinks to that point (the dense output is
+ * x there), never a mix of two steps. */
+static LfStatus dp_step(LfSolver *s, double t_bound) {
+    LfStatus st = dp_step_any(s, t_bound);
+    if (st != LF_OK) {
+        s->t_old = s->t;
+        lf_sv_copy_vec(s->x_old, s->x, s->ode.n);
+    }
+    return st;
 }
 
 /* Hairer's CONTD5 from the accepted step's stages, which stay in the work

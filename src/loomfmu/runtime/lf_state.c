@@ -502,7 +502,11 @@ static void apply_values(LfInstance *c, const LfStateValues *v, const double *hi
     c->n_events = v->n_events;
     c->n_newton_fail = v->n_newton_fail;
     c->solver_id = v->solver_id;
-    c->outputs_valid = 0;
+    /* the outputs were saved with the other Reals: valid if they were, so a
+     * read after the restore returns them instead of solving again (an
+     * implicit model's Newton from the restored w_cur moves w by rounding,
+     * and the continuation with it) */
+    c->outputs_valid = v->outputs_valid;
     c->ho_valid = 0; /* the outputs a history sample kept (a cache, not state) */
     c->inputs_changed = v->inputs_changed;
     c->delay_interp = v->delay_interp;
