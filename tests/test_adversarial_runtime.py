@@ -134,6 +134,22 @@ def test_rk4_history_full_names_solver_h_fixed(ddein_fmu, slave_factory):
     assert f"at least tau / 65536 = {2.0 / 65536:g} s" in full[0]
 
 
+def test_history_full_by_short_communication_steps_names_them(ddein_fmu, slave_factory):
+    """An adaptive solver ends a step at every communication point: steps
+    of 1e-5 s against tau = 2 s fill the 65536 samples whatever the
+    tolerances, and the advice says so (it said only 'loosen solver_rtol /
+    solver_atol')."""
+    s = slave_factory(ddein_fmu)
+    s.start(solver=DOPRI5, tau=2.0)
+    s.set(u=1.0)
+    with pytest.raises(FMICallException):
+        for i in range(70000):
+            s.fmu.doStep(i * 1e-5, 1e-5)
+    full = [m for m in discard_logs(s) if "history of delay ud is full" in m]
+    assert full, s.log[-3:]
+    assert f"communication steps of at least tau / 65536 = {2.0 / 65536:g} s" in full[0]
+
+
 # ---- 2. delay breakpoints ----------------------------------------------------
 
 

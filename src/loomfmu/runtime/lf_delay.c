@@ -194,8 +194,10 @@ static void history_full(LfInstance *c, int k, double t) {
                  "it to at least tau / %d = %g s, or loosen solver_rtol / solver_atol, which "
                  "bound the history's interpolation error", s->method->name, s->opt.h_fixed,
                  LF_HIST_CAP, c->tau[k] / LF_HIST_CAP);
-    else
-        snprintf(advice, sizeof advice, "loosen solver_rtol / solver_atol");
+    else /* every communication point ends a step, and every step adds a sample */
+        snprintf(advice, sizeof advice, "communication steps of at least tau / %d = %g s "
+                 "(each ends a solver step), and looser solver_rtol / solver_atol",
+                 LF_HIST_CAP, c->tau[k] / LF_HIST_CAP);
     lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
            "t = %.17g: history of delay %s is full: the equations read back to t - tau = "
            "%.17g, and the %d samples it holds (the most it can) start at t = %.17g, %g s "
