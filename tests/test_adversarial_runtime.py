@@ -316,3 +316,42 @@ def test_communication_point_behind_says_what_was_expected(ddein_fmu, slave_fact
         s.fmu.doStep(0.05, 1e-20)  # at the FMU's time, below the resolution of time
     assert "does not advance time" in s.log[-1][2]
     s.fmu.doStep(0.05, 0.01)  # nothing was changed by the refused calls
+
+
+# ---- runaway inputs on a model with modes -----------------------------------
+
+
+@pytest.fixture(scope="module")
+def backrest_fmu(tmp_path_factory):
+    from loomfmu import load_model
+    return build_fmu(load_model("backrest"), out_dir=tmp_path_factory.mktemp("backrest"),
+                     validate=False).path
+
+
+def test_runaway_input_with_no_consistent_mode_is_a_discard(backrest_fmu, slave_factory):
+    """letoff = 1e300 (its range is [-0.5, 0.5]: setting it only warns) in
+    the middle of a run leaves no friction mode consistent: the step is not
+    done (Discard at the last successful time, the modes as they were), not
+    an Error that leaves the instance only to be freed; the master rolls
+    back with fmi2SetFMUstate (allowed after a Discard) and goes on."""
+    s = slave_factory(backrest_fmu)
+    s.start(solver=DOPRI5)
+    t, h = 0.0, 0.0107
+    for _ in range(30):
+        s.fmu.doStep(t, h)
+        t += h
+    state = s.fmu.getFMUstate()
+    s.fmu.doStep(t, h)
+    ref = s.get("phi1_out", "omega2_out")
+    s.fmu.setFMUstate(state)
+    s.set(letoff=1e300)
+    with pytest.raises(FMICallException) as exc:
+        s.fmu.doStep(t, h)
+    assert exc.value.status == 2, s.log[-3:]  # fmi2Discard
+    assert any("no value of mode" in m for m in discard_logs(s)), s.log[-3:]
+    assert not [m for status, _, m in s.log if status >= 3], s.log[-3:]
+    assert s.fmu.getRealStatus(2) == t  # fmi2LastSuccessfulTime
+    s.fmu.setFMUstate(state)  # letoff back to its value then
+    s.fmu.doStep(t, h)
+    np.testing.assert_array_equal(s.get("phi1_out", "omega2_out"), ref)
+    s.fmu.freeFMUstate(state)

@@ -58,10 +58,13 @@ static LfStatus choose_mode(LfInstance *c, int k, double t, double *x) {
     }
     c->q[k] = old;
     c->wc_gen++;
-    lf_log(c, LF_ERROR, LF_LOG_ERROR,
+    /* a point the model cannot go on from (an input or a state far outside
+     * what the model was made for): the step is not done, the caller puts
+     * the modes back (Discard; at the start of the simulation an Error) */
+    lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
            "t = %.17g: no value of mode %s is consistent here (the model has no "
            "solution with any of its declared values)", t, lf_model.mode_names[k]);
-    return LF_ERROR;
+    return LF_DISCARD;
 }
 
 #define LF_MODE_ROUNDS (2 * LF_NQ + 2)
@@ -333,12 +336,15 @@ LfStatus lf_event_update(LfInstance *c, int k, double t, double *x, int *changed
     memcpy(x0, x, sizeof(double) * LF_NX);
     if (changed) *changed = 0;
     if (LF_NQ == 0) return LF_OK;
-    if (touched >= 0) {
-        st = choose_mode(c, touched, t, x);
-        if (st != LF_OK) return st;
+    if (touched >= 0) st = choose_mode(c, touched, t, x);
+    else st = LF_OK;
+    if (st == LF_OK) st = lf_consistent_modes(c, t, x, touched);
+    if (st != LF_OK) { /* the modes and states as they were */
+        memcpy(c->q, q0, sizeof q0);
+        memcpy(x, x0, sizeof(double) * LF_NX);
+        c->wc_gen++;
+        return st;
     }
-    st = lf_consistent_modes(c, t, x, touched);
-    if (st != LF_OK) return st;
     if (changed)
         *changed = memcmp(q0, c->q, sizeof(double) * LF_NQ) != 0 ||
                    memcmp(x0, x, sizeof(double) * LF_NX) != 0;

@@ -209,8 +209,12 @@ static LfStatus restart_for_inputs(LfInstance *c, const char **what) {
     LfStatus st;
     memcpy(c->x_tmp, s->x, sizeof(double) * LF_NX);
     if (LF_NQ > 0) {
+        double q0[LF_DIM(LF_NQ)];
+        memcpy(q0, c->q, sizeof q0);
         st = lf_consistent_modes(c, s->t, c->x_tmp, -1);
-        if (st != LF_OK) {
+        if (st != LF_OK) { /* the modes as they were: the step is not done */
+            memcpy(c->q, q0, sizeof q0);
+            c->wc_gen++;
             *what = "no consistent mode after the input change";
             return st;
         }
