@@ -355,3 +355,21 @@ def test_runaway_input_with_no_consistent_mode_is_a_discard(backrest_fmu, slave_
     s.fmu.doStep(t, h)
     np.testing.assert_array_equal(s.get("phi1_out", "omega2_out"), ref)
     s.fmu.freeFMUstate(state)
+
+
+def test_step_size_underflow_at_t0_names_the_cause(slave_factory, tmp_path_factory):
+    """x2_in = 1e300 (no declared range) at t = 0: the step size falls to 0,
+    where the relative bound is 0 too; the message said 'h=0 < 0' and
+    blamed only a blow-up or a singularity."""
+    from loomfmu import load_model
+    path = build_fmu(load_model("two_mass_force"), out_dir=tmp_path_factory.mktemp("tmf"),
+                     validate=False).path
+    s = slave_factory(path)
+    s.start(solver=DOPRI5)
+    s.set(x2_in=1e300)
+    with pytest.raises(FMICallException) as exc:
+        s.fmu.doStep(0.0, 0.01)
+    assert exc.value.status == 2
+    msg = discard_logs(s)[-1]
+    assert "h=0 no longer moves t" in msg and "< 0)" not in msg, msg
+    assert "input or parameter far outside its range" in msg, msg

@@ -130,9 +130,11 @@ static const char *cause_text(int cause) {
     case CAUSE_SINGULAR:
         return "singular iteration matrix";
     case CAUSE_ERRTEST:
-        return "local error test failed repeatedly (singularity, blow-up or discontinuity?)";
+        return "local error test failed repeatedly (singularity, blow-up, discontinuity, or an "
+               "input or parameter far outside its range?)";
     default:
-        return "the step size control asks for ever smaller steps (blow-up or singularity?)";
+        return "the step size control asks for ever smaller steps (blow-up, singularity, or an "
+               "input or parameter far outside its range?)";
     }
 }
 
@@ -141,9 +143,12 @@ LfStatus lf_sv_give_up(LfSolver *s, double h, double hmin, int cause, int too_ma
     if (too_many)
         lf_sv_set_msg(s, "%s: step failed at t=%.17g after %d attempts (h=%.3g): %s", s->method->name,
                 s->t, LF_MAX_ATTEMPTS, h, cause_text(cause));
-    else
+    else if (h < hmin)
         lf_sv_set_msg(s, "%s: step size underflow at t=%.17g (h=%.3g < %.3g): %s", s->method->name,
                 s->t, h, hmin, cause_text(cause));
+    else /* t + h == t: at t = 0 the relative bound hmin is 0 */
+        lf_sv_set_msg(s, "%s: step size underflow at t=%.17g (h=%.3g no longer moves t): %s",
+                s->method->name, s->t, h, cause_text(cause));
     return LF_DISCARD;
 }
 
