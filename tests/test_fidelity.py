@@ -93,9 +93,16 @@ def test_a_level_without_the_output_predicts_zero_and_fails(loom_eval):
 
 def test_the_regularized_backrest_suffices_for_warp_tension_and_not_for_friction(loom_eval):
     sel = loom_eval.select(0.01, ["back.S2a"])
-    assert sel.best.levels != sel.rows[-1].levels
     reg = [r for r in sel.rows if r.levels["backrest"] == "backrest_regularized"]
-    assert all(r.error <= 0.01 for r in reg)
+    assert reg and all(r.error <= 0.01 for r in reg)
+    # which passing row is chosen is a CPU-time measurement: since the
+    # event-driven backrest got as cheap as the regularized one, every row
+    # of this scene costs the same within noise (64-68 ms, the master's
+    # work), so the rule is what is checked, as for the frames above
+    passing = [r for r in sel.rows if r.error <= 0.01]
+    near = [r for r in passing if r.cpu_s <= min(p.cpu_s for p in passing) * (1 + sf.COST_NOISE)]
+    assert sel.best in near
+    assert loom_eval._rank(sel.best) == min(loom_eval._rank(r) for r in near)
     fric = loom_eval.select(0.01, ["back.M1f_out"])
     assert all(r.error > 0.01 for r in fric.rows if r.levels["backrest"] ==
                "backrest_regularized")
