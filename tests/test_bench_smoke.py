@@ -27,3 +27,34 @@ def test_charts_command_runs_on_one_model(tmp_path):
 def test_every_scene_names_outputs_of_its_model():
     for name, scene in BENCH.items():
         assert 2 <= len(scene.outputs) <= 4, name
+
+
+def test_fmu_runner_reuses_one_instance_and_matches_a_fresh_run(tmp_path):
+    """The charts time our FMU on one kept instance, reset before each run:
+    the results are those of a new instance bit for bit, a run that fails
+    (a start value outside its range) raises with the FMU's log and the
+    next run works on a new instance."""
+    import numpy as np
+    import pytest
+
+    from loomfmu.bench.runners import Fmu
+    from loomfmu.registry import load_model
+
+    fmu = Fmu(load_model("loom_shaft"), tmp_path)
+    kw = dict(solver="dopri5", rtol=1e-6, atol=1e-9, stop=0.05, interval=1e-3,
+              outputs=["theta_out", "omega_out"])
+    fresh = fmu.run(fresh=True, **kw)
+    first = fmu.run(**kw)
+    kept = fmu._instance
+    second = fmu.run(**kw, values={"delta": 0.2})
+    third = fmu.run(**kw)
+    assert fmu._instance is kept
+    for name in kw["outputs"]:
+        assert np.array_equal(first.y[name], fresh.y[name])
+        assert np.array_equal(third.y[name], fresh.y[name])
+    assert not np.array_equal(second.y["omega_out"], fresh.y["omega_out"])
+    with pytest.raises(RuntimeError, match="log: .*delta"):
+        fmu.run(**kw, values={"delta": 0.9})
+    assert fmu._instance is None
+    again = fmu.run(**kw)
+    assert np.array_equal(again.y["theta_out"], fresh.y["theta_out"])

@@ -2,9 +2,18 @@
 
 Methods, all on the same declaration:
 
-* ``fmu``: our FMU through FMPy (``loomfmu.verify.simulate`` on the FMU
-  extracted once, its model description parsed once).  Time: wall time of
-  the whole FMPy call (instantiate, initialize, step, free).
+* ``fmu``: our FMU through FMPy (``fmpy.simulate_fmu`` on the FMU extracted
+  once, its model description parsed once, its library loaded and one
+  instance made once: a Python script that runs a model many times keeps
+  its instance and resets it, as ``loomfmu sweep`` does).  Time: wall time
+  of ``fmi2Reset`` and the whole ``simulate_fmu`` call on that instance
+  (start values, initialization, every ``fmi2DoStep`` and output read,
+  ``fmi2Terminate``).  Loading the library and binding its functions
+  (FMPy's ``FMU2Slave``, about 1.3 ms a run, most of it FMPy's ``inspect``
+  of its own methods) is left out as CasADi's is: building the integrator
+  (``ca.integrator``) is outside its time.  ``Fmu.run(..., fresh=True)``
+  times a new instance instead (load, instantiate, run, free:
+  ``loomfmu.verify.simulate``).
 * ``scipy``: ``solve_ivp`` with a Python right-hand side, through
   :func:`loomfmu.reference.reference` (events, friction modes and delays
   included).  Time: the integration only (``Reference.wall_seconds``).
@@ -29,10 +38,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import casadi as ca
+import fmpy
 import numpy as np
 from fmpy import read_model_description
 
+from .. import fmpy_logger
 from ..builder import build_fmu
+from ..codegen import SOLVERS
 from ..declare import Model
 from ..ode import dae_form
 from ..reference import reference
@@ -79,7 +91,8 @@ def errors(run: Run, ref: Run, outputs) -> tuple[float, float]:
 
 
 class Fmu:
-    """An FMU built and extracted once into ``out_dir``."""
+    """An FMU built and extracted once into ``out_dir``; one instance of it is
+    kept and reset before each run (made again after a run that fails)."""
 
     def __init__(self, model: Model, out_dir: Path):
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -88,14 +101,51 @@ class Fmu:
         with zipfile.ZipFile(self.path) as z:
             z.extractall(self.dir)
         self.md = read_model_description(str(self.dir))
+        self._log: list[str] = []
+        self._instance = None
+
+    def _logger(self, *args):  # FMI 2: (env, instance, status, category, message)
+        self._log.append(f"[{args[-3]}] {args[-2].decode()}: {args[-1].decode()}")
+
+    def _drop(self):
+        if self._instance is not None:
+            try:
+                self._instance.freeInstance()
+            except Exception:  # noqa: BLE001 (an instance in Error may refuse)
+                pass
+        self._instance = None
+
+    def __del__(self):
+        self._drop()
 
     def run(self, *, solver: str, rtol: float, atol: float, stop: float,
-            interval: float | None, outputs, values: dict | None = None) -> Run:
+            interval: float | None, outputs, values: dict | None = None,
+            fresh: bool = False) -> Run:
+        if fresh:
+            t0 = time.perf_counter()
+            res = simulate(self.dir, solver=solver, rtol=rtol, atol=atol, stop_time=stop,
+                           output_interval=interval, output=list(outputs),
+                           values=values or {}, model_description=self.md)
+            return Run(res.t, res.y, time.perf_counter() - t0)
+        if self._instance is None:  # untimed, as CasADi's ca.integrator
+            self._instance = fmpy_logger.instantiate(self.dir, self.md, "CoSimulation",
+                                                     self._logger)
+        start = {"solver": SOLVERS.index(solver) + 1, "solver_atol": atol, **(values or {})}
+        self._log.clear()
         t0 = time.perf_counter()
-        res = simulate(self.dir, solver=solver, rtol=rtol, atol=atol, stop_time=stop,
-                       output_interval=interval, output=list(outputs),
-                       values=values or {}, model_description=self.md)
-        return Run(res.t, res.y, time.perf_counter() - t0)
+        try:
+            self._instance.reset()
+            res = fmpy.simulate_fmu(str(self.dir), validate=False, stop_time=stop,
+                                    fmi_type="CoSimulation", relative_tolerance=rtol,
+                                    output_interval=interval, start_values=start,
+                                    output=list(outputs), model_description=self.md,
+                                    fmu_instance=self._instance)
+        except Exception as e:  # noqa: BLE001 (FMPy raises bare Exceptions)
+            self._drop()
+            tail = "; ".join(self._log[-3:]) or "no log"
+            raise RuntimeError(f"simulate {self.path.name}: {e} (log: {tail})") from e
+        seconds = time.perf_counter() - t0
+        return Run(np.asarray(res["time"]), {n: np.asarray(res[n]) for n in outputs}, seconds)
 
 
 def scipy_run(model: Model, grid, *, method: str, rtol: float, atol: float,
