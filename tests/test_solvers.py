@@ -276,6 +276,18 @@ def test_blowup_discards(harness, method):
     assert r["x_finite"] == 1
 
 
+@pytest.mark.parametrize("method", ["dopri5", "rodas4", "ros34pw2"])
+def test_stage_arguments_that_overflow_are_never_passed_to_f(harness, method):
+    """Five states (dopri5's vectorized step and its tail element): at t = 30
+    a derivative jumps to 1.7e308 where the steps are long, so the next stage
+    arguments overflow; the harness's f answers a non-finite argument with an
+    error, so a Discard (not an Error) means every stage's argument was
+    checked before the call."""
+    r = solve(harness, method, "jump5", t_end=100.0, rtol=1e-6, atol=1e-9)
+    assert r["status"] == 2, r
+    assert 29.0 < r["t"] <= 30.0 + 1e-6 and r["x_finite"] == 1, r
+
+
 @pytest.mark.parametrize("method", ["dopri5", "rodas4", "rk4", "ros34pw2"])
 def test_rhs_error_is_passed_through(harness, method):
     r = solve(harness, method, "error_after", t_end=2.0, ncomm=4)

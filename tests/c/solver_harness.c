@@ -36,7 +36,7 @@
 typedef struct {
     const char *name;
     size_t n;
-    double x0[2];
+    double x0[5];
     LfStatus (*rhs)(void *ctx, double t, const double *x, double *dx);
     LfStatus (*jac)(void *ctx, double t, const double *x, double *J, double *dfdt);
     /* exact solution; returns 0 if unknown */
@@ -189,6 +189,37 @@ static int blow_x(double t, double *x) {
     x[0] = 1.0 / (1.0 - t);
     return t < 1.0;
 }
+/* five states (the vectorized dopri5 step, with a tail element): x' = -x,
+ * until at t = 30 x_0' jumps to 1.7e308 (finite), where the steps have
+ * grown long (x is below atol): the next stage arguments overflow to Inf.
+ * f answers a non-finite argument with LF_ERROR, so the run ends in
+ * Discard only if every stage's argument was checked before the call */
+static LfStatus jump5_f(void *c, double t, const double *x, double *dx) {
+    int i;
+    (void)c;
+    for (i = 0; i < 5; i++) {
+        if (!isfinite(x[i])) return LF_ERROR;
+        dx[i] = -x[i];
+    }
+    if (t >= 30.0) dx[0] = 1.7e308;
+    return LF_OK;
+}
+static LfStatus jump5_j(void *c, double t, const double *x, double *J, double *ft) {
+    int i, j;
+    (void)c;
+    (void)t;
+    (void)x;
+    for (i = 0; i < 5; i++) {
+        for (j = 0; j < 5; j++) J[i + 5 * j] = i == j ? -1.0 : 0.0;
+        ft[i] = 0.0;
+    }
+    return LF_OK;
+}
+static int jump5_x(double t, double *x) {
+    int i;
+    for (i = 0; i < 5; i++) x[i] = exp(-t) / (i + 1.0);
+    return t < 30.0;
+}
 /* Jacobian with NaN */
 static LfStatus nanjac_j(void *c, double t, const double *x, double *J, double *ft) {
     (void)c;
@@ -230,6 +261,7 @@ static const Problem problems[] = {
     {"nan_after", 1, {1.0, 0.0}, nan_f, decay_j, decay_x},
     {"error_after", 1, {1.0, 0.0}, err_f, decay_j, decay_x},
     {"blowup", 1, {1.0, 0.0}, blow_f, blow_j, blow_x},
+    {"jump5", 5, {1.0, 0.5, 1.0 / 3.0, 0.25, 0.2}, jump5_f, jump5_j, jump5_x},
     {"nanjac", 1, {1.0, 0.0}, decay_f, nanjac_j, decay_x},
     {"empty", 0, {0.0, 0.0}, empty_f, empty_j, empty_x},
 };

@@ -66,6 +66,14 @@ enum { DP_S_LERR, DP_S_H, DP_NSCAL };
 #define DP_BETA ((double)(LF_DP_BETA))
 #define DP_EXPO1 (0.2 - DP_BETA * 0.75)
 #define DP_LERR_OLD0 (-9.210340371976182) /* log(1e-4) */
+/* Below this error 1/fac = err^EXPO1 err_old^-BETA / 0.9 is under 0.1 (the
+ * step grows tenfold, its cap) for every err_old >= 1e-4 (the slot's
+ * floor), so the step needs neither log nor exp: the models whose steps the
+ * communication grid bounds (a two-mass oscillator at 1e-4 s, a shaft) have
+ * errors far below it.  Half the bound (8.1e-8 with beta = 0.04), a
+ * constant GCC folds; the same result bit for bit (fac = 0.1 either way,
+ * and log(err) < log(1e-4) would leave the slot at its floor). */
+#define DP_ERR_TINY (0.5 * exp((log(0.09) + DP_BETA * DP_LERR_OLD0) / DP_EXPO1))
 
 static size_t dp_work_size(size_t n) { return DP_NVEC * n + DP_NSCAL; }
 
@@ -73,24 +81,26 @@ static size_t dp_work_size(size_t n) { return DP_NVEC * n + DP_NSCAL; }
  * each other.  GCC's -O2 keeps them scalar (its cheap cost model wants trip
  * counts known at compile time); vectorized, every element's operations are
  * the same, in the same order, so the results are bit for bit the scalar
- * loops'.  For a few states the vector loops' checks cost more than they
- * save (instructions of the limit driver's run, vector against scalar:
- * two_mass, 2 states, +6 %; heald_frame_planar, 7, +0.8 %; heald_frame,
- * 13, -2 %; spindle, 69, -9 %).
+ * loops'.
  *
  * Each stage's argument must be finite before f is called
- * (lf_sv_eval_rhs_checked): the scalar step checks each element where it
- * forms it (DP_CHECK_IN_LOOP), the vectorized one after the loop
- * (DP_CHECK_AFTER: a check inside would keep the loop scalar).
+ * (lf_sv_eval_rhs_checked): each loop ORs the bits of v * 0 over the
+ * elements it forms (lf_sv_nan_bits), an integer OR the vectorizer keeps
+ * in the loop (a comparison or a floating-point sum would keep the loop
+ * scalar or need a second pass; the second pass was 5 % of heald_frame's
+ * run).  The error estimate is scaled in a loop of its own and summed in
+ * order after it: lf_sv_err_norm's arithmetic, bit for bit.
  *
  * The models of one or two states (a rigid mechanism, a shaft, a two-mass
  * oscillator, the drive) take one step per communication step or so, on a
  * right-hand side of a few dozen instructions: there the loops' control and
  * the pointers into the work buffer are a fifth of the step.  Builds for
  * n = 1 and 2 as constants let the compiler unroll them (bit for bit the
- * same arithmetic: two_mass_force's run 23.5 M -> 22.6 M instructions). */
-#define DP_CHECK_IN_LOOP(v) bad |= LF_SV_NOT_FINITE(v)
-#define DP_CHECK_AFTER(vec) (void)0
+ * same arithmetic: two_mass_force's run 23.5 M -> 22.6 M instructions).
+ * From three states the vectorized build is used (instructions of the
+ * limit driver's run, vectorized against scalar: heald_frame_planar, 7
+ * states, -1.6 %; backrest, 4, -0.1 %). */
+#define DP_BAD(bits) (LF_SV_BITS_BAD(bits) ? (bits = 0, 1) : 0)
 #define DP_STEP_FN dp_step_scalar
 #define DP_N s->ode.n
 #include "lf_dopri5_step.h"
@@ -106,25 +116,19 @@ static size_t dp_work_size(size_t n) { return DP_NVEC * n + DP_NSCAL; }
 #include "lf_dopri5_step.h"
 #undef DP_STEP_FN
 #undef DP_N
-#undef DP_CHECK_IN_LOOP
-#undef DP_CHECK_AFTER
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC push_options
 #pragma GCC optimize("tree-vectorize", "vect-cost-model=dynamic")
 #define DP_STEP_FN dp_step_vector
 #define DP_N s->ode.n
-#define DP_CHECK_IN_LOOP(v) (void)0
-#define DP_CHECK_AFTER(vec) bad = !lf_all_finite(vec, n)
 #include "lf_dopri5_step.h"
 #undef DP_STEP_FN
-#undef DP_CHECK_IN_LOOP
-#undef DP_CHECK_AFTER
 #undef DP_N
 #pragma GCC pop_options
 #define DP_HAVE_VECTOR 1
 #endif
-/* states from which the vectorized step pays (between 7 and 13, above) */
-#define DP_VECTOR_MIN_N 10
+/* states from which the vectorized step pays (above) */
+#define DP_VECTOR_MIN_N 3
 
 static LfStatus dp_step_any(LfSolver *s, double t_bound) {
     if (s->ode.n == 1) return dp_step_1(s, t_bound);

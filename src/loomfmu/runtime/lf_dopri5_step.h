@@ -1,9 +1,10 @@
 /* loomfmu runtime: the step of dopri5 (lf_dopri5.c), included there four times:
  * DP_STEP_FN names the function (scalar builds for 1, 2 and n states and,
- * with GCC, a vectorized one).  Needs the tableau's DP_* names of lf_dopri5.c and
- * DP_CHECK_IN_LOOP(v), DP_CHECK_AFTER(vec): how a stage's argument is
- * checked for finiteness (setting `bad`); DP_N: the number of states (a
- * constant in the builds for one and two states, s->ode.n otherwise). */
+ * with GCC, a vectorized one).  Needs the tableau's DP_* names of lf_dopri5.c
+ * and DP_N: the number of states (a constant in the builds for one and two
+ * states, s->ode.n otherwise).  Each stage's argument is checked for
+ * finiteness where the loop forms it (nan_bits, lf_solver_impl.h);
+ * DP_BAD(nan_bits) reads the check and clears it for the next stage. */
 static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
     const size_t n = DP_N;
     double *w = LF_PRIV(s);
@@ -11,9 +12,10 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
     double *k5 = w + DP_K5 * n, *k6 = w + DP_K6 * n, *k7 = w + DP_K7 * n;
     double *y = w + DP_Y * n, *ynew = w + DP_YNEW * n;
     double *x = s->x, *lerr_old = w + DP_NVEC * n + DP_S_LERR;
-    const double t = s->t, hmax = s->opt.h_max;
+    const double t = s->t, hmax = s->opt.h_max, atol = s->opt.atol, rtol = s->opt.rtol;
     double h;
-    int rejected = 0, cause = CAUSE_NONE, attempts = 0, bad;
+    int rejected = 0, cause = CAUSE_NONE, attempts = 0;
+    uint64_t nan_bits = 0; /* the stage argument's finiteness check */
     size_t i;
     LfStatus st;
 
@@ -34,55 +36,55 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
         if (++attempts > LF_MAX_ATTEMPTS) return lf_sv_give_up(s, h, 0.0, cause, 1);
         if (lf_sv_plan_step(s, t_bound, &h, &t_new, &last, &hmin)) return lf_sv_give_up(s, h, hmin, cause, 0);
 
-        for (i = 0, bad = 0; i < n; i++) {
+        for (i = 0; i < n; i++) {
             y[i] = x[i] + h * DP_A21 * k1[i];
-            DP_CHECK_IN_LOOP(y[i]);
+            nan_bits |= lf_sv_nan_bits(y[i]);
         }
-        DP_CHECK_AFTER(y);
-        st = lf_sv_eval_rhs_checked(s, t + DP_C2 * h, y, k2, bad);
+        st = lf_sv_eval_rhs_checked(s, t + DP_C2 * h, y, k2, DP_BAD(nan_bits));
         if (st != LF_OK) goto failed;
-        for (i = 0, bad = 0; i < n; i++) {
+        for (i = 0; i < n; i++) {
             y[i] = x[i] + h * (DP_A31 * k1[i] + DP_A32 * k2[i]);
-            DP_CHECK_IN_LOOP(y[i]);
+            nan_bits |= lf_sv_nan_bits(y[i]);
         }
-        DP_CHECK_AFTER(y);
-        st = lf_sv_eval_rhs_checked(s, t + DP_C3 * h, y, k3, bad);
+        st = lf_sv_eval_rhs_checked(s, t + DP_C3 * h, y, k3, DP_BAD(nan_bits));
         if (st != LF_OK) goto failed;
-        for (i = 0, bad = 0; i < n; i++) {
+        for (i = 0; i < n; i++) {
             y[i] = x[i] + h * (DP_A41 * k1[i] + DP_A42 * k2[i] + DP_A43 * k3[i]);
-            DP_CHECK_IN_LOOP(y[i]);
+            nan_bits |= lf_sv_nan_bits(y[i]);
         }
-        DP_CHECK_AFTER(y);
-        st = lf_sv_eval_rhs_checked(s, t + DP_C4 * h, y, k4, bad);
+        st = lf_sv_eval_rhs_checked(s, t + DP_C4 * h, y, k4, DP_BAD(nan_bits));
         if (st != LF_OK) goto failed;
-        for (i = 0, bad = 0; i < n; i++) {
+        for (i = 0; i < n; i++) {
             y[i] = x[i] + h * (DP_A51 * k1[i] + DP_A52 * k2[i] + DP_A53 * k3[i] + DP_A54 * k4[i]);
-            DP_CHECK_IN_LOOP(y[i]);
+            nan_bits |= lf_sv_nan_bits(y[i]);
         }
-        DP_CHECK_AFTER(y);
-        st = lf_sv_eval_rhs_checked(s, t + DP_C5 * h, y, k5, bad);
+        st = lf_sv_eval_rhs_checked(s, t + DP_C5 * h, y, k5, DP_BAD(nan_bits));
         if (st != LF_OK) goto failed;
-        for (i = 0, bad = 0; i < n; i++) {
+        for (i = 0; i < n; i++) {
             y[i] = x[i] + h * (DP_A61 * k1[i] + DP_A62 * k2[i] + DP_A63 * k3[i] +
                                DP_A64 * k4[i] + DP_A65 * k5[i]);
-            DP_CHECK_IN_LOOP(y[i]);
+            nan_bits |= lf_sv_nan_bits(y[i]);
         }
-        DP_CHECK_AFTER(y);
-        st = lf_sv_eval_rhs_checked(s, t_new, y, k6, bad);
+        st = lf_sv_eval_rhs_checked(s, t_new, y, k6, DP_BAD(nan_bits));
         if (st != LF_OK) goto failed;
-        for (i = 0, bad = 0; i < n; i++) {
+        for (i = 0; i < n; i++) {
             ynew[i] = x[i] + h * (DP_A71 * k1[i] + DP_A73 * k3[i] + DP_A74 * k4[i] +
                                   DP_A75 * k5[i] + DP_A76 * k6[i]);
-            DP_CHECK_IN_LOOP(ynew[i]);
+            nan_bits |= lf_sv_nan_bits(ynew[i]);
         }
-        DP_CHECK_AFTER(ynew);
-        st = lf_sv_eval_rhs_checked(s, t_new, ynew, k7, bad);
+        st = lf_sv_eval_rhs_checked(s, t_new, ynew, k7, DP_BAD(nan_bits));
         if (st != LF_OK) goto failed;
 
-        for (i = 0; i < n; i++)
+        /* the error estimate over its scale (lf_sv_err_norm's arithmetic, in
+         * a loop of independent elements), then the sum in order */
+        for (i = 0; i < n; i++) {
+            double a0 = fabs(x[i]), a1 = fabs(ynew[i]);
+            double sk = atol + rtol * (a1 != a1 || a0 > a1 ? a0 : a1);
             y[i] = h * (DP_E1 * k1[i] + DP_E3 * k3[i] + DP_E4 * k4[i] + DP_E5 * k5[i] +
-                        DP_E6 * k6[i] + DP_E7 * k7[i]);
-        err = lf_sv_err_norm(s, y, x, ynew);
+                        DP_E6 * k6[i] + DP_E7 * k7[i]) / sk;
+        }
+        for (i = 0, err = 0.0; i < n; i++) err += y[i] * y[i];
+        err = n > 0 ? sqrt(err / (double)n) : 0.0;
         if (!isfinite(err)) {
             st = LF_DISCARD;
             goto failed;
@@ -93,11 +95,23 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
          * accepted step's error damps the step size's oscillation where
          * stability, not accuracy, limits the step (beta = 0: the classical
          * 0.9 err^-1/5).  In logarithms: one log and one exp a step, the
-         * slot keeps log(max(err_old, 1e-4)). */
-        lerr = log(err); /* -inf for err = 0: fac 0, clamped below */
+         * slot keeps log(max(err_old, 1e-4)); none below DP_ERR_TINY, where
+         * 1/fac is 10 (its cap) whatever err_old (lf_dopri5.c), and none
+         * where the step was shortened to land on t_bound to a tenth or less
+         * of the proposal: the proposal is kept (below), which 10 h cannot
+         * beat, and the slot is not updated. */
+        if (err <= 1.0 && last && !rejected && h_prop >= 10.0 * h) {
+            lerr = DP_LERR_OLD0; /* (not read) */
+            fac = 0.1;
+        } else if (err < DP_ERR_TINY) {
+            lerr = DP_LERR_OLD0; /* what the slot would keep: err < 1e-4 */
+            fac = 0.1;
+        } else {
+            lerr = log(err);
+            fac = exp(DP_EXPO1 * lerr - (err <= 1.0 ? DP_BETA * *lerr_old : 0.0)) / 0.9;
+        }
         if (err <= 1.0) {
             double hnew, *k1old = w + DP_K1OLD * n;
-            fac = exp(DP_EXPO1 * lerr - DP_BETA * *lerr_old) / 0.9;
             if (fac < 0.1) fac = 0.1;
             if (fac > 5.0) fac = 5.0;
             if (rejected && fac < 1.0) fac = 1.0;
@@ -124,7 +138,6 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
             s->n_steps++;
             return LF_OK;
         }
-        fac = exp(DP_EXPO1 * lerr) / 0.9;
         if (fac > 5.0) fac = 5.0;
         h /= fac;
         rejected = 1;

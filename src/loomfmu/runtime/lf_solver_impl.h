@@ -8,6 +8,8 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdint.h>
+#include <string.h>
 
 #define LF_UROUND DBL_EPSILON
 /* Give up a single step after this many failed attempts (guards against
@@ -39,6 +41,18 @@ static inline LfStatus lf_sv_eval_rhs(LfSolver *s, double t, const double *x, do
  * a method that forms x in a loop checks it there, LF_SV_NOT_FINITE ORed
  * over the elements, and passes the result as x_bad) */
 #define LF_SV_NOT_FINITE(v) (!(fabs(v) <= DBL_MAX))
+/* The bits of v * 0: +-0 (no exponent bits) for a finite v, a NaN (every
+ * exponent bit) otherwise.  ORed over a loop's elements, an integer OR that
+ * the vectorizer keeps in vector registers where a branch or a comparison
+ * would keep the loop scalar; LF_SV_BITS_BAD(acc) is 1 if one element was
+ * not finite (the same FE_INVALID caveat as lf_all_finite). */
+static inline uint64_t lf_sv_nan_bits(double v) {
+    double z = v * 0.0;
+    uint64_t b;
+    memcpy(&b, &z, sizeof b);
+    return b;
+}
+#define LF_SV_BITS_BAD(acc) (((acc) & UINT64_C(0x7ff0000000000000)) != 0)
 /* lf_sv_eval_rhs where the caller checked x: x_bad != 0 gives LF_DISCARD */
 static inline LfStatus lf_sv_eval_rhs_checked(LfSolver *s, double t, const double *x,
                                               double *dx, int x_bad) {
