@@ -161,9 +161,16 @@ def declare_motion(m: Model, *, end_dwell: str) -> Motion:
     H = motion_law(phi, h_m, k_H, end_dwell)
     H1 = ca.jacobian(H, phi)
     H2 = ca.jacobian(H1, phi)
+    # sin((phi - phi_k)/2), zero once a revolution at the break phi_k,
+    # written sin(phi/2) cos(phi_k/2) - cos(phi/2) sin(phi_k/2): one sine and
+    # one cosine of phi/2 for the three indicators (the compiler makes them
+    # one sincos) where three sines were a third of the rigid frame's step
+    s_half, c_half = ca.sin(phi / 2), ca.cos(phi / 2)
     for deg in BREAKPOINTS_DEG:
-        m.event(f"dwell_{int(deg)}deg", ca.sin((phi - deg * DEG) / 2),
-                description=f"main shaft passes {deg:g} deg (dwell boundary)")
+        a = deg * DEG / 2
+        m.event(f"dwell_{int(deg)}deg", s_half * math.cos(a) - c_half * math.sin(a),
+                description=f"main shaft passes {deg:g} deg (dwell boundary): "
+                f"sin((phi - {deg:g} deg)/2), expanded")
     return Motion(phi, omega, h_m, H, H1 * omega, H2 * omega**2, k_H, end_dwell, H1, H2)
 
 

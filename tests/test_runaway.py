@@ -117,3 +117,33 @@ def test_long_calls_stop_at_the_step_budget(case, drive_path, backrest_path, sla
         assert all(math.isfinite(v) for v in outputs(s).values())
         assert s.fmu.getReal([s.vr["solver_max_steps"]])[0] == budget
     assert max(walls.values()) < 20.0, walls
+
+
+def test_state_leaving_its_declared_range_is_discarded(tmp_path, slave_factory):
+    """A state with a finite declared range (none of the shipped models has
+    one, so the runtime's range check is compiled in only for models that
+    do, model_decl.h's LF_X_RANGED): x' = u leaves [-1, 1] at t = 0.1 with
+    u = 10; the communication step is discarded at the last accepted point,
+    with the state, its value and its range in the log, and the same
+    model stepped inside its range runs on."""
+    from loomfmu.declare import Model
+
+    m = Model("ranged", stop_time=1.0, step_size=0.1)
+    x = m.state("x", 0.0, description="a ranged state", min=-1.0, max=1.0)
+    u = m.input("u", 10.0, description="its rate", min=-100.0, max=100.0)
+    m.eq(m.der(x), u)
+    m.output("y", x, description="x")
+    path = build_fmu(m, out_dir=tmp_path, validate=False).path
+    assert "#define LF_X_RANGED 1" in __import__("zipfile").ZipFile(path).read(
+        "sources/model_decl.h").decode()
+    s = slave_factory(path)
+    s.start()
+    discarded(s, 0.0, 0.5)
+    assert any("state x = " in msg and "outside its range [-1, 1]" in msg
+               for _, _, msg in s.log), s.log[-2:]
+    assert 0.0 <= last_successful_time(s) <= 0.1
+    assert abs(s.get("y")[0]) <= 1.0
+    inside = slave_factory(path)
+    inside.start(u=1.0)
+    inside.fmu.doStep(0.0, 0.5)
+    assert inside.get("y")[0] == pytest.approx(0.5, rel=1e-9)

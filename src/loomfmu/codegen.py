@@ -404,6 +404,9 @@ def declaration_header(model: Model, dae: DaeForm, n_k: int = 0) -> str:
         f"#define LF_NV {len(model.validity)}",
         f"#define LF_N_SOLVERS {len(SOLVERS)}",
         f"#define LF_NK {n_k}",
+        # 1 if a state has a finite declared range (the runtime checks it
+        # after each accepted step; without one, only the magnitude)
+        f"#define LF_X_RANGED {int(any(math.isfinite(v.min) or math.isfinite(v.max) for v in model.of_kind('state')))}",
     ]
     if model.delays:  # the combined history and output function (codegen.HISTOUT)
         lines.append(f"#define LF_HISTOUT_FN {model.name}_lf_{HISTOUT}")

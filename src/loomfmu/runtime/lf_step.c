@@ -126,10 +126,17 @@ LfStatus lf_check_step(LfInstance *c, double t0, double h) {
 
 /* Index of the first state that is not finite, beyond LF_HUGE or outside
  * its declared range, or -1. */
+#ifndef LF_X_RANGED
+#define LF_X_RANGED 1 /* (model_decl.h says whether a state has a finite range) */
+#endif
 static int runaway_state(const double *x) {
     int i;
     for (i = 0; i < LF_NX; i++) {
         unsigned vr = LF_VR_X0 + (unsigned)i;
+        if (!LF_X_RANGED) { /* every range infinite: the magnitude only */
+            if (!(fabs(x[i]) <= LF_HUGE)) return i;
+            continue;
+        }
         /* (not finite or beyond LF_HUGE in one comparison: false for NaN) */
         if (!(fabs(x[i]) <= LF_HUGE) || x[i] < lf_model.real_min[vr] ||
             x[i] > lf_model.real_max[vr])
