@@ -135,14 +135,18 @@ reference — left panel the max over the communication grid, right panel at
 the final time; y is CPU time, the median of repeated runs (runs over 1 s
 once). Lower and further left is better; compare methods along a vertical
 line (equal achieved error), never at equal tolerance. Our FMU is timed
-through FMPy as a user would run it (instantiate to free); scipy's time is
-its integration only, with a Python right-hand side from the same
-declaration (`loomfmu.reference`); CasADi's is the integrator call only.
-The dotted "fmu-c" lines are the same FMU runs (same settings, same
-communication grid, the same trajectory: final outputs equal bit for bit)
-driven by the C program of `loomfmu bench limit` without Python: our FMU's
-own time, without FMPy's (its Python side costs about 6 µs per
-communication step and 1.5 ms per run, `python
+through FMPy on one instance kept and reset before each run, as a script
+that runs a model many times does (`fmi2Reset`, then `fmpy.simulate_fmu`
+with `fmu_instance`: start values, initialization, every step and output
+read); loading its library and FMPy's binding of its functions (about
+1.3 ms per new instance) are outside the time, as building CasADi's
+integrator is outside CasADi's. scipy's time is its integration only, with
+a Python right-hand side from the same declaration (`loomfmu.reference`);
+CasADi's is the integrator call only. The dotted "fmu-c" lines are the
+same FMU runs (same settings, same communication grid, the same
+trajectory: final outputs equal bit for bit) driven by the C program of
+`loomfmu bench limit` without Python: our FMU's own time, without FMPy's
+(its Python side costs about 6 µs per communication step, `python
 benchmarks/master_overhead.py`), the fair match for CasADi's integrator
 call.
 Models with friction modes or delays have no CasADi points (its integrators
