@@ -32,6 +32,7 @@ Timing (:func:`timed`): the median of ``repeats`` runs; a run longer than
 from __future__ import annotations
 
 import statistics
+import threading
 import time
 import zipfile
 from dataclasses import dataclass
@@ -92,7 +93,9 @@ def errors(run: Run, ref: Run, outputs) -> tuple[float, float]:
 
 class Fmu:
     """An FMU built and extracted once into ``out_dir``; one instance of it is
-    kept and reset before each run (made again after a run that fails)."""
+    kept and reset before each run (made again after a run that fails).
+    Runs of one ``Fmu`` from several threads take turns on its instance (a
+    lock); give each thread its own ``Fmu`` to run them side by side."""
 
     def __init__(self, model: Model, out_dir: Path):
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -103,6 +106,7 @@ class Fmu:
         self.md = read_model_description(str(self.dir))
         self._log: list[str] = []
         self._instance = None
+        self._lock = threading.Lock()
 
     def _logger(self, *args):  # FMI 2: (env, instance, status, category, message)
         self._log.append(f"[{args[-3]}] {args[-2].decode()}: {args[-1].decode()}")
@@ -127,24 +131,25 @@ class Fmu:
                            output_interval=interval, output=list(outputs),
                            values=values or {}, model_description=self.md)
             return Run(res.t, res.y, time.perf_counter() - t0)
-        if self._instance is None:  # untimed, as CasADi's ca.integrator
-            self._instance = fmpy_logger.instantiate(self.dir, self.md, "CoSimulation",
-                                                     self._logger)
         start = {"solver": SOLVERS.index(solver) + 1, "solver_atol": atol, **(values or {})}
-        self._log.clear()
-        t0 = time.perf_counter()
-        try:
-            self._instance.reset()
-            res = fmpy.simulate_fmu(str(self.dir), validate=False, stop_time=stop,
-                                    fmi_type="CoSimulation", relative_tolerance=rtol,
-                                    output_interval=interval, start_values=start,
-                                    output=list(outputs), model_description=self.md,
-                                    fmu_instance=self._instance)
-        except Exception as e:  # noqa: BLE001 (FMPy raises bare Exceptions)
-            self._drop()
-            tail = "; ".join(self._log[-3:]) or "no log"
-            raise RuntimeError(f"simulate {self.path.name}: {e} (log: {tail})") from e
-        seconds = time.perf_counter() - t0
+        with self._lock:  # one instance: one run at a time
+            if self._instance is None:  # untimed, as CasADi's ca.integrator
+                self._instance = fmpy_logger.instantiate(self.dir, self.md, "CoSimulation",
+                                                         self._logger)
+            self._log.clear()
+            t0 = time.perf_counter()
+            try:
+                self._instance.reset()
+                res = fmpy.simulate_fmu(str(self.dir), validate=False, stop_time=stop,
+                                        fmi_type="CoSimulation", relative_tolerance=rtol,
+                                        output_interval=interval, start_values=start,
+                                        output=list(outputs), model_description=self.md,
+                                        fmu_instance=self._instance)
+            except Exception as e:  # noqa: BLE001 (FMPy raises bare Exceptions)
+                self._drop()
+                tail = "; ".join(self._log[-3:]) or "no log"
+                raise RuntimeError(f"simulate {self.path.name}: {e} (log: {tail})") from e
+            seconds = time.perf_counter() - t0
         return Run(np.asarray(res["time"]), {n: np.asarray(res[n]) for n in outputs}, seconds)
 
 

@@ -152,10 +152,15 @@ static LfStatus refuse_runaway(LfInstance *c, int i) {
     LfSolver *s = &c->solver;
     unsigned vr = LF_VR_X0 + (unsigned)i;
     char why[256];
-    snprintf(why, sizeof why, "state %s = %g at t = %.17g is not finite, beyond %g in "
-             "magnitude or outside its range [%g, %g] (a runaway input or parameter?)",
-             lf_model.real_names[vr], s->x[i], s->t, LF_HUGE, lf_model.real_min[vr],
-             lf_model.real_max[vr]);
+    if (LF_X_RANGED) /* (a model without declared ranges names none) */
+        snprintf(why, sizeof why, "state %s = %g at t = %.17g is not finite, beyond %g in "
+                 "magnitude or outside its range [%g, %g] (a runaway input or parameter?)",
+                 lf_model.real_names[vr], s->x[i], s->t, LF_HUGE, lf_model.real_min[vr],
+                 lf_model.real_max[vr]);
+    else
+        snprintf(why, sizeof why, "state %s = %g at t = %.17g is not finite or beyond %g in "
+                 "magnitude (a runaway input or parameter?)", lf_model.real_names[vr],
+                 s->x[i], s->t, LF_HUGE);
     memcpy(c->x_tmp, s->x_old, sizeof(double) * LF_NX);
     lf_solver_reset(s, s->t_old, c->x_tmp);
     return fail_step(c, LF_DISCARD, why);
