@@ -333,3 +333,17 @@ def test_reset_restarts_at_discontinuity(harness, method):
     assert r["dense_at_reset_err"] == 0.0
     assert r["status"] == 0 and r["t"] == 2.0
     assert r["err_final"] < 1e-6, r
+
+
+def test_dopri5_tiny_error_threshold_is_below_its_bound():
+    """lf_dopri5.c skips log and exp below DP_ERR_TINY, a literal for the
+    default beta: it must not exceed half the error below which the step
+    factor is at its cap for every err_old >= 1e-4 (else the shortcut would
+    change the step sizes)."""
+    import re
+
+    src = (RUNTIME / "lf_dopri5.c").read_text()
+    beta = float(re.search(r"#define LF_DP_BETA ([0-9.eE+-]+)", src).group(1))
+    tiny = float(re.search(r"#define DP_ERR_TINY ([0-9.eE+-]+)", src).group(1))
+    bound = math.exp((math.log(0.09) + beta * math.log(1e-4)) / (0.2 - 0.75 * beta))
+    assert 0 < tiny <= 0.5 * bound

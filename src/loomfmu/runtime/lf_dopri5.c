@@ -62,6 +62,10 @@ enum { DP_S_LERR, DP_S_H, DP_NSCAL };
  * with -DLF_DP_BETA=0 for the classical controller */
 #ifndef LF_DP_BETA
 #define LF_DP_BETA 0.04
+/* DP_ERR_TINY (below) for beta = 0.04, rounded down: a literal, where a
+ * compiler that does not fold exp and log of constants would call them at
+ * every step (tests/test_solvers.py checks it against the formula) */
+#define DP_ERR_TINY 4.0e-8
 #endif
 #define DP_BETA ((double)(LF_DP_BETA))
 #define DP_EXPO1 (0.2 - DP_BETA * 0.75)
@@ -70,10 +74,12 @@ enum { DP_S_LERR, DP_S_H, DP_NSCAL };
  * step grows tenfold, its cap) for every err_old >= 1e-4 (the slot's
  * floor), so the step needs neither log nor exp: the models whose steps the
  * communication grid bounds (a two-mass oscillator at 1e-4 s, a shaft) have
- * errors far below it.  Half the bound (8.1e-8 with beta = 0.04), a
- * constant GCC folds; the same result bit for bit (fac = 0.1 either way,
+ * errors far below it.  Half the bound (8.1e-8 with beta = 0.04: 4.04e-8,
+ * the literal 4.0e-8 above); the same result bit for bit (fac = 0.1 either way,
  * and log(err) < log(1e-4) would leave the slot at its floor). */
+#ifndef DP_ERR_TINY
 #define DP_ERR_TINY (0.5 * exp((log(0.09) + DP_BETA * DP_LERR_OLD0) / DP_EXPO1))
+#endif
 
 static size_t dp_work_size(size_t n) { return DP_NVEC * n + DP_NSCAL; }
 
