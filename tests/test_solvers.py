@@ -198,15 +198,16 @@ def test_rodas4_stiff_far_fewer_steps(harness):
 @pytest.mark.parametrize("ncomm", [1, 100])
 def test_dopri5_step_control_is_stabilized_on_the_stability_boundary(harness, tmp_path, ncomm):
     """dopri5 on a stiff problem sits on its stability boundary, where the
-    classical controller h*0.9*err^-1/5 (the build with -DLF_DP_BETA=0)
+    classical controller h*0.9*err^-1/5 (the build with -DLF_DP_BETA=0
+    -DLF_DP_SWITCH=0)
     oscillates and rejects about one step in six; Hairer's controller with
     Lund stabilization (beta = 0.04, the default) keeps the step steady:
     almost no rejections, fewer RHS calls, the same accuracy.  With 100
     communication intervals the steps shortened to land on them must not
     unsettle it (their errors are not remembered)."""
     exe = tmp_path / "solver_harness_classical"
-    cmd = ["gcc", *CFLAGS, "-DLF_DP_BETA=0", f"-I{RUNTIME}", str(HARNESS), *map(str, SOURCES),
-           "-lm", "-o", str(exe)]
+    cmd = ["gcc", *CFLAGS, "-DLF_DP_BETA=0", "-DLF_DP_SWITCH=0", f"-I{RUNTIME}", str(HARNESS),
+           *map(str, SOURCES), "-lm", "-o", str(exe)]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     pi = solve(harness, "dopri5", "stiff", rtol=1e-6, ncomm=ncomm)
@@ -216,6 +217,28 @@ def test_dopri5_step_control_is_stabilized_on_the_stability_boundary(harness, tm
     assert pi["rejected"] * 100 < classical["rejected"], (pi, classical)
     assert pi["rhs"] < 0.9 * classical["rhs"], (pi["rhs"], classical["rhs"])
     assert pi["err_max"] < 1e-5 and classical["err_max"] < 1e-5, (pi, classical)
+
+
+def test_dopri5_takes_stronger_gains_where_stability_bounds_the_step(harness, tmp_path):
+    """A lightly damped stiff oscillator (eigenvalues near the imaginary
+    axis, |lambda| = 2000): dopri5's step sits on its stability boundary and
+    Hairer's controller alone (the build with -DLF_DP_SWITCH=0) still rejects
+    one attempt in 27; where the stiffness estimate h|lambda| exceeds 1 the
+    step takes Gustafsson's gains (beta = 0.08) and rejects far fewer, for
+    no more right-hand sides and the same solution."""
+    exe = tmp_path / "solver_harness_hairer"
+    cmd = ["gcc", *CFLAGS, "-DLF_DP_SWITCH=0", f"-I{RUNTIME}", str(HARNESS),
+           *map(str, SOURCES), "-lm", "-o", str(exe)]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    for ncomm in (1, 100):
+        switch = solve(harness, "dopri5", "stiffosc", rtol=1e-6, t_end=2.0, ncomm=ncomm)
+        hairer = solve(exe, "dopri5", "stiffosc", rtol=1e-6, t_end=2.0, ncomm=ncomm)
+        assert switch["status"] == 0 and hairer["status"] == 0
+        assert hairer["rejected"] > 400, hairer  # the oscillation exists
+        assert switch["rejected"] < 0.7 * hairer["rejected"], (switch, hairer)
+        assert switch["rhs"] <= hairer["rhs"], (switch["rhs"], hairer["rhs"])
+        assert abs(switch["x0"] - hairer["x0"]) < 1e-5, (switch, hairer)
 
 
 def test_rodas4_stiff_nonautonomous(harness):
@@ -345,5 +368,11 @@ def test_dopri5_tiny_error_threshold_is_below_its_bound():
     src = (RUNTIME / "lf_dopri5.c").read_text()
     beta = float(re.search(r"#define LF_DP_BETA ([0-9.eE+-]+)", src).group(1))
     tiny = float(re.search(r"#define DP_ERR_TINY ([0-9.eE+-]+)", src).group(1))
-    bound = math.exp((math.log(0.09) + beta * math.log(1e-4)) / (0.2 - 0.75 * beta))
-    assert 0 < tiny <= 0.5 * bound
+    def bound(b):
+        return math.exp((math.log(0.09) + b * math.log(1e-4)) / (0.2 - 0.75 * b))
+
+    assert 0 < tiny <= 0.5 * bound(beta)
+    # the stronger gains where stability bounds the step
+    beta_s = float(re.search(r"#define DP_BETA_S ([0-9.eE+-]+)", src).group(1))
+    tiny_s = float(re.search(r"#define DP_ERR_TINY_S ([0-9.eE+-]+)", src).group(1))
+    assert 0 < tiny_s <= 0.5 * bound(beta_s)

@@ -189,6 +189,37 @@ static int blow_x(double t, double *x) {
     x[0] = 1.0 / (1.0 - t);
     return t < 1.0;
 }
+/* a lightly damped stiff oscillator driven slowly (a rotor mode on an oil
+ * film): x0' = x1 + cos t, x1' = -w^2 (x0 - sin t) - 2 z w x1, eigenvalues
+ * -z w +- i w sqrt(1 - z^2), w = 2000, z = 0.02: x -> (sin t, 0) after a
+ * fast transient from x(0) = (1, 0).  dopri5's step is bound by its
+ * stability region near the imaginary axis.  No exact solution (exact
+ * returns 0): the tests compare runs. */
+#define SO_W 2000.0
+#define SO_Z 0.02
+static LfStatus stiffosc_f(void *c, double t, const double *x, double *dx) {
+    double y0 = x[0] - sin(t);
+    (void)c;
+    dx[0] = x[1] + cos(t);
+    dx[1] = -SO_W * SO_W * y0 - 2.0 * SO_Z * SO_W * x[1];
+    return LF_OK;
+}
+static LfStatus stiffosc_j(void *c, double t, const double *x, double *J, double *ft) {
+    (void)c;
+    (void)x;
+    J[0] = 0.0;
+    J[1] = -SO_W * SO_W;
+    J[2] = 1.0;
+    J[3] = -2.0 * SO_Z * SO_W;
+    ft[0] = -sin(t);
+    ft[1] = SO_W * SO_W * cos(t);
+    return LF_OK;
+}
+static int stiffosc_x(double t, double *x) {
+    (void)t;
+    (void)x;
+    return 0;
+}
 /* five states (the vectorized dopri5 step, with a tail element): x' = -x,
  * until at t = 30 x_0' jumps to 1.7e308 (finite), where the steps have
  * grown long (x is below atol): the next stage arguments overflow to Inf.
@@ -261,6 +292,7 @@ static const Problem problems[] = {
     {"nan_after", 1, {1.0, 0.0}, nan_f, decay_j, decay_x},
     {"error_after", 1, {1.0, 0.0}, err_f, decay_j, decay_x},
     {"blowup", 1, {1.0, 0.0}, blow_f, blow_j, blow_x},
+    {"stiffosc", 2, {1.0, 0.0}, stiffosc_f, stiffosc_j, stiffosc_x},
     {"jump5", 5, {1.0, 0.5, 1.0 / 3.0, 0.25, 0.2}, jump5_f, jump5_j, jump5_x},
     {"nanjac", 1, {1.0, 0.0}, decay_f, nanjac_j, decay_x},
     {"empty", 0, {0.0, 0.0}, empty_f, empty_j, empty_x},

@@ -14,7 +14,7 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
     double *x = s->x, *lerr_old = w + DP_NVEC * n + DP_S_LERR;
     const double t = s->t, hmax = s->opt.h_max, atol = s->opt.atol, rtol = s->opt.rtol;
     double h;
-    int rejected = 0, cause = CAUSE_NONE, attempts = 0;
+    int rejected = 0, cause = CAUSE_NONE, attempts = 0, stiff;
     uint64_t nan_bits = 0; /* the stage argument's finiteness check */
     size_t i;
     LfStatus st;
@@ -75,6 +75,17 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
         st = lf_sv_eval_rhs_checked(s, t_new, ynew, k7, DP_BAD(nan_bits));
         if (st != LF_OK) goto failed;
 
+        stiff = 0; /* the stronger gains where stability bounds the step (lf_dopri5.c):
+                    * y still holds the sixth stage's argument, at t + h too */
+        if (LF_DP_SWITCH) {
+            double sn = 0.0, sd = 0.0;
+            for (i = 0; i < n; i++) {
+                double a = k7[i] - k6[i], b = ynew[i] - y[i];
+                sn += a * a;
+                sd += b * b;
+            }
+            stiff = sd > 0.0 && h * h * sn > DP_STIFF_HL * DP_STIFF_HL * sd;
+        }
         /* the error estimate over its scale (lf_sv_err_norm's arithmetic, in
          * a loop of independent elements), then the sum in order */
         for (i = 0; i < n; i++) {
@@ -94,7 +105,8 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
          * err_old^-beta / 0.9, h_new = h fac within [h/5, 10 h]; the last
          * accepted step's error damps the step size's oscillation where
          * stability, not accuracy, limits the step (beta = 0: the classical
-         * 0.9 err^-1/5).  In logarithms: one log and one exp a step, the
+         * 0.9 err^-1/5), beta = 0.08 where the stiffness estimate says so
+         * (stiff, above; lf_dopri5.c).  In logarithms: one log and one exp a step, the
          * slot keeps log(max(err_old, 1e-4)); none below DP_ERR_TINY, where
          * 1/fac is 10 (its cap) whatever err_old (lf_dopri5.c), and none
          * where the step was shortened to land on t_bound to a tenth or less
@@ -103,12 +115,17 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
         if (err <= 1.0 && last && !rejected && h_prop >= 10.0 * h) {
             lerr = DP_LERR_OLD0; /* (not read) */
             fac = 0.1;
-        } else if (err < DP_ERR_TINY) {
+        } else if (err < (stiff ? DP_ERR_TINY_S : DP_ERR_TINY)) {
             lerr = DP_LERR_OLD0; /* what the slot would keep: err < 1e-4 */
             fac = 0.1;
         } else {
             lerr = log(err);
-            fac = exp(DP_EXPO1 * lerr - (err <= 1.0 ? DP_BETA * *lerr_old : 0.0)) / 0.9;
+            if (err > 1.0) /* a rejected step: the error's own power */
+                fac = exp(DP_EXPO1 * lerr) / 0.9;
+            else if (stiff)
+                fac = exp(DP_EXPO1_S * lerr - DP_BETA_S * *lerr_old) / 0.9;
+            else
+                fac = exp(DP_EXPO1 * lerr - DP_BETA * *lerr_old) / 0.9;
         }
         if (err <= 1.0) {
             double hnew, *k1old = w + DP_K1OLD * n;
