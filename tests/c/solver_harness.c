@@ -30,13 +30,15 @@
 #include <string.h>
 
 #define PI 3.14159265358979323846
+/* the most states of a problem (the arrays below hold that many) */
+#define H_MAXN 9
 
 /* ---------------------------------------------------------------- problems */
 
 typedef struct {
     const char *name;
     size_t n;
-    double x0[5];
+    double x0[H_MAXN];
     LfStatus (*rhs)(void *ctx, double t, const double *x, double *dx);
     LfStatus (*jac)(void *ctx, double t, const double *x, double *J, double *dfdt);
     /* exact solution; returns 0 if unknown */
@@ -220,36 +222,82 @@ static int stiffosc_x(double t, double *x) {
     (void)x;
     return 0;
 }
-/* five states (the vectorized dopri5 step, with a tail element): x' = -x,
- * until at t = 30 x_0' jumps to 1.7e308 (finite), where the steps have
- * grown long (x is below atol): the next stage arguments overflow to Inf.
- * f answers a non-finite argument with LF_ERROR, so the run ends in
- * Discard only if every stage's argument was checked before the call */
-static LfStatus jump5_f(void *c, double t, const double *x, double *dx) {
-    int i;
-    (void)c;
-    for (i = 0; i < 5; i++) {
-        if (!isfinite(x[i])) return LF_ERROR;
-        dx[i] = -x[i];
+/* JUMP_N states (the vectorized dopri5 steps, with tail elements: 5 for the
+ * SSE2 build, 9 for the AVX2 one): x' = -x, until at t = 30 x_0' jumps to
+ * 1.7e308 (finite), where the steps have grown long (x is below atol): the
+ * next stage arguments overflow to Inf.  f answers a non-finite argument
+ * with LF_ERROR, so the run ends in Discard only if every stage's argument
+ * was checked before the call */
+#define JUMP(N)                                                                    \
+    static LfStatus jump##N##_f(void *c, double t, const double *x, double *dx) { \
+        int i;                                                                     \
+        (void)c;                                                                   \
+        for (i = 0; i < N; i++) {                                                  \
+            if (!isfinite(x[i])) return LF_ERROR;                                  \
+            dx[i] = -x[i];                                                         \
+        }                                                                          \
+        if (t >= 30.0) dx[0] = 1.7e308;                                            \
+        return LF_OK;                                                              \
+    }                                                                              \
+    static LfStatus jump##N##_j(void *c, double t, const double *x, double *J,    \
+                                double *ft) {                                      \
+        int i, j;                                                                  \
+        (void)c;                                                                   \
+        (void)t;                                                                   \
+        (void)x;                                                                   \
+        for (i = 0; i < N; i++) {                                                  \
+            for (j = 0; j < N; j++) J[i + N * j] = i == j ? -1.0 : 0.0;            \
+            ft[i] = 0.0;                                                           \
+        }                                                                          \
+        return LF_OK;                                                              \
+    }                                                                              \
+    static int jump##N##_x(double t, double *x) {                                 \
+        int i;                                                                     \
+        for (i = 0; i < N; i++) x[i] = exp(-t) / (i + 1.0);                        \
+        return t < 30.0;                                                           \
     }
-    if (t >= 30.0) dx[0] = 1.7e308;
-    return LF_OK;
-}
-static LfStatus jump5_j(void *c, double t, const double *x, double *J, double *ft) {
-    int i, j;
+JUMP(5)
+JUMP(9)
+/* nine states, nonlinear and coupled, with a slow and a fast part (the
+ * vectorized steps on every element, tails included): a chain of
+ * pendulums x_2i' = x_2i+1, x_2i+1' = -w_i^2 sin x_2i - 0.1 x_2i+1 +
+ * 0.5 (x_2i+2 - x_2i) (i = 0..3, w_i = 1..4), and x_8' = -x_8 + x_0 x_1.
+ * No exact solution (exact returns 0): the tests compare runs. */
+static LfStatus chain9_f(void *c, double t, const double *x, double *dx) {
+    int i;
     (void)c;
     (void)t;
-    (void)x;
-    for (i = 0; i < 5; i++) {
-        for (j = 0; j < 5; j++) J[i + 5 * j] = i == j ? -1.0 : 0.0;
-        ft[i] = 0.0;
+    for (i = 0; i < 4; i++) {
+        double w = i + 1.0, right = i < 3 ? x[2 * i + 2] : 0.0;
+        dx[2 * i] = x[2 * i + 1];
+        dx[2 * i + 1] = -w * w * sin(x[2 * i]) - 0.1 * x[2 * i + 1] + 0.5 * (right - x[2 * i]);
     }
+    dx[8] = -x[8] + x[0] * x[1];
     return LF_OK;
 }
-static int jump5_x(double t, double *x) {
+static LfStatus chain9_j(void *c, double t, const double *x, double *J, double *ft) {
     int i;
-    for (i = 0; i < 5; i++) x[i] = exp(-t) / (i + 1.0);
-    return t < 30.0;
+    (void)c;
+    (void)t;
+    memset(J, 0, sizeof(double) * 81);
+    for (i = 0; i < 4; i++) {
+        double w = i + 1.0;
+        J[2 * i + 9 * (2 * i + 1)] = 1.0;
+        J[2 * i + 1 + 9 * (2 * i)] = -w * w * cos(x[2 * i]) - 0.5;
+        J[2 * i + 1 + 9 * (2 * i + 1)] = -0.1;
+        if (i < 3) J[2 * i + 1 + 9 * (2 * i + 2)] = 0.5;
+        ft[2 * i] = ft[2 * i + 1] = 0.0;
+    }
+    J[8 + 9 * 8] = -1.0;
+    J[8 + 9 * 0] = x[1];
+    J[8 + 9 * 1] = x[0];
+    ft[8] = 0.0;
+    return LF_OK;
+}
+static int chain9_x(double t, double *x) {
+    (void)t;
+    (void)x;
+    return 0;
 }
 /* Jacobian with NaN */
 static LfStatus nanjac_j(void *c, double t, const double *x, double *J, double *ft) {
@@ -294,6 +342,9 @@ static const Problem problems[] = {
     {"blowup", 1, {1.0, 0.0}, blow_f, blow_j, blow_x},
     {"stiffosc", 2, {1.0, 0.0}, stiffosc_f, stiffosc_j, stiffosc_x},
     {"jump5", 5, {1.0, 0.5, 1.0 / 3.0, 0.25, 0.2}, jump5_f, jump5_j, jump5_x},
+    {"jump9", 9, {1.0, 0.5, 1.0 / 3.0, 0.25, 0.2, 1.0 / 6.0, 1.0 / 7.0, 0.125, 1.0 / 9.0},
+     jump9_f, jump9_j, jump9_x},
+    {"chain9", 9, {1.0, 0.0, -0.5, 0.0, 0.25, 0.0, 0.0, 0.3, 1.0}, chain9_f, chain9_j, chain9_x},
     {"nanjac", 1, {1.0, 0.0}, decay_f, nanjac_j, decay_x},
     {"empty", 0, {0.0, 0.0}, empty_f, empty_j, empty_x},
 };
@@ -349,7 +400,7 @@ typedef struct {
     LfStatus status;
     double err_final, err_max, dense_err, dense_end_err;
     int landed; /* every communication point hit exactly */
-    double x[2];
+    double x[H_MAXN];
 } Result;
 
 static int parse_setup(int argc, char **argv, Setup *su) {
@@ -375,7 +426,7 @@ static double comm_point(const Setup *su, long k) {
 /* Advance until t == tb; checks dense output after every accepted step. */
 static LfStatus advance(LfSolver *s, const Problem *p, double tb, Result *r) {
     static const double thetas[] = {0.1, 0.25, 0.5, 0.75, 0.9};
-    double xe[2], xd[2];
+    double xe[H_MAXN], xd[H_MAXN];
     long guard = 0;
     size_t k;
     while (s->t < tb) {
@@ -422,6 +473,10 @@ static void print_result(const LfSolver *s, const Result *r) {
     printf("status %d\n", (int)r->status);
     printf("t %.17g\n", s->t);
     printf("x0 %.17g\n", s->ode.n > 0 ? s->x[0] : 0.0);
+    {
+        size_t i; /* every state, as x_<i> (x0 above is the first) */
+        for (i = 0; i < s->ode.n; i++) printf("x_%lu %.17g\n", (unsigned long)i, s->x[i]);
+    }
     printf("err_final %.6e\n", r->err_final);
     printf("err_max %.6e\n", r->err_max);
     printf("dense_err %.6e\n", r->dense_err);
@@ -433,7 +488,7 @@ static void print_result(const LfSolver *s, const Result *r) {
 }
 
 static void finish(LfSolver *s, const Problem *p, Result *r) {
-    double xe[2];
+    double xe[H_MAXN];
     size_t i;
     for (i = 0; i < p->n; i++) r->x[i] = s->x[i];
     if (p->exact(s->t, xe))
@@ -465,7 +520,7 @@ static int cmd_run(int argc, char **argv) {
     print_result(&s, &r);
     {
         /* after a failure: the state must still be the last accepted one */
-        double xe[2];
+        double xe[H_MAXN];
         int finite = 1;
         size_t i;
         for (i = 0; i < su.p->n; i++) finite &= isfinite(s.x[i]) ? 1 : 0;
@@ -475,7 +530,7 @@ static int cmd_run(int argc, char **argv) {
          * the last accepted step, or x's value if there is none), never
          * made of a failed attempt's stages: its error at the midpoint */
         {
-            double xm[2], tm = 0.5 * (s.t_old + s.t);
+            double xm[H_MAXN], tm = 0.5 * (s.t_old + s.t);
             s.method->dense(&s, tm, xm);
             if (su.p->n > 0 && su.p->exact(tm, xe))
                 printf("dense_mid_err %.6e\n", max_abs_diff(xm, xe, su.p->n));
@@ -565,7 +620,7 @@ static int cmd_side(int argc, char **argv) {
     printf("identical %d\n", ta == a.t && na == a.n_steps &&
                                  memcmp(xa, a.x, su.p->n * sizeof(double)) == 0);
     {
-        double xe[2];
+        double xe[H_MAXN];
         su2.p->exact(b.t, xe);
         printf("err_other %.6e\n", max_abs_diff(b.x, xe, su2.p->n));
     }

@@ -75,6 +75,20 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
         st = lf_sv_eval_rhs_checked(s, t_new, ynew, k7, DP_BAD(nan_bits));
         if (st != LF_OK) goto failed;
 
+        /* the error estimate over its scale (lf_sv_err_norm's arithmetic, in
+         * a loop of independent elements; ynew is finite, checked above, so
+         * the scale is max(|x|, |ynew|) without lf_sv_err_norm's NaN case),
+         * then the sum in order.  Into k2, which neither the error nor the
+         * dense output reads: y keeps the sixth stage's argument for the
+         * stiffness estimate below, and this loop comes first, where the
+         * vectorizer takes it (after the estimate's branches it did not) */
+        for (i = 0; i < n; i++) {
+            double a0 = fabs(x[i]), a1 = fabs(ynew[i]);
+            double sk = atol + rtol * (a0 > a1 ? a0 : a1);
+            k2[i] = h * (DP_E1 * k1[i] + DP_E3 * k3[i] + DP_E4 * k4[i] + DP_E5 * k5[i] +
+                         DP_E6 * k6[i] + DP_E7 * k7[i]) / sk;
+        }
+        for (i = 0, err = 0.0; i < n; i++) err += k2[i] * k2[i];
         stiff = 0; /* the stronger gains where stability bounds the step (lf_dopri5.c):
                     * y still holds the sixth stage's argument, at t + h too */
         if (LF_DP_SWITCH) {
@@ -86,15 +100,6 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
             }
             stiff = sd > 0.0 && h * h * sn > DP_STIFF_HL * DP_STIFF_HL * sd;
         }
-        /* the error estimate over its scale (lf_sv_err_norm's arithmetic, in
-         * a loop of independent elements), then the sum in order */
-        for (i = 0; i < n; i++) {
-            double a0 = fabs(x[i]), a1 = fabs(ynew[i]);
-            double sk = atol + rtol * (a1 != a1 || a0 > a1 ? a0 : a1);
-            y[i] = h * (DP_E1 * k1[i] + DP_E3 * k3[i] + DP_E4 * k4[i] + DP_E5 * k5[i] +
-                        DP_E6 * k6[i] + DP_E7 * k7[i]) / sk;
-        }
-        for (i = 0, err = 0.0; i < n; i++) err += y[i] * y[i];
         err = n > 0 ? sqrt(err / (double)n) : 0.0;
         if (!isfinite(err)) {
             st = LF_DISCARD;
