@@ -412,3 +412,26 @@ def test_dopri5_avx2_step_is_bit_for_bit_the_sse2_one(harness, tmp_path):
     a = solve(harness, "dopri5", "jump9", t_end=100.0, rtol=1e-6, atol=1e-9)
     b = solve(exe, "dopri5", "jump9", t_end=100.0, rtol=1e-6, atol=1e-9)
     assert a["status"] == 2 and same(a, b), (a, b)
+
+
+def test_dopri5_step_after_a_landing_follows_its_error(harness, tmp_path):
+    """A step shortened to land on a communication point hands the next
+    step the size proposed before the shortening, unless its own error
+    predicts that size would fail (lf_dopri5.c, dp_land_keeps).  On a chirp
+    x' = cos(t^2), whose step sizes shrink all the way, the proposal kept
+    regardless (the build with -DLF_DP_LAND_PREDICT=0) was rejected after
+    the landings: the prediction rejects far fewer steps for no more
+    right-hand sides and the same solution."""
+    exe = tmp_path / "solver_harness_keep"
+    cmd = ["gcc", *CFLAGS, "-DLF_DP_LAND_PREDICT=0", f"-I{RUNTIME}", str(HARNESS),
+           *map(str, SOURCES), "-lm", "-o", str(exe)]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    for t_end, ncomm in ((10.0, 100), (20.0, 300)):
+        new = solve(harness, "dopri5", "chirp", rtol=1e-6, atol=1e-9, t_end=t_end, ncomm=ncomm)
+        old = solve(exe, "dopri5", "chirp", rtol=1e-6, atol=1e-9, t_end=t_end, ncomm=ncomm)
+        assert new["status"] == 0 and old["status"] == 0 and new["landed"] == 1
+        assert old["rejected"] > 15, old  # the rejections after landings exist
+        assert new["rejected"] < 0.6 * old["rejected"], (new, old)
+        assert new["rhs"] <= old["rhs"], (new["rhs"], old["rhs"])
+        assert abs(new["x0"] - old["x0"]) < 1e-6, (new, old)

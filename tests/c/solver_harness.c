@@ -299,6 +299,27 @@ static int chain9_x(double t, double *x) {
     (void)x;
     return 0;
 }
+/* a chirp, x' = cos(t^2): the frequency grows with t, so the step sizes
+ * shrink all the way and the controller's trend lags the error (no exact
+ * solution: exact returns 0, the tests compare runs) */
+static LfStatus chirp_f(void *c, double t, const double *x, double *dx) {
+    (void)c;
+    (void)x;
+    dx[0] = cos(t * t);
+    return LF_OK;
+}
+static LfStatus chirp_j(void *c, double t, const double *x, double *J, double *ft) {
+    (void)c;
+    (void)x;
+    J[0] = 0.0;
+    ft[0] = -2.0 * t * sin(t * t);
+    return LF_OK;
+}
+static int chirp_x(double t, double *x) {
+    (void)t;
+    (void)x;
+    return 0;
+}
 /* Jacobian with NaN */
 static LfStatus nanjac_j(void *c, double t, const double *x, double *J, double *ft) {
     (void)c;
@@ -345,6 +366,7 @@ static const Problem problems[] = {
     {"jump9", 9, {1.0, 0.5, 1.0 / 3.0, 0.25, 0.2, 1.0 / 6.0, 1.0 / 7.0, 0.125, 1.0 / 9.0},
      jump9_f, jump9_j, jump9_x},
     {"chain9", 9, {1.0, 0.0, -0.5, 0.0, 0.25, 0.0, 0.0, 0.3, 1.0}, chain9_f, chain9_j, chain9_x},
+    {"chirp", 1, {0.0, 0.0}, chirp_f, chirp_j, chirp_x},
     {"nanjac", 1, {1.0, 0.0}, decay_f, nanjac_j, decay_x},
     {"empty", 0, {0.0, 0.0}, empty_f, empty_j, empty_x},
 };

@@ -14,7 +14,7 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
     double *x = s->x, *lerr_old = w + DP_NVEC * n + DP_S_LERR;
     const double t = s->t, hmax = s->opt.h_max, atol = s->opt.atol, rtol = s->opt.rtol;
     double h;
-    int rejected = 0, cause = CAUSE_NONE, attempts = 0, stiff;
+    int rejected = 0, cause = CAUSE_NONE, attempts = 0, stiff, land, keep;
     uint64_t nan_bits = 0; /* the stage argument's finiteness check */
     size_t i;
     LfStatus st;
@@ -89,17 +89,6 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
                          DP_E6 * k6[i] + DP_E7 * k7[i]) / sk;
         }
         for (i = 0, err = 0.0; i < n; i++) err += k2[i] * k2[i];
-        stiff = 0; /* the stronger gains where stability bounds the step (lf_dopri5.c):
-                    * y still holds the sixth stage's argument, at t + h too */
-        if (LF_DP_SWITCH) {
-            double sn = 0.0, sd = 0.0;
-            for (i = 0; i < n; i++) {
-                double a = k7[i] - k6[i], b = ynew[i] - y[i];
-                sn += a * a;
-                sd += b * b;
-            }
-            stiff = sd > 0.0 && h * h * sn > DP_STIFF_HL * DP_STIFF_HL * sd;
-        }
         err = n > 0 ? sqrt(err / (double)n) : 0.0;
         if (!isfinite(err)) {
             st = LF_DISCARD;
@@ -111,16 +100,31 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
          * accepted step's error damps the step size's oscillation where
          * stability, not accuracy, limits the step (beta = 0: the classical
          * 0.9 err^-1/5), beta = 0.08 where the stiffness estimate says so
-         * (stiff, above; lf_dopri5.c).  In logarithms: one log and one exp a step, the
-         * slot keeps log(max(err_old, 1e-4)); none below DP_ERR_TINY, where
-         * 1/fac is 10 (its cap) whatever err_old (lf_dopri5.c), and none
-         * where the step was shortened to land on t_bound to a tenth or less
-         * of the proposal: the proposal is kept (below), which 10 h cannot
-         * beat, and the slot is not updated. */
-        if (err <= 1.0 && last && !rejected && h_prop >= 10.0 * h) {
+         * (stiff, below; lf_dopri5.c).  In logarithms: one log and one exp a
+         * step, the slot keeps log(max(err_old, 1e-4)); none below
+         * DP_ERR_TINY, where 1/fac is 10 (its cap) whatever err_old
+         * (lf_dopri5.c), and none where a step shortened to land on t_bound
+         * keeps the proposal h_prop for the next one (dp_land_keeps); such
+         * a step does not update the slot. */
+        land = err <= 1.0 && last && !rejected && h < h_prop;
+        keep = land && dp_land_keeps(err, h, h_prop);
+        /* the stronger gains where stability bounds the step (lf_dopri5.c),
+         * from Hairer's estimate at t + h: y still holds the sixth stage's
+         * argument.  Only where the step size depends on it */
+        stiff = 0;
+        if (LF_DP_SWITCH && !keep && err <= 1.0 && (land || err >= DP_ERR_TINY_S)) {
+            double sn = 0.0, sd = 0.0;
+            for (i = 0; i < n; i++) {
+                double a = k7[i] - k6[i], b = ynew[i] - y[i];
+                sn += a * a;
+                sd += b * b;
+            }
+            stiff = sd > 0.0 && h * h * sn > DP_STIFF_HL * DP_STIFF_HL * sd;
+        }
+        if (keep) { /* the next step takes h_prop (lf_dopri5.c) */
             lerr = DP_LERR_OLD0; /* (not read) */
-            fac = 0.1;
-        } else if (err < (stiff ? DP_ERR_TINY_S : DP_ERR_TINY)) {
+            fac = 0.0;
+        } else if (!land && err < (stiff ? DP_ERR_TINY_S : DP_ERR_TINY)) {
             lerr = DP_LERR_OLD0; /* what the slot would keep: err < 1e-4 */
             fac = 0.1;
         } else {
@@ -134,10 +138,14 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
         }
         if (err <= 1.0) {
             double hnew, *k1old = w + DP_K1OLD * n;
-            if (fac < 0.1) fac = 0.1;
             if (fac > 5.0) fac = 5.0;
-            if (rejected && fac < 1.0) fac = 1.0;
-            hnew = h / fac;
+            if (land) { /* shortened to land on t_bound (lf_dopri5.c) */
+                hnew = fac * h_prop <= h ? h_prop : h / fac;
+            } else {
+                if (fac < 0.1) fac = 0.1;
+                if (rejected && fac < 1.0) fac = 1.0;
+                hnew = h / fac;
+            }
             /* a step shortened to land on t_bound has an error that says
              * nothing of the step size's trend: the full step's is kept */
             if (!(last && h < h_prop)) *lerr_old = lerr > DP_LERR_OLD0 ? lerr : DP_LERR_OLD0;
@@ -154,8 +162,6 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
             }
             s->t_old = t;
             s->t = t_new;
-            /* a step shortened to hit t_bound says little about the next one */
-            if (last && !rejected && h_prop > hnew) hnew = h_prop;
             s->h = fmin(hnew, hmax);
             s->n_steps++;
             return LF_OK;
