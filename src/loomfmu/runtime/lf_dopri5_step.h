@@ -36,30 +36,35 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
         if (++attempts > LF_MAX_ATTEMPTS) return lf_sv_give_up(s, h, 0.0, cause, 1);
         if (lf_sv_plan_step(s, t_bound, &h, &t_new, &last, &hmin)) return lf_sv_give_up(s, h, hmin, cause, 0);
 
+        DP_IVDEP
         for (i = 0; i < n; i++) {
             y[i] = x[i] + h * DP_A21 * k1[i];
             nan_bits |= lf_sv_nan_bits(y[i]);
         }
         st = lf_sv_eval_rhs_checked(s, t + DP_C2 * h, y, k2, DP_BAD(nan_bits));
         if (st != LF_OK) goto failed;
+        DP_IVDEP
         for (i = 0; i < n; i++) {
             y[i] = x[i] + h * (DP_A31 * k1[i] + DP_A32 * k2[i]);
             nan_bits |= lf_sv_nan_bits(y[i]);
         }
         st = lf_sv_eval_rhs_checked(s, t + DP_C3 * h, y, k3, DP_BAD(nan_bits));
         if (st != LF_OK) goto failed;
+        DP_IVDEP
         for (i = 0; i < n; i++) {
             y[i] = x[i] + h * (DP_A41 * k1[i] + DP_A42 * k2[i] + DP_A43 * k3[i]);
             nan_bits |= lf_sv_nan_bits(y[i]);
         }
         st = lf_sv_eval_rhs_checked(s, t + DP_C4 * h, y, k4, DP_BAD(nan_bits));
         if (st != LF_OK) goto failed;
+        DP_IVDEP
         for (i = 0; i < n; i++) {
             y[i] = x[i] + h * (DP_A51 * k1[i] + DP_A52 * k2[i] + DP_A53 * k3[i] + DP_A54 * k4[i]);
             nan_bits |= lf_sv_nan_bits(y[i]);
         }
         st = lf_sv_eval_rhs_checked(s, t + DP_C5 * h, y, k5, DP_BAD(nan_bits));
         if (st != LF_OK) goto failed;
+        DP_IVDEP
         for (i = 0; i < n; i++) {
             y[i] = x[i] + h * (DP_A61 * k1[i] + DP_A62 * k2[i] + DP_A63 * k3[i] +
                                DP_A64 * k4[i] + DP_A65 * k5[i]);
@@ -67,6 +72,7 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
         }
         st = lf_sv_eval_rhs_checked(s, t_new, y, k6, DP_BAD(nan_bits));
         if (st != LF_OK) goto failed;
+        DP_IVDEP
         for (i = 0; i < n; i++) {
             ynew[i] = x[i] + h * (DP_A71 * k1[i] + DP_A73 * k3[i] + DP_A74 * k4[i] +
                                   DP_A75 * k5[i] + DP_A76 * k6[i]);
@@ -82,6 +88,7 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
          * dense output reads: y keeps the sixth stage's argument for the
          * stiffness estimate below, and this loop comes first, where the
          * vectorizer takes it (after the estimate's branches it did not) */
+        DP_IVDEP
         for (i = 0; i < n; i++) {
             double a0 = fabs(x[i]), a1 = fabs(ynew[i]);
             double sk = atol + rtol * (a0 > a1 ? a0 : a1);
@@ -114,6 +121,7 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
         stiff = 0;
         if (LF_DP_SWITCH && !keep && err <= 1.0 && (land || err >= DP_ERR_TINY_S)) {
             double sn = 0.0, sd = 0.0;
+            DP_IVDEP
             for (i = 0; i < n; i++) {
                 double a = k7[i] - k6[i], b = ynew[i] - y[i];
                 sn += a * a;
@@ -155,6 +163,7 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
                 w[DP_NVEC * n + DP_S_H] = h;
                 for (i = 0; i < n; i++) k1old[i] = k1[i];
             }
+            DP_IVDEP
             for (i = 0; i < n; i++) { /* (a loop: n is small, a memmove call is not) */
                 s->x_old[i] = x[i];
                 x[i] = ynew[i];
