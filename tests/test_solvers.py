@@ -299,10 +299,10 @@ def test_blowup_discards(harness, method):
     assert r["x_finite"] == 1
 
 
-@pytest.mark.parametrize("problem", ["jump5", "jump9"])
+@pytest.mark.parametrize("problem", ["jump5", "jump17"])
 @pytest.mark.parametrize("method", ["dopri5", "rodas4", "ros34pw2"])
 def test_stage_arguments_that_overflow_are_never_passed_to_f(harness, method, problem):
-    """Five and nine states (dopri5's vectorized steps, SSE2 and AVX2, and
+    """Five and seventeen states (dopri5's vectorized steps, SSE2 and AVX2, and
     their tail elements): at t = 30 a derivative jumps to 1.7e308 where the
     steps are long, so the next stage arguments overflow; the harness's f
     answers a non-finite argument with an error, so a Discard (not an Error)
@@ -380,10 +380,10 @@ def test_dopri5_tiny_error_threshold_is_below_its_bound():
 
 
 def test_dopri5_avx2_step_is_bit_for_bit_the_sse2_one(harness, tmp_path):
-    """From eight states dopri5 takes a build of its step for AVX2 where the
+    """From sixteen states dopri5 takes a build of its step for AVX2 where the
     processor has it (lf_dopri5.c); it must do the same arithmetic in the
     same order as the SSE2 build (-DLF_DP_AVX2=0): every state, step and
-    right-hand side the same, on a nonlinear nine-state problem over several
+    right-hand side the same, on a nonlinear 17-state problem over several
     communication grids, and on one that ends in a Discard."""
     import platform
 
@@ -405,12 +405,12 @@ def test_dopri5_avx2_step_is_bit_for_bit_the_sse2_one(harness, tmp_path):
     proc = subprocess.run(cmd, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     for rtol, ncomm in ((1e-6, 1), (1e-8, 7), (1e-4, 200)):
-        a = solve(harness, "dopri5", "chain9", rtol=rtol, t_end=20.0, ncomm=ncomm)
-        b = solve(exe, "dopri5", "chain9", rtol=rtol, t_end=20.0, ncomm=ncomm)
+        a = solve(harness, "dopri5", "chain17", rtol=rtol, t_end=20.0, ncomm=ncomm)
+        b = solve(exe, "dopri5", "chain17", rtol=rtol, t_end=20.0, ncomm=ncomm)
         assert a["status"] == 0 and a["steps"] > 50, a
         assert same(a, b), (a, b)
-    a = solve(harness, "dopri5", "jump9", t_end=100.0, rtol=1e-6, atol=1e-9)
-    b = solve(exe, "dopri5", "jump9", t_end=100.0, rtol=1e-6, atol=1e-9)
+    a = solve(harness, "dopri5", "jump17", t_end=100.0, rtol=1e-6, atol=1e-9)
+    b = solve(exe, "dopri5", "jump17", t_end=100.0, rtol=1e-6, atol=1e-9)
     assert a["status"] == 2 and same(a, b), (a, b)
 
 

@@ -31,7 +31,7 @@
 
 #define PI 3.14159265358979323846
 /* the most states of a problem (the arrays below hold that many) */
-#define H_MAXN 9
+#define H_MAXN 17
 
 /* ---------------------------------------------------------------- problems */
 
@@ -223,7 +223,7 @@ static int stiffosc_x(double t, double *x) {
     return 0;
 }
 /* JUMP_N states (the vectorized dopri5 steps, with tail elements: 5 for the
- * SSE2 build, 9 for the AVX2 one): x' = -x, until at t = 30 x_0' jumps to
+ * SSE2 build, 17 for the AVX2 one): x' = -x, until at t = 30 x_0' jumps to
  * 1.7e308 (finite), where the steps have grown long (x is below atol): the
  * next stage arguments overflow to Inf.  f answers a non-finite argument
  * with LF_ERROR, so the run ends in Discard only if every stage's argument
@@ -257,44 +257,46 @@ static int stiffosc_x(double t, double *x) {
         return t < 30.0;                                                           \
     }
 JUMP(5)
-JUMP(9)
-/* nine states, nonlinear and coupled, with a slow and a fast part (the
- * vectorized steps on every element, tails included): a chain of
+JUMP(17)
+/* seventeen states, nonlinear and coupled, with a slow and a fast part (the
+ * vectorized steps on every element, tails included): a chain of eight
  * pendulums x_2i' = x_2i+1, x_2i+1' = -w_i^2 sin x_2i - 0.1 x_2i+1 +
- * 0.5 (x_2i+2 - x_2i) (i = 0..3, w_i = 1..4), and x_8' = -x_8 + x_0 x_1.
+ * 0.5 (x_2i+2 - x_2i) (w_i = 1 + i/2), and x_16' = -x_16 + x_0 x_1.
  * No exact solution (exact returns 0): the tests compare runs. */
-static LfStatus chain9_f(void *c, double t, const double *x, double *dx) {
+#define CH_P 8
+#define CH_N (2 * CH_P + 1)
+static LfStatus chain_f(void *c, double t, const double *x, double *dx) {
     int i;
     (void)c;
     (void)t;
-    for (i = 0; i < 4; i++) {
-        double w = i + 1.0, right = i < 3 ? x[2 * i + 2] : 0.0;
+    for (i = 0; i < CH_P; i++) {
+        double w = 1.0 + 0.5 * i, right = i < CH_P - 1 ? x[2 * i + 2] : 0.0;
         dx[2 * i] = x[2 * i + 1];
         dx[2 * i + 1] = -w * w * sin(x[2 * i]) - 0.1 * x[2 * i + 1] + 0.5 * (right - x[2 * i]);
     }
-    dx[8] = -x[8] + x[0] * x[1];
+    dx[CH_N - 1] = -x[CH_N - 1] + x[0] * x[1];
     return LF_OK;
 }
-static LfStatus chain9_j(void *c, double t, const double *x, double *J, double *ft) {
+static LfStatus chain_j(void *c, double t, const double *x, double *J, double *ft) {
     int i;
     (void)c;
     (void)t;
-    memset(J, 0, sizeof(double) * 81);
-    for (i = 0; i < 4; i++) {
-        double w = i + 1.0;
-        J[2 * i + 9 * (2 * i + 1)] = 1.0;
-        J[2 * i + 1 + 9 * (2 * i)] = -w * w * cos(x[2 * i]) - 0.5;
-        J[2 * i + 1 + 9 * (2 * i + 1)] = -0.1;
-        if (i < 3) J[2 * i + 1 + 9 * (2 * i + 2)] = 0.5;
+    memset(J, 0, sizeof(double) * CH_N * CH_N);
+    for (i = 0; i < CH_P; i++) {
+        double w = 1.0 + 0.5 * i;
+        J[2 * i + CH_N * (2 * i + 1)] = 1.0;
+        J[2 * i + 1 + CH_N * (2 * i)] = -w * w * cos(x[2 * i]) - 0.5;
+        J[2 * i + 1 + CH_N * (2 * i + 1)] = -0.1;
+        if (i < CH_P - 1) J[2 * i + 1 + CH_N * (2 * i + 2)] = 0.5;
         ft[2 * i] = ft[2 * i + 1] = 0.0;
     }
-    J[8 + 9 * 8] = -1.0;
-    J[8 + 9 * 0] = x[1];
-    J[8 + 9 * 1] = x[0];
-    ft[8] = 0.0;
+    J[CH_N - 1 + CH_N * (CH_N - 1)] = -1.0;
+    J[CH_N - 1] = x[1];
+    J[CH_N - 1 + CH_N] = x[0];
+    ft[CH_N - 1] = 0.0;
     return LF_OK;
 }
-static int chain9_x(double t, double *x) {
+static int chain_x(double t, double *x) {
     (void)t;
     (void)x;
     return 0;
@@ -363,9 +365,13 @@ static const Problem problems[] = {
     {"blowup", 1, {1.0, 0.0}, blow_f, blow_j, blow_x},
     {"stiffosc", 2, {1.0, 0.0}, stiffosc_f, stiffosc_j, stiffosc_x},
     {"jump5", 5, {1.0, 0.5, 1.0 / 3.0, 0.25, 0.2}, jump5_f, jump5_j, jump5_x},
-    {"jump9", 9, {1.0, 0.5, 1.0 / 3.0, 0.25, 0.2, 1.0 / 6.0, 1.0 / 7.0, 0.125, 1.0 / 9.0},
-     jump9_f, jump9_j, jump9_x},
-    {"chain9", 9, {1.0, 0.0, -0.5, 0.0, 0.25, 0.0, 0.0, 0.3, 1.0}, chain9_f, chain9_j, chain9_x},
+    {"jump17", 17, {1.0, 0.5, 1.0 / 3.0, 0.25, 0.2, 1.0 / 6.0, 1.0 / 7.0, 0.125, 1.0 / 9.0, 0.1,
+                    1.0 / 11.0, 1.0 / 12.0, 1.0 / 13.0, 1.0 / 14.0, 1.0 / 15.0, 1.0 / 16.0,
+                    1.0 / 17.0},
+     jump17_f, jump17_j, jump17_x},
+    {"chain17", CH_N,
+     {1.0, 0.0, -0.5, 0.0, 0.25, 0.0, 0.0, 0.3, 0.5, 0.0, -0.2, 0.1, 0.0, 0.0, 0.4, -0.1, 1.0},
+     chain_f, chain_j, chain_x},
     {"chirp", 1, {0.0, 0.0}, chirp_f, chirp_j, chirp_x},
     {"nanjac", 1, {1.0, 0.0}, decay_f, nanjac_j, decay_x},
     {"empty", 0, {0.0, 0.0}, empty_f, empty_j, empty_x},

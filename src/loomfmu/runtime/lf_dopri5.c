@@ -198,10 +198,12 @@ static size_t dp_work_size(size_t n) { return DP_NVEC * n + DP_NSCAL; }
  * time (__builtin_cpu_supports), so the FMU still runs on any x86-64.  The
  * same operations in the same order, without FMA (-std=c99 contracts no
  * a * b + c): bit for bit the SSE2 build's results.  From DP_AVX2_MIN_N
- * states, where it pays (instructions of the limit driver's run:
- * heald_frame, 13 states, -6.5 %; the spindle, 69, -13 %; on 7 states the
- * longer vectors' tails cost more than they save: heald_frame_planar
- * +0.9 %).  -DLF_DP_AVX2=0 leaves it out. */
+ * states, where it pays in time, not only in instructions (the limit
+ * driver's run, best of 21, AVX2 against SSE2: the spindle, 69 states,
+ * -6 % time, -13 % instructions; spindle_modal, 17, -1.5 % time;
+ * heald_frame, 13, +3 % time for -7 % instructions, its vectors of 13 with
+ * their tails; heald_frame_planar, 7, +0.9 % instructions).
+ * -DLF_DP_AVX2=0 leaves it out. */
 #ifndef LF_DP_AVX2
 #define LF_DP_AVX2 1
 #endif
@@ -216,7 +218,7 @@ static size_t dp_work_size(size_t n) { return DP_NVEC * n + DP_NSCAL; }
 #undef DP_N
 #pragma GCC pop_options
 #define DP_HAVE_AVX2 1
-#define DP_AVX2_MIN_N 8
+#define DP_AVX2_MIN_N 16
 #endif
 #endif
 /* states from which the vectorized step pays (above) */
