@@ -121,3 +121,19 @@ def test_a_delay_model_pays_one_history_sample_per_step(tmp_path):
     stages, _ = L.STAGES["dopri5"]
     r = L.row(c, None)
     assert r["limit_s"] == pytest.approx(c["steps"] * (stages * c["rhs_s"] + c["hist_s"]))
+
+
+def test_a_landing_with_a_tiny_error_grows_the_step(heald_frame_rigid_fmu, tmp_path):
+    """The rigid heald frame over its whole run in one communication step:
+    its clock state phi' = omega gives dopri5 an error near zero, and its
+    steps land before each known break (a dwell's start or end).  After a
+    landing the next step takes the proposal the landing was shortened
+    from, or, where the error predicted for that proposal is far inside the
+    tolerance, the controller's own longer step (lf_dopri5.c): 28 steps.
+    Keeping the proposal alone (-DLF_DP_LAND_GROW=0) took 34."""
+    model = load_model("heald_frame_rigid")
+    exe = L.compile_driver(heald_frame_rigid_fmu.path, tmp_path / "driver")
+    c = L.run_driver(exe, stop=model.stop_time, step=model.stop_time, solver="dopri5",
+                     repeats=1, best_of=1)
+    assert c["events"] > 0 and c["rejected"] == 0, c
+    assert c["steps"] <= 30, c["steps"]

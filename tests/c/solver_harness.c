@@ -576,7 +576,7 @@ static int cmd_snapshot(int argc, char **argv) {
     LfSolver s, snap;
     Result r;
     long k, half;
-    double xa[2] = {0, 0}, ta, *wcopy, *w2;
+    double xa[H_MAXN] = {0}, ta, *wcopy, *w2;
     long steps_a;
     LfStatus st = LF_OK;
     if (!parse_setup(argc, argv, &su)) return 2;
@@ -620,7 +620,7 @@ static int cmd_side(int argc, char **argv) {
     Setup su, su2;
     LfSolver a, b;
     Result ra, rb;
-    double xa[2] = {0, 0};
+    double xa[H_MAXN] = {0};
     double ta;
     long na;
     LfStatus sa = LF_OK, sb = LF_OK;

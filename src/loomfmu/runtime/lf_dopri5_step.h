@@ -14,7 +14,7 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
     double *x = s->x, *lerr_old = w + DP_NVEC * n + DP_S_LERR;
     const double t = s->t, hmax = s->opt.h_max, atol = s->opt.atol, rtol = s->opt.rtol;
     double h;
-    int rejected = 0, cause = CAUSE_NONE, attempts = 0, stiff, land, keep;
+    int rejected = 0, cause = CAUSE_NONE, attempts = 0, stiff, land, keep, grow;
     uint64_t nan_bits = 0; /* the stage argument's finiteness check */
     size_t i;
     LfStatus st;
@@ -115,11 +115,13 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
          * a step does not update the slot. */
         land = err <= 1.0 && last && !rejected && h < h_prop;
         keep = land && dp_land_keeps(err, h, h_prop);
+        grow = LF_DP_LAND_GROW && keep && dp_land_may_grow(err, h, h_prop);
         /* the stronger gains where stability bounds the step (lf_dopri5.c),
          * from Hairer's estimate at t + h: y still holds the sixth stage's
          * argument.  Only where the step size depends on it */
         stiff = 0;
-        if (LF_DP_SWITCH && !keep && err <= 1.0 && (land || err >= DP_ERR_TINY_S)) {
+        if (LF_DP_SWITCH && (!keep || grow) && err <= 1.0 &&
+            (land && !grow ? 1 : err >= DP_ERR_TINY_S)) {
             double sn = 0.0, sd = 0.0;
             DP_IVDEP
             for (i = 0; i < n; i++) {
@@ -129,10 +131,10 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
             }
             stiff = sd > 0.0 && h * h * sn > DP_STIFF_HL * DP_STIFF_HL * sd;
         }
-        if (keep) { /* the next step takes h_prop (lf_dopri5.c) */
+        if (keep && !grow) { /* the next step takes h_prop (lf_dopri5.c) */
             lerr = DP_LERR_OLD0; /* (not read) */
             fac = 0.0;
-        } else if (!land && err < (stiff ? DP_ERR_TINY_S : DP_ERR_TINY)) {
+        } else if ((!land || grow) && err < (stiff ? DP_ERR_TINY_S : DP_ERR_TINY)) {
             lerr = DP_LERR_OLD0; /* what the slot would keep: err < 1e-4 */
             fac = 0.1;
         } else {
@@ -147,7 +149,10 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
         if (err <= 1.0) {
             double hnew, *k1old = w + DP_K1OLD * n;
             if (fac > 5.0) fac = 5.0;
-            if (land) { /* shortened to land on t_bound (lf_dopri5.c) */
+            if (keep) { /* shortened to land on t_bound (lf_dopri5.c) */
+                if (grow && fac < 0.1) fac = 0.1;
+                hnew = grow && fac * h_prop < h ? h / fac : h_prop;
+            } else if (land) { /* ... and this error predicts h_prop fails */
                 hnew = fac * h_prop <= h ? h_prop : h / fac;
             } else {
                 if (fac < 0.1) fac = 0.1;
