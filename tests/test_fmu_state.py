@@ -64,11 +64,28 @@ def test_restored_state_continues_identically(case, slave_factory, solver):
 
 
 def test_foreign_bytes_are_refused(case, slave_factory):
+    """Bytes that are not one of this FMU's states -- empty, short, foreign,
+    truncated, one bit flipped, one byte appended -- are refused by
+    fmi2DeSerializeFMUstate itself, with the reason logged, and nothing is
+    lost.  (Before: deserialized with OK and refused only when set.)"""
     path, outputs, comm = case
     s = slave_factory(path)
     s.start()
-    bad = s.fmu.deSerializeFMUstate(bytes(64))
-    with pytest.raises(FMICallException):
-        s.fmu.setFMUstate(bad)
-    assert any("FMU state" in m for _, _, m in s.log)
-    s.fmu.doStep(0.0, comm)  # nothing was lost
+    s.fmu.doStep(0.0, comm)
+    good = s.fmu.serializeFMUstate(s.fmu.getFMUstate())
+    flipped = bytearray(good)
+    flipped[len(good) // 2] ^= 0x10
+    bad = {"empty": b"", "one byte": b"\x01", "eight bytes": bytes(8), "foreign": bytes(64),
+           "truncated": good[:-8], "one bit flipped": bytes(flipped),
+           "one byte appended": good + b"\x00"}
+    for what, blob in bad.items():
+        n_log = len(s.log)
+        with pytest.raises(FMICallException):
+            s.fmu.deSerializeFMUstate(blob)
+        said = [m for _, _, m in s.log[n_log:]]
+        assert any("FMU state refused" in m or "size = " in m for m in said), (what, said)
+        assert any("fmi2DeSerializeFMUstate" in m for m in said), (what, said)
+    y = s.get(*outputs)
+    s.fmu.setFMUstate(s.fmu.deSerializeFMUstate(good))  # the real one still is
+    assert s.get(*outputs) == y
+    s.fmu.doStep(comm, comm)  # nothing was lost

@@ -1,9 +1,9 @@
 /* loomfmu shared runtime: FMI 2.0 FMU states (get, set, free, serialize):
  * wrappers of lf_facade_ops.c over the instance's list of blobs, so that
  * fmi2FreeInstance frees every state the importer did not, and a pointer
- * this instance did not make is refused without being dereferenced.  The
- * bytes are checked (checksum, this FMU, every field, the size) when a
- * state is set. */
+ * this instance did not make is refused without being dereferenced.  Bytes
+ * are checked when deserialized (size, checksum, this FMU and FMI version)
+ * and every field when a state is set. */
 #include "lf_fmi2_internal.h"
 
 #define STATE_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING | ME_RUNNING | LF_ST_TERMINATED)

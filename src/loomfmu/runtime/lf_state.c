@@ -16,6 +16,14 @@
 
 #include "lf_runtime.h"
 #include "lf_state.h"
+#if defined(__has_include)
+#if __has_include("lf_build.h")
+#include "lf_build.h" /* LF_FMI_VERSION, written by the builder */
+#endif
+#endif
+#ifndef LF_FMI_VERSION
+#define LF_FMI_VERSION 2
+#endif
 
 #define RUNNING_OR_DONE (LF_ST_STEP_COMPLETE | LF_ST_STEP_FAILED | LF_ST_TERMINATED)
 
@@ -132,6 +140,7 @@ void lf_state_write(const LfInstance *c, unsigned char *buf) {
     long i;
     memset(&h, 0, sizeof h);
     h.magic = LF_STATE_MAGIC;
+    h.fmi_version = LF_FMI_VERSION;
     h.n_real = LF_NREAL;
     h.nx = LF_NX;
     h.nq = LF_NQ;
@@ -193,7 +202,10 @@ static int check_header(LfInstance *c, const unsigned char *buf, size_t n, LfSta
     }
     memcpy(h, buf, sizeof *h);
     REQUIRE(h->magic == LF_STATE_MAGIC, "format tag", h->magic,
-            "a loomfmu state of this version (LFS5)");
+            "a loomfmu state of this version (LFS6)");
+    REQUIRE(h->fmi_version == LF_FMI_VERSION, "FMI version of the state", h->fmi_version,
+            LF_FMI_VERSION == 3 ? "3 (a state of this model's FMI 3.0 build)"
+                                : "2 (a state of this model's FMI 2.0 build)");
     memset(guid, 0, sizeof guid);
     strncpy(guid, lf_model.guid, sizeof guid - 1);
     if (memcmp(guid, h->guid, sizeof guid) != 0) {
@@ -528,6 +540,11 @@ static void apply_values(LfInstance *c, const LfStateValues *v, const double *hi
         for (i = 0; i < v->hist_count[k]; i++, hist += 3) memcpy(hist_at(c, k, i), hist, 3 * sizeof(double));
     }
     memcpy(c->bp, hist, sizeof(double) * (size_t)v->n_bp); /* after the history */
+}
+
+LfStatus lf_state_check_bytes(LfInstance *c, const unsigned char *buf, size_t n) {
+    LfStateHeader h;
+    return check_header(c, buf, n, &h) ? LF_OK : LF_ERROR;
 }
 
 LfStatus lf_state_read(LfInstance *c, const unsigned char *buf, size_t n) {

@@ -13,13 +13,15 @@
 #include <stddef.h>
 #include "lf_runtime.h"
 
-#define LF_STATE_MAGIC 0x4C465335u /* "LFS5": early return's pending event, known breaks */
+#define LF_STATE_MAGIC 0x4C465336u /* "LFS6": the FMI version in the header */
 #define LF_STATE_GUID_LEN 64
 #define LF_FNV_OFFSET 0xcbf29ce484222325ULL
 #define LF_FNV_PRIME 0x100000001b3ULL
 
 typedef struct {
     unsigned magic;
+    unsigned fmi_version;      /* LF_FMI_VERSION: the FMI 2.0 and 3.0 builds of one
+                                * model share GUID and sizes, not their states */
     unsigned n_real, nx, nq, nd, ne, nw;
     int method;                /* index into lf_methods[], -1: no solver */
     unsigned long long size;   /* bytes of the whole state, checksum included */
@@ -85,5 +87,10 @@ void lf_state_write(const LfInstance *c, unsigned char *buf);
  * A state that fails any check is refused with LF_ERROR and a log line
  * naming the field, and the instance keeps its state. */
 LfStatus lf_state_read(LfInstance *c, const unsigned char *buf, size_t n);
+/* The integrity checks of lf_state_read that need no instance state (size,
+ * checksum, format, this FMU and FMI version, its sizes): LF_ERROR with the
+ * reason logged where the bytes are not one of this FMU's states.  Changes
+ * nothing (the deserialize functions, before a blob is made). */
+LfStatus lf_state_check_bytes(LfInstance *c, const unsigned char *buf, size_t n);
 
 #endif
