@@ -7,6 +7,8 @@ from __future__ import annotations
 import csv
 import json
 import os
+import re
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -89,6 +91,7 @@ def test_list_names_every_model_option_and_fidelity_level():
     (["simulate", "heald_frame_rigid", "--set", "solver=euler"], "dopri5, rodas4, rk4"),
     (["simulate", "heald_frame_rigid", "--plot", "x.jpg2"], "png"),
     (["simulate", "heald_frame_rigid", "--stop", "1e6"], "larger --step"),
+    (["simulate", "heald_frame_rigid", "--step", "1", "--stop", "0.42"], "allowed: a step <= 0.42"),
     (["simulate", "heald_frame_rigid", "--stopp", "1"], "unrecognized arguments"),
     (["bench", "charts", "--models", "nope"], "allowed"),
     (["bench", "speed", "--repeats", "0"], "--repeats"),
@@ -101,6 +104,36 @@ def test_usage_errors_say_what_is_allowed_in_one_line_and_exit_2(args, needle):
     assert "Traceback" not in res.stderr
     last = res.stderr.strip().splitlines()[-1]
     assert needle in last, res.stderr
+
+
+def test_top_level_help_lists_every_subcommand_of_each_analysis():
+    """'loomfmu --help' names each analysis' subcommands (e.g. bench ...
+    limit) exactly as the analysis' own parser has them."""
+    from loomfmu.cli import ANALYSES
+    for name, (_, helptext) in ANALYSES.items():
+        if " | " not in helptext:
+            continue
+        listed = set(helptext.split(": ", 1)[1].split(" | "))
+        usage = run(name, "--help").stdout
+        choices = re.search(r"\{([^}]*)\}", usage)
+        assert choices, (name, usage[:300])
+        assert listed == set(choices.group(1).split(",")), (name, helptext, choices.group(0))
+
+
+def test_a_file_that_is_not_an_fmu_is_a_usage_error(tmp_path):
+    """Not a zip, or a zip without modelDescription.xml: one line naming the
+    file, exit 2 (before: simulate showed zipfile's traceback)."""
+    (tmp_path / "text.fmu").write_text("hello")
+    with zipfile.ZipFile(tmp_path / "nomd.fmu", "w") as z:
+        z.writestr("readme.txt", "no model description")
+    for name, needle in (("text.fmu", "is not an FMU (zip)"),
+                         ("nomd.fmu", "no readable modelDescription.xml")):
+        for command in ("simulate", "verify"):
+            res = run(command, str(tmp_path / name))
+            assert res.returncode == 2, (command, name, res.stderr)
+            assert "Traceback" not in res.stderr
+            last = res.stderr.strip().splitlines()[-1]
+            assert needle in last and name in last, (command, last)
 
 
 def test_simulate_unknown_variable_is_a_usage_error(tmp_path):
@@ -116,13 +149,39 @@ def test_design_out_of_range_is_refused_with_the_range():
     assert "gap" in res.stderr and "Traceback" not in res.stderr
 
 
+def _design(*args):
+    return subprocess.run([sys.executable, "-m", "loomfmu.heald", "design", *args],
+                          capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "LOOMFMU_PROGRESS": "plain"})
+
+
 def test_design_at_the_edge_of_its_range_says_so():
     # a gap so wide that the narrowest slat in the search range already meets it
-    res = subprocess.run([sys.executable, "-m", "loomfmu.heald", "design", "--gap", "10"],
-                         capture_output=True, text=True, timeout=300,
-                         env={**os.environ, "LOOMFMU_PROGRESS": "plain"})
+    res = _design("--gap", "10")
     assert res.returncode == 2, res.stdout + res.stderr
     assert "lower edge of b1_range" in res.stderr
+    # a preset and --set reach the search: with the Texo 1.8 m frame's masses
+    # and warp tension and k_z = 5 the narrowest slat bends far less than
+    # with the model's defaults
+    preset = _design("--gap", "10", "--preset", "STB-180 Texo", "--set", "k_z=5")
+    assert preset.returncode == 2, preset.stdout + preset.stderr
+
+    def bend(r):
+        return float(re.search(r"gives max \|x2\| = (\S+) m", r.stderr).group(1))
+    assert bend(preset) < 0.5 * bend(res), (preset.stderr, res.stderr)
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--gap", "-1"], "error: gap = -1.0; allowed:"),
+    (["--gap", "0.004", "--preset", "STB-999"], "width '999' cm is not in table 1"),
+    (["--gap", "0.004", "--set", "k_z=abc"], "is not a number"),
+    (["--gap", "0.004", "--set", "k_z"], "allowed: NAME=VALUE"),
+])
+def test_design_refuses_bad_arguments_before_searching(args, needle):
+    res = _design(*args)
+    assert res.returncode == 2, res.stdout + res.stderr
+    assert needle in res.stderr.strip().splitlines()[-1], res.stderr
+    assert "searching" not in res.stderr  # refused before the search's progress line
 
 
 @pytest.fixture(scope="module")
@@ -189,11 +248,17 @@ def test_simulate_names_the_solver_that_ran_and_keeps_the_default_step(built, tm
     assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes(), res2.stderr
 
 
-def test_verify_an_fmu(built):
+def test_verify_an_fmu(built, tmp_path):
     out, _ = built
     res = run("verify", out / "heald_frame_rigid.fmu", "--solver", "dopri5")
     assert res.returncode == 0, res.stderr
     assert "heald_frame_rigid" in res.stdout and "dopri5" in res.stdout
+    # a renamed copy is reported under its model's name, not the file's
+    copy = tmp_path / "hf.fmu"
+    shutil.copy(out / "heald_frame_rigid.fmu", copy)
+    res = run("verify", copy, "--solver", "dopri5")
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.splitlines()[-1].split()[0] == "heald_frame_rigid", res.stdout
     # an impossible bound fails with exit 1, not 2
     res = run("verify", out / "heald_frame_rigid.fmu", "--solver", "rk4",
               "--max-error", "1e-300")

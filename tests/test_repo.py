@@ -64,3 +64,19 @@ def test_generated_model_docs_are_current(name):
     path = ROOT / "docs" / "models" / f"{name}.md"
     assert path.read_text() == model_markdown(load_model(name)), (
         f"{path} is stale: run python -m loomfmu.docs")
+
+
+def test_readme_derivation_example_prints_what_its_comments_show(capsys):
+    """The Python example of 'Reading the derivation' runs and prints, line
+    for line, the trailing comments under it (before: one comment line for
+    numpy's three-line array)."""
+    text = (ROOT / "README.md").read_text()
+    section = text.split("## Reading the derivation", 1)[1].split("\n## ", 1)[0]
+    block = re.search(r"^```python\n(.*?)^```", section, flags=re.M | re.S).group(1)
+    lines = block.splitlines()
+    n_code = max(i for i, l in enumerate(lines) if not l.startswith("#")) + 1
+    shown = [l[2:] if l.startswith("# ") else l[1:] for l in lines[n_code:]]
+    assert shown, "the example should show its output as comments"
+    exec(compile("\n".join(lines[:n_code]), "README.md", "exec"), {})
+    printed = capsys.readouterr().out.splitlines()
+    assert printed == shown

@@ -5,6 +5,7 @@ SSP 1.0 schema, and the `loomfmu scene` command answers."""
 from __future__ import annotations
 
 import math
+import re
 import zipfile
 
 import numpy as np
@@ -14,6 +15,7 @@ from loomfmu.scene import Scene, run
 from loomfmu.scene import two_mass as tm
 from loomfmu.scene.__main__ import main
 from loomfmu.scene.fmus import build_fmus
+from loomfmu.scene.run import Result
 from loomfmu.scene.ssp import ssd_text, validate_ssd
 
 #: rpm -> rad/s, written out independently of loomfmu.units
@@ -277,6 +279,39 @@ def test_scene_command(fmu_dir, tmp_path, capsys):
         assert main(["run", "two_mass", "--stop", "0.01"] + argv) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and said in err[0], (argv, err)
+
+
+def test_a_step_that_does_not_resolve_the_coupling_is_flagged(fmu_dir, capsys):
+    """two_mass at a 0.1 s step (the Jacobi master's stability limit is about
+    5.35 ms) ends at F_c ~ 3e13 N: scene run says so on stderr (before: exit
+    0 and no word); at 1 ms it prints the step's resolution instead."""
+    assert main(["run", "two_mass", "--step", "0.1", "--fmu-dir", str(fmu_dir)]) == 0
+    out, err = capsys.readouterr()
+    warning = [l for l in err.splitlines() if "warning:" in l]
+    assert len(warning) == 1 and "do not resolve the coupled signals" in warning[0], err
+    assert main(["run", "two_mass", "--step", "0.001", "--stop", "0.5",
+                 "--fmu-dir", str(fmu_dir)]) == 0
+    out, err = capsys.readouterr()
+    assert "warning:" not in err
+    line = [l for l in out.splitlines() if "largest change within one step" in l]
+    assert len(line) == 1, out
+    change = float(re.search(r"step: (\S+) %", line[0]).group(1))
+    assert 0.5 < change < 10, line
+
+
+def test_largest_step_change_measures_the_resolution():
+    t = np.linspace(0.0, 1.0, 101)
+    data = np.zeros(101, dtype=[("time", "f8"), ("a.y", "f8"), ("b.z", "f8")])
+    data["time"], data["a.y"], data["b.z"] = t, np.sin(2 * np.pi * t), 3.0
+    res = Result(data, "jacobi", 100, 0, coupled=["a.y", "b.z"])
+    change, name = res.largest_step_change()
+    assert name == "a.y" and change == pytest.approx(2 * np.pi * 0.01, rel=1e-3)
+    data["b.z"][50] = np.inf
+    assert res.largest_step_change() == (math.inf, "b.z")
+    # only the coupled signals are judged (a friction moment may jump)
+    data["b.z"][50] = -3.0
+    assert Result(data, "jacobi", 100, 0, coupled=["a.y"]).largest_step_change()[1] == "a.y"
+    assert Result(data, "jacobi", 100, 0).largest_step_change() == (0.0, "")
 
 
 def test_run_arguments_are_checked(fmu_dir):

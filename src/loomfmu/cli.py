@@ -29,15 +29,15 @@ from .registry import MODELS
 
 #: analyses whose own parser takes over after the subcommand: module, help
 ANALYSES = {
-    "heald": ("loomfmu.heald.__main__", "heald frame: claims | fidelity | design"),
+    "heald": ("loomfmu.heald.__main__", "heald frame: claims | fidelity | design | tension-input"),
     "drive": ("loomfmu.drive.__main__", "spindle drive: table | charts | tracking"),
     "rotor": ("loomfmu.rotor_study", "spindle rotor: calibrate | trends | charts | all"),
-    "bench": ("loomfmu.bench.cli", "benchmarks: charts | speed | friction"),
+    "bench": ("loomfmu.bench.cli", "benchmarks: charts | speed | friction | limit"),
     "docs": ("loomfmu.docs", "docs/models/<model>.md from the declarations"),
     "inspect": ("loomfmu.inspect_report",
                 "a model's derivation and equations as HTML (MathML), Markdown or LaTeX"),
-    "scene": ("loomfmu.scene.__main__", "co-simulation scenes: list | run | export"),
-    "sweep": ("loomfmu.sweep.__main__", "studies on dask: design-map | drive-grid | hinge | run"),
+    "scene": ("loomfmu.scene.__main__", "co-simulation scenes: list | run | export | fidelity"),
+    "sweep": ("loomfmu.sweep.__main__", "studies on dask: design-map | drive-grid | hinge | trends | run"),
 }
 
 

@@ -224,16 +224,29 @@ def cmd_build(args) -> int:
 MAX_POINTS = 1_000_000
 
 
+def _fmu_description(path: Path, hint: str = ""):
+    """The model description of the FMU file ``path``; a UsageError naming
+    the file where it is missing, not a zip or has no readable
+    modelDescription.xml."""
+    import fmpy
+    if not path.is_file() or not zipfile.is_zipfile(path):
+        raise UsageError(f"FMU {str(path)!r} does not exist or is not an FMU (zip)" + hint)
+    try:
+        return fmpy.read_model_description(str(path))
+    except Exception as exc:  # fmpy raises plain Exceptions for a bad description
+        raise UsageError(f"FMU {str(path)!r} has no readable modelDescription.xml: "
+                         f"{exc}") from None
+
+
 def _description_of(target: str, options: dict):
     """The model description of an .fmu file, or of a model generated without
     compiling (so that names and values are checked before a build)."""
     import fmpy
     if target.endswith(".fmu"):
-        if not Path(target).is_file():
-            raise UsageError(f"FMU {target!r} does not exist")
+        md = _fmu_description(Path(target))
         if options:
             raise UsageError("--option applies to a MODEL, not to a built FMU")
-        return fmpy.read_model_description(target), None
+        return md, None
     from .fmi_xml import model_description
     from .ode import dae_form
     model = declare(target, options)
@@ -347,6 +360,9 @@ def cmd_simulate(args) -> int:
     experiment = md.defaultExperiment
     stop = args.stop if args.stop is not None else float(experiment.stopTime)
     step = args.step if args.step is not None else float(experiment.stepSize)
+    if step > stop:
+        raise UsageError(f"--step {step:g} s is longer than the run (--stop {stop:g} s); "
+                         f"allowed: a step <= {stop:g} s")
     if stop / step > MAX_POINTS:
         raise UsageError(f"--stop {stop:g} with --step {step:g} gives {stop / step:.3g} "
                          f"points; allowed: at most {MAX_POINTS}: choose a larger --step")
@@ -461,13 +477,10 @@ def cmd_verify(args) -> int:
     from .codegen import SOLVERS
     check_range("--rtol", args.rtol, 0.0, 1.0)
     check_range("--max-error", args.max_error, 0.0)
-    if not args.fmu.is_file() or not zipfile.is_zipfile(args.fmu):
-        hint = (f"; {args.fmu} is a model: build it with 'loomfmu build {args.fmu}' and "
-                f"pass dist/{args.fmu}.fmu" if str(args.fmu) in MODELS else "")
-        raise UsageError(f"FMU {str(args.fmu)!r} does not exist or is not an FMU (zip)"
-                         + hint)
+    hint = (f"; {args.fmu} is a model: build it with 'loomfmu build {args.fmu}' and "
+            f"pass dist/{args.fmu}.fmu" if str(args.fmu) in MODELS else "")
+    md = _fmu_description(args.fmu, hint)
     from .verify import ME_LABEL, fmu_interfaces
-    md = fmpy.read_model_description(str(args.fmu))
     have = fmu_interfaces(md)
     name = args.model or md.modelName
     model = declare(name, parse_assignments(args.option, "--option"))
@@ -479,7 +492,8 @@ def cmd_verify(args) -> int:
         raise UsageError(f"--model-exchange: {args.fmu.name} has no model exchange interface")
     solvers = tuple(args.solver or SOLVERS) if "cs" in have else ()
     me = args.model_exchange or "cs" not in have
-    variant = args.fmu.stem  # the variant, e.g. two_mass_force_fmi3_me
+    # the variant, e.g. two_mass_force_fmi3_me; a renamed file: the model's name
+    variant = args.fmu.stem if args.fmu.stem.startswith(md.modelName) else md.modelName
     with Progress(total=1, desc="verify") as bar:
         rep = {"rtol": args.rtol, "validation_problems": [],
                "fmi_version": int(str(md.fmiVersion)[0]),

@@ -232,7 +232,8 @@ def main(argv=None, prog: str = "loomfmu rotor") -> int:
                     help="calibrate: fit the supports to the seed's six frequencies -> "
                          "OUT/spindle_calibration.md; trends: parameter studies -> "
                          "OUT/spindle_trends.md and OUT/spindle/trend_*.png; charts: "
-                         "Campbell, unbalance response, compliance -> OUT/spindle/*.png")
+                         "Campbell, unbalance response, compliance -> OUT/spindle/*.png; all: the "
+                         "three in turn")
     ap.add_argument("--out", type=Path, default=DOCS,
                     help="output folder (default: ./docs)")
     args = ap.parse_args(argv)
@@ -242,11 +243,17 @@ def main(argv=None, prog: str = "loomfmu rotor") -> int:
         for what in todo:
             if what == "calibrate":
                 bar.stage("calibrating the supports to the seed's six frequencies")
-                write_calibration(args.out / "spindle_calibration.md")
+                out = args.out / "spindle_calibration.md"
+                write_calibration(out)
+                print(f"written: {out}\nwritten: {out.with_suffix('.json')}")
             elif what == "trends":
-                from .rotor_trends import write_trends
+                from .rotor_trends import STUDIES, write_trends
                 bar.stage("parameter studies (4 studies)")
-                write_trends(args.out / "spindle_trends.md")
+                out = args.out / "spindle_trends.md"
+                write_trends(out)
+                for path in [out, out.with_suffix(".json")] + [
+                        out.parent / "spindle" / f"trend_{name}.png" for name in STUDIES]:
+                    print(f"written: {path}")
             else:
                 from .rotor_trends import write_charts
                 bar.stage("Campbell diagram, unbalance response, compliance")

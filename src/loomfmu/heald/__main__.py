@@ -8,6 +8,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+from ..checks import check_number, check_optional_number
 from . import claims as cl
 
 
@@ -25,6 +26,12 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
                    help="clearance to the neighbouring frame, m (> 0)")
     d.add_argument("--d1", type=float, default=None,
                    help="slat wall thickness, m (default: the model's)")
+    d.add_argument("--preset", default=None, metavar="NAME",
+                   help="a seed-002 loom preset, e.g. 'STB-180 Texo' (default: the model's "
+                        "own parameters)")
+    d.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="a parameter of heald_frame, over the preset's (repeatable), "
+                        "e.g. k_z=5")
     d.add_argument("--json", action="store_true", help="print the result as JSON")
     w = sub.add_parser("tension-input", help="the warp tension as an input: lockstep with "
                        "the geometry tension, shared defaults, the frame in opposition -> "
@@ -56,14 +63,17 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
     elif args.cmd == "tension-input":
         text = _tension_input(Progress)
     else:
-        try:
+        try:  # the arguments checked before the search starts
+            values = _design_values(args)
+            check_number("gap", args.gap, lo=0.0, lo_open=True, unit="m")
+            check_optional_number("d1", args.d1, lo=0.0, lo_open=True, unit="m")
             with Progress(total=1, desc="heald design") as bar:
                 bar.stage(f"searching the slat width b1 for gap {args.gap:g} m "
                           "(one spatial simulation per trial)")
-                res = cl.design_section(args.gap, d1=args.d1)
+                res = cl.design_section(args.gap, d1=args.d1, values=values)
                 bar.advance("done")
         except ValueError as exc:
-            print(f"{prog} design: {exc}", file=sys.stderr)
+            print(f"{prog} design: error: {exc}", file=sys.stderr)
             return 2
         if args.json:
             print(json.dumps(res))
@@ -100,6 +110,21 @@ def _tension_input(Progress) -> str:
         opp = ti.opposition(rigid)
         bar.advance("done")
     return ti.markdown(errors, dflt, opp)
+
+
+def _design_values(args) -> dict[str, float]:
+    """heald_frame parameters for the design search: the preset's, then --set."""
+    from .presets import preset_values
+    values = dict(preset_values(args.preset, "heald_frame")) if args.preset else {}
+    for item in args.set:
+        name, sep, text = item.partition("=")
+        if not sep or not name.strip():
+            raise ValueError(f"--set {item!r}; allowed: NAME=VALUE")
+        try:
+            values[name.strip()] = float(text)
+        except ValueError:
+            raise ValueError(f"--set {item!r}: {text!r} is not a number") from None
+    return values
 
 
 def _print_design(res: dict) -> None:

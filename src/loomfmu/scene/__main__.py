@@ -38,7 +38,8 @@ def _parser(prog: str) -> argparse.ArgumentParser:
                    help="tolerance of the adaptive step (0 < rtol < 1; default 1e-3)")
     r.add_argument("--extrapolation", type=int, choices=(0, 1, 2), default=0,
                    help="order of the input extrapolation (0: hold; 1, 2: polynomial "
-                        "through the last 2-3 values, for FMUs that interpolate inputs)")
+                        "through the last 2-3 values, for FMUs that interpolate inputs; "
+                        "default 0)")
     r.add_argument("--output-derivatives", action="store_true",
                    help="with --extrapolation 1: take the slope from the sources' "
                         "output derivatives instead of their last values")
@@ -88,7 +89,7 @@ def check_output(option: str, path: Path | None) -> None:
 
 
 def _run(args, prog: str) -> int:
-    from .run import run
+    from .run import UNRESOLVED, run
     from .system import FMUError
     check_output("--csv", args.csv)
     if args.fmu_dir is not None and args.fmu_dir.exists() and not args.fmu_dir.is_dir():
@@ -120,11 +121,21 @@ def _run(args, prog: str) -> int:
         print(f"  {name} = {last[name]:.9g}" + (f" {unit}" if unit else ""))
     for note in res.notes:
         print(f"  note: {note}")
+    change, name = res.largest_step_change()
+    if change > UNRESOLVED:
+        print(f"{prog}: warning: {name} changes by {change:.3g} times its largest magnitude "
+              f"within one communication step (more than {UNRESOLVED:g}): the steps do not "
+              "resolve the coupled signals and the result may be unstable or wrong; try a "
+              "smaller --step, or --adaptive", file=sys.stderr)
+    elif name:
+        print(f"  largest change within one step: {100 * change:.3g} % of {name}'s largest "
+              "magnitude (the coupling error grows with it: compare a run at half the "
+              "step, or use --adaptive)")
     for comp, lines in res.log.items():
         if lines:
             print(f"  {comp} logged {len(lines)} line(s), the last: {lines[-1]}")
     if args.csv is not None:
-        print(f"wrote {res.to_csv(args.csv)}")
+        print(f"written: {res.to_csv(args.csv)}")
     return 0
 
 
@@ -140,7 +151,7 @@ def main(argv=None, prog: str = "loomfmu scene") -> int:
             return fidelity(args)
         from .ssp import export_ssp
         out = args.out if args.out is not None else Path(f"{args.scene}.ssp")
-        print(f"wrote {export_ssp(load_scene(args.scene), out, fmu_dir=args.fmu_dir)}")
+        print(f"written: {export_ssp(load_scene(args.scene), out, fmu_dir=args.fmu_dir)}")
         return 0
     except ValueError as exc:
         print(f"{prog} {args.cmd}: error: {exc}", file=sys.stderr)

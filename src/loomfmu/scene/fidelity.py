@@ -463,7 +463,7 @@ def add_parser(sub) -> None:
     f.add_argument("scene", help=f"one of {', '.join(sorted(SCENES))}")
     f.add_argument("--outputs", required=True, help="comma-separated comp.var")
     f.add_argument("--tol", type=float, default=0.01,
-                   help="tolerance relative to each output's range (0 < tol < 1)")
+                   help="tolerance relative to each output's range (0 < tol < 1; default 0.01)")
     f.add_argument("--stop", "--stop-time", dest="stop_time", type=float, default=None,
                    help="run length in s (as in loomfmu scene run)")
     f.add_argument("--step", type=float, default=None, help="communication step in s")
@@ -494,7 +494,7 @@ def main(args) -> int:
     print(sel.table())
     if args.json is not None:
         args.json.write_text(json.dumps(sel.to_dict(), indent=1, default=str))
-        print(f"wrote {args.json}")
+        print(f"written: {args.json}")
     if args.chart is not None:
-        print(f"wrote {sel.chart(args.chart)}")
+        print(f"written: {sel.chart(args.chart)}")
     return 0
