@@ -71,7 +71,8 @@ def defect(key: str) -> str:
     return f"print defect {key} in {where}: printed {printed}, corrected {corrected} ({reason})"
 
 
-__doc__ += "".join(f"{defect(k)}\n" for k in DEFECTS) + (
+#: (one line per defect, marked "B1  ...": the FMU's documentation lists them)
+__doc__ += "".join(f"{k}  {defect(k)}\n" for k in DEFECTS) + (
     "Friction: the seed's normal pressure N_i is the full reaction |R_i| (its\n"
     "conclusion 2) and r_if the friction-circle radius rho_i mu_i / sqrt(1 + mu_i^2).\n")
 

@@ -38,7 +38,8 @@ from loomfmu.models.heald_common import (  # noqa: F401  (re-exported for tests)
     influence, motion_law, stiffness, vertical)
 
 SEED = SEED0
-__doc__ += "\n" + "".join(f"{defect(k)}\n" for k in DEFECTS)
+#: (one line per defect, marked "D1  ...": the FMU's documentation lists them)
+__doc__ += "\n" + "".join(f"{k}  {defect(k)}\n" for k in DEFECTS)
 
 
 def build(*, end_dwell: str = "corrected", inertia: str = "corrected",

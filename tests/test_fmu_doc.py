@@ -195,6 +195,19 @@ def test_readable_page_shows_the_derivation():
     assert "<h2>Equations</h2>" in plain and "Derivation" not in plain
 
 
+@pytest.mark.parametrize("name, keys", [("heald_frame", ("D1", "D2", "D3", "D4")),
+                                        ("backrest", ("B1", "B2", "B3", "B4"))])
+def test_print_defects_are_listed_one_item_each(name, keys):
+    """The seed's print defects in 'What it is' are one list item each, with
+    printed and corrected form (before: one run-on paragraph of four)."""
+    page = html_for(load_model(name))
+    about = page.split('<section id="about">', 1)[1].split("</section>", 1)[0]
+    items = re.findall(r"<li><b>([A-Z]\d)</b>(.*?)</li>", about, flags=re.S)
+    assert [k for k, _ in items] == list(keys), items
+    for _, text in items:
+        assert "printed" in text and "corrected" in text
+
+
 # ------------------------------------------------------------- variants
 def _variant_page(name: str, fmi_version: int, interface: str, verification=None) -> str:
     from loomfmu.fmi_xml import model_description
