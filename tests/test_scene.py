@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 import zipfile
 
 import numpy as np
@@ -15,7 +16,7 @@ from loomfmu.scene import Scene, run
 from loomfmu.scene import two_mass as tm
 from loomfmu.scene.__main__ import main
 from loomfmu.scene.fmus import build_fmus
-from loomfmu.scene.run import Result
+from loomfmu.scene.run import Result, UnresolvedCoupling
 from loomfmu.scene.ssp import ssd_text, validate_ssd
 
 #: rpm -> rad/s, written out independently of loomfmu.units
@@ -299,6 +300,14 @@ def test_a_step_that_does_not_resolve_the_coupling_is_flagged(fmu_dir, capsys):
     assert 0.5 < change < 10, line
 
 
+def test_run_warns_python_users_of_an_unresolved_coupling(fmu_dir):
+    with pytest.warns(UnresolvedCoupling, match="disp.x2_out changes by 1.25 times"):
+        run(tm.scene(), step=0.1, fmu_dir=fmu_dir)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnresolvedCoupling)
+        run(tm.scene(), step=0.001, stop=0.2, fmu_dir=fmu_dir)   # no warning
+
+
 def test_largest_step_change_measures_the_resolution():
     t = np.linspace(0.0, 1.0, 101)
     data = np.zeros(101, dtype=[("time", "f8"), ("a.y", "f8"), ("b.z", "f8")])
@@ -312,6 +321,10 @@ def test_largest_step_change_measures_the_resolution():
     data["b.z"][50] = -3.0
     assert Result(data, "jacobi", 100, 0, coupled=["a.y"]).largest_step_change()[1] == "a.y"
     assert Result(data, "jacobi", 100, 0).largest_step_change() == (0.0, "")
+    # a signal near zero (below atol) changes by nothing
+    data["a.y"] *= 1e-12
+    small = Result(data, "jacobi", 100, 0, coupled=["a.y"]).largest_step_change()[0]
+    assert small < 1e-6
 
 
 def test_run_arguments_are_checked(fmu_dir):

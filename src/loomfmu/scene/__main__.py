@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from pathlib import Path
 
 from .fidelity import add_parser as add_fidelity_parser
@@ -89,7 +90,7 @@ def check_output(option: str, path: Path | None) -> None:
 
 
 def _run(args, prog: str) -> int:
-    from .run import UNRESOLVED, run
+    from .run import UNRESOLVED, UnresolvedCoupling, run, unresolved_message
     from .system import FMUError
     check_output("--csv", args.csv)
     if args.fmu_dir is not None and args.fmu_dir.exists() and not args.fmu_dir.is_dir():
@@ -104,9 +105,11 @@ def _run(args, prog: str) -> int:
     if args.output_derivatives:
         opts["output_derivatives"] = True
     try:
-        res = run(s, master=args.master, step=args.step, stop=args.stop,
-                  adaptive=args.adaptive, rtol=args.rtol, fmu_dir=args.fmu_dir,
-                  progress=True, extrapolation=args.extrapolation, master_options=opts)
+        with warnings.catch_warnings():   # said below, as a line of the command
+            warnings.simplefilter("ignore", UnresolvedCoupling)
+            res = run(s, master=args.master, step=args.step, stop=args.stop,
+                      adaptive=args.adaptive, rtol=args.rtol, fmu_dir=args.fmu_dir,
+                      progress=True, extrapolation=args.extrapolation, master_options=opts)
     except (FMUError, RuntimeError) as exc:
         one_line = " ".join(str(exc).split())
         print(f"{prog}: run failed: {one_line}", file=sys.stderr)
@@ -123,10 +126,9 @@ def _run(args, prog: str) -> int:
         print(f"  note: {note}")
     change, name = res.largest_step_change()
     if change > UNRESOLVED:
-        print(f"{prog}: warning: {name} changes by {change:.3g} times its largest magnitude "
-              f"within one communication step (more than {UNRESOLVED:g}): the steps do not "
-              "resolve the coupled signals and the result may be unstable or wrong; try a "
-              "smaller --step, or --adaptive", file=sys.stderr)
+        print(f"{prog}: warning: " + unresolved_message(change, name).replace(
+            "a smaller step, or the adaptive step", "a smaller --step, or --adaptive"),
+            file=sys.stderr)
     elif name:
         print(f"  largest change within one step: {100 * change:.3g} % of {name}'s largest "
               "magnitude (the coupling error grows with it: compare a run at half the "

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import tempfile
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -24,6 +25,14 @@ SAFETY, FAC_MIN, FAC_MAX = 0.9, 0.2, 2.0
 #: largest magnitude within one communication step is not resolved by the
 #: steps (Result.largest_step_change): the run is flagged (scene run warns)
 UNRESOLVED = 0.1
+
+
+class UnresolvedCoupling(UserWarning):
+    """A run whose steps do not resolve a coupled signal (more than
+    UNRESOLVED of its size within one step): its result may be unstable or
+    wrong.  run() warns; ``loomfmu scene run`` prints it on stderr."""
+
+
 #: options of the algebraic-loop solver (loomfmu.scene.system.System)
 LOOP_OPTIONS = ("loop_method", "loop_rtol", "loop_atol", "loop_max_iter", "relaxation")
 
@@ -44,6 +53,8 @@ class Result:
     notes: list[str] = field(default_factory=list)   # the master's fallbacks, if any
     #: the recorded variables that feed a connection ("component.variable")
     coupled: list[str] = field(default_factory=list)
+    #: absolute floor of a signal's size in largest_step_change (run's atol)
+    atol: float = 1e-6
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.data[name]
@@ -51,9 +62,10 @@ class Result:
     def largest_step_change(self) -> tuple[float, str]:
         """The largest change of a coupled signal (a recorded variable that
         feeds a connection: ``coupled``) within one communication step,
-        relative to that variable's largest magnitude over the run (inf where
-        a value is not finite), and the variable's name ("" with none
-        recorded).  How well the steps resolve what the master holds or
+        relative to that variable's largest magnitude over the run plus
+        ``atol`` (as the adaptive master scales its error estimate; a signal
+        that stays near zero changes by nothing), inf where a value is not
+        finite, and the variable's name ("" with none recorded).  How well the steps resolve what the master holds or
         extrapolates: a co-simulation whose result holds changes each by a
         few per cent of its size per step or less; one that the step makes
         unstable by about its whole size (the growth factor per step minus
@@ -68,8 +80,7 @@ class Result:
                 continue
             if not np.all(np.isfinite(y)):
                 return math.inf, n
-            size = float(np.max(np.abs(y)))
-            change = float(np.max(np.abs(np.diff(y)))) / size if size > 0 else 0.0
+            change = float(np.max(np.abs(np.diff(y)))) / (self.atol + float(np.max(np.abs(y))))
             if change > worst:
                 worst, name = change, n
         return worst, name
@@ -180,5 +191,17 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
     for j, n in enumerate(names[1:]):
         data[n] = values[:, j]
     sources = {f"{c.src}.{c.src_var}" for c in scene.connections}
-    return Result(data, m.name, m.n_accepted, m.n_rejected, np.array(hs), logs,
-                  loop_iterations, list(m.notes), [n for n in names[1:] if n in sources])
+    result = Result(data, m.name, m.n_accepted, m.n_rejected, np.array(hs), logs,
+                    loop_iterations, list(m.notes), [n for n in names[1:] if n in sources],
+                    atol)
+    change, name = result.largest_step_change()
+    if change > UNRESOLVED:
+        warnings.warn(unresolved_message(change, name), UnresolvedCoupling, stacklevel=2)
+    return result
+
+
+def unresolved_message(change: float, name: str) -> str:
+    return (f"{name} changes by {change:.3g} times its largest magnitude within one "
+            f"communication step (more than {UNRESOLVED:g}): the steps do not resolve the "
+            "coupled signals and the result may be unstable or wrong; try a smaller step, "
+            "or the adaptive step")
