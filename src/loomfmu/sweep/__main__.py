@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 from ..checks import check_number
+from ..codegen import SOLVERS
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -78,7 +79,8 @@ def _parser(prog: str) -> argparse.ArgumentParser:
     r.add_argument("--stop", type=float, required=True, help="stop time, s (> 0)")
     r.add_argument("--step", type=float, default=None,
                    help="communication step, s (default stop/1000)")
-    r.add_argument("--solver", default="dopri5", help="dopri5 | rodas4 | rk4")
+    r.add_argument("--solver", default="dopri5", choices=SOLVERS, metavar="SOLVER",
+                   help=f"the FMU's solver: {' | '.join(SOLVERS)} (default dopri5)")
     r.add_argument("--rtol", type=float, default=1e-6, help="(0, 0.1]; default 1e-6")
     r.add_argument("--atol", type=float, default=1e-9, help="> 0; default 1e-9")
     r.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
