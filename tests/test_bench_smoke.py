@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import csv
 import math
+import sys
+
+import pytest
 
 from loomfmu.bench import main
 from loomfmu.bench.scenes import BENCH
@@ -22,6 +25,25 @@ def test_charts_command_runs_on_one_model(tmp_path):
         assert r["status"] == "ok" and math.isfinite(float(r["err_max"]))
         assert math.isfinite(float(r["err_final"])) and float(r["seconds"]) > 0
     assert any(r["family"] == "scipy" for r in rows)
+
+
+@pytest.mark.parametrize("extra, hide, message", [
+    ([], True, "loomfmu.sweep runs on dask.distributed, which is not installed: "
+               "pip install 'loomfmu[distributed]'"),
+    (["--scheduler", "localhost"], False, "scheduler = 'localhost'; allowed: None or an "
+                                          "address such as tcp://host:8786"),
+], ids=["no-distributed", "bad-scheduler"])
+def test_charts_on_dask_refused_in_one_line_with_exit_2(tmp_path, monkeypatch, capsys, extra,
+                                                        hide, message):
+    """Without dask.distributed (or with a bad --scheduler) `bench charts
+    --dask` says so in one line and exits 2, as `loomfmu sweep` does, before
+    any work (it printed a 20-line traceback)."""
+    if hide:
+        monkeypatch.setitem(sys.modules, "distributed", None)  # as if not installed
+    out = tmp_path / "charts"
+    code = main(["charts", "--dask", "--quick", "--models", "drive", "--out", str(out), *extra])
+    assert (code, capsys.readouterr().err) == (2, f"loomfmu bench: error: {message}\n")
+    assert not out.exists()
 
 
 def test_every_scene_names_outputs_of_its_model():

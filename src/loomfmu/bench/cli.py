@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -182,6 +183,13 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
         ap.error(f"--workers {args.workers}: allowed 1 ... {MAX_WORKERS}")
     if (args.scheduler is not None or args.workers != 2) and not args.dask:
         ap.error("--workers and --scheduler go with --dask")
+    if args.dask:
+        from ..sweep.bench import check_dask
+        try:  # dask.distributed missing, a refused scheduler: one line, exit 2 (as sweep)
+            check_dask(args.workers, args.scheduler)
+        except (ValueError, ImportError) as exc:
+            print(f"{prog}: error: {exc}", file=sys.stderr)
+            return 2
     out = args.out or Path("docs/bench")
     readme = args.readme
     if readme is None and not args.quick and out == Path("docs/bench") and \
