@@ -110,3 +110,26 @@ def test_fmu_runner_shared_by_two_threads_takes_turns(tmp_path):
         th.join()
     assert len(results) == 30
     assert all(np.array_equal(r, fresh) for r in results)
+
+
+@pytest.mark.parametrize("module", ["loomfmu.bench.cli", "loomfmu.sweep.__main__"])
+def test_help_gives_every_command_a_line_and_every_option_its_default(module):
+    """`loomfmu bench --help` and `loomfmu sweep --help`: each command has its
+    line (and shows it atop its own --help); each option has a help text
+    that states its default where it has one (flags and repeatable options
+    have none)."""
+    import argparse
+    import importlib
+
+    parser = importlib.import_module(module)._parser("prog")
+    parser = parser[0] if isinstance(parser, tuple) else parser
+    (sub,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    assert {a.dest: a.help for a in sub._choices_actions}.keys() == sub.choices.keys()
+    for cmd, helpline in ((a.dest, a.help) for a in sub._choices_actions):
+        assert helpline and sub.choices[cmd].description == helpline, cmd
+        for a in sub.choices[cmd]._actions:
+            if isinstance(a, argparse._HelpAction):
+                continue
+            assert a.help, (cmd, a.dest)
+            if a.default not in (None, False, []) and not a.required:
+                assert "default" in a.help, (cmd, a.option_strings, a.default, a.help)
