@@ -127,7 +127,7 @@ def _parser(prog: str) -> tuple[argparse.ArgumentParser, dict]:
     """The parser and its subparsers by command."""
     ap = argparse.ArgumentParser(prog=prog,
                                  description="loomfmu benchmarks (never timed tests)")
-    sub = ap.add_subparsers(dest="what", required=True, metavar="COMMAND")
+    sub = ap.add_subparsers(dest="command", required=True)
     c = _command(sub, "charts", "work-precision and failure charts of every bench scene "
                  "-> OUT/*.png, points.csv, summary.md, speed_table.json")
     c.add_argument("--models", nargs="+", default=None, metavar="MODEL",
@@ -191,13 +191,13 @@ def _parser(prog: str) -> tuple[argparse.ArgumentParser, dict]:
 def main(argv=None, prog: str = "loomfmu bench") -> int:
     ap, subs = _parser(prog)
     args = ap.parse_args(argv)
-    if args.what in ("speed", "friction") and args.repeats < 1:
-        subs[args.what].error(f"--repeats {args.repeats}: allowed >= 1")
-    if args.what == "friction":
+    if args.command in ("speed", "friction") and args.repeats < 1:
+        subs[args.command].error(f"--repeats {args.repeats}: allowed >= 1")
+    if args.command == "friction":
         return classic.main_friction(args)
-    if args.what == "speed":
+    if args.command == "speed":
         return classic.main_speed(args)
-    if args.what == "limit":
+    if args.command == "limit":
         return _main_limit(subs["limit"], args)
     ap = subs["charts"]
     if args.models is None:
