@@ -32,6 +32,10 @@ calls the FMI 2.0 functions and reads the solver's counters (accepted and
 rejected steps, RHS and Jacobian calls, factorizations) from the instance;
 CPU time (median of ``--repeats``) / simulated time, with the staircase and
 with input derivatives, and max r_top of each run.
+
+Each mode reports its progress on stderr (loomfmu.progress), prints its table
+and ``written: <path>`` for the JSON it writes: by default into this
+repository's docs/ (wherever the script is run from), else ``--out``.
 """
 from __future__ import annotations
 
@@ -50,9 +54,26 @@ import numpy as np
 from loomfmu import build_fmu, load_model
 from loomfmu.builder import fmi_headers_dir
 from loomfmu.codegen import SOLVERS
+from loomfmu.progress import Progress
 
 RAMP, HOLD, DT, TOP_RPM, ECC = 1.0, 0.25, 2e-4, 16000.0, 5e-6
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def table(header: list[str], rows: list[list[str]], left: int = 1) -> str:
+    """``rows`` of formatted cells under ``header``, each column as wide as
+    its widest cell and two spaces apart; the first ``left`` columns
+    left-aligned, the others right-aligned."""
+    widths = [max(len(c) for c in col) for col in zip(header, *rows)]
+    return "\n".join("  ".join(c.ljust(w) if i < left else c.rjust(w)
+                               for i, (c, w) in enumerate(zip(line, widths))).rstrip()
+                     for line in [header, *rows])
+
+
+def write_json(path: Path, result: dict) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(result, indent=1))
+    print(f"written: {path}")
 
 
 def scene(t_end: float = RAMP + HOLD) -> np.ndarray:
@@ -121,15 +142,21 @@ def run_driven(fmu: Path, solver: str, rtol: float, h: float, interp: bool):
 
 
 def main_interp(args) -> int:
-    with tempfile.TemporaryDirectory() as tmp:
+    runs = [(DT / k, False) for k in args.stair_refine] + \
+        [(DT * k, True) for k in args.interp_steps]
+    with tempfile.TemporaryDirectory() as tmp, \
+            Progress(total=len(runs) + 1, desc="spindle run-up interp") as bar:
         opts = {"n_modes": args.n_modes} if args.model == "spindle_modal" else {}
+        bar.stage(f"building the {args.model} FMU")
         fmu = build_fmu(load_model(args.model, **opts), out_dir=tmp, validate=False).path
+        bar.stage("oracle: input derivatives at DT")
         t_ref, r_ref, wall_ref = run_driven(fmu, args.solver, args.rtol, DT, True)
+        bar.advance(f"oracle: {wall_ref:.1f} s")
         peak = float(np.max(r_ref))
         rows = []
-        runs = [(DT / k, False) for k in args.stair_refine] + \
-            [(DT * k, True) for k in args.interp_steps]
         for h, interp in runs:
+            what = f"{'derivatives' if interp else 'staircase'} at {h:.4g} s"
+            bar.stage(f"{what}: running ({args.repeats}x)")
             walls = []
             for _ in range(args.repeats):
                 if h == DT and interp:
@@ -143,6 +170,7 @@ def main_interp(args) -> int:
             rows.append({"inputs": "derivatives" if interp else "staircase",
                          "comm_step_s": h, "comm_steps": len(t),
                          "wall_s": statistics.median(walls), "error": err})
+            bar.advance(f"{what}: {rows[-1]['wall_s']:.2f} s, error {err:.1e}")
     base = rows[0]["wall_s"]
     for r in rows:
         r["speedup_vs_staircase"] = base / r["wall_s"]
@@ -150,17 +178,14 @@ def main_interp(args) -> int:
                         "top_rpm": TOP_RPM, "solver": args.solver, "rtol": args.rtol,
                         "repeats": args.repeats},
               "oracle": "input derivatives at dt_s", "rows": rows}
-    print(f"{'inputs':<13}{'comm step':>11}{'steps':>7}{'wall s':>9}{'speedup':>9}{'error':>10}")
-    for r in rows:
-        print(f"{r['inputs']:<13}{r['comm_step_s']:>11.4g}{r['comm_steps']:>7}"
-              f"{r['wall_s']:>9.3f}{r['speedup_vs_staircase']:>9.2f}{r['error']:>10.2e}")
-    out = args.out if args.out != DEFAULT_OUT else ROOT / "docs" / "spindle_runup_interp.json"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=1))
+    print(table(["inputs", "comm step", "steps", "wall s", "speedup", "error"],
+                [[r["inputs"], f"{r['comm_step_s']:.4g}", str(r["comm_steps"]),
+                  f"{r['wall_s']:.3f}", f"{r['speedup_vs_staircase']:.2f}",
+                  f"{r['error']:.2e}"] for r in rows]))
+    write_json(args.out or ROOT / "docs" / "spindle_runup_interp.json", result)
     return 0
 
 
-DEFAULT_OUT = ROOT / "docs" / "spindle_runup.json"
 DRIVER = Path(__file__).resolve().with_name("spindle_runup_driver.c")
 
 
@@ -226,12 +251,17 @@ def load_average() -> list[float]:
 def main_counters(args) -> int:
     sim = RAMP + HOLD
     rows = []
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, \
+            Progress(total=2 * len(args.solvers), desc="spindle run-up counters") as bar:
         opts = {"n_modes": args.n_modes} if args.model == "spindle_modal" else {}
+        bar.stage(f"building the {args.model} FMU")
         fmu = build_fmu(load_model(args.model, **opts), out_dir=tmp, validate=False).path
+        bar.stage("compiling the C driver")
         exe = compile_driver(fmu, Path(tmp))
         for solver in args.solvers:
             for interp in (False, True):
+                what = f"{solver}, {'derivatives' if interp else 'staircase'}"
+                bar.stage(f"{what}: running ({args.repeats}x)")
                 r = run_counters(exe, fmu, solver, args.rtol, interp, args.repeats)
                 rows.append({"solver": solver,
                              "inputs": "derivatives" if interp else "staircase",
@@ -241,6 +271,7 @@ def main_counters(args) -> int:
                              "eliminated": int(r.get("eliminated", 0)),
                              "cost_us": {k[:-3]: r[k] for k in COST_KEYS if k in r},
                              "r_top_max": r["r_top_max"], "r_top_end": r["r_top_end"]})
+                bar.advance(f"{what}: {r['cpu_s']:.2f} CPU s, {int(r['steps'])} steps")
     ref = rows[0]["r_top_max"]
     for r in rows:
         r["r_top_max_rel_diff"] = abs(r["r_top_max"] - ref) / ref
@@ -251,54 +282,70 @@ def main_counters(args) -> int:
               "command": "python benchmarks/spindle_runup.py --counters --solvers "
                          + " ".join(args.solvers) + f" --repeats {args.repeats}",
               "rows": rows}
-    print(f"{'solver':<10}{'inputs':<13}{'cpu s':>8}{'cpu/sim':>9}{'steps':>8}{'rej':>7}"
-          f"{'rhs':>9}{'jac':>8}{'lu':>8}{'st/lu':>7}{'dmax r_top':>12}")
-    for r in rows:
-        print(f"{r['solver']:<10}{r['inputs']:<13}{r['cpu_s']:>8.3f}{r['rtf']:>9.3f}"
-              f"{r['steps']:>8}{r['rejected']:>7}{r['rhs']:>9}{r['jac']:>8}{r['lu']:>8}"
-              f"{r['steps_per_lu']:>7.2f}{r['r_top_max_rel_diff']:>12.2e}")
+    # st/lu: "-" for a solver without factorizations (the JSON keeps steps / 1)
+    print(table(["solver", "inputs", "cpu s", "cpu/sim", "steps", "rej", "rhs", "jac", "lu",
+                 "st/lu", "dmax r_top"],
+                [[r["solver"], r["inputs"], f"{r['cpu_s']:.3f}", f"{r['rtf']:.3f}",
+                  *(str(r[k]) for k in ("steps", "rejected", "rhs", "jac", "lu")),
+                  f"{r['steps_per_lu']:.2f}" if r["lu"] else "-",
+                  f"{r['r_top_max_rel_diff']:.2e}"] for r in rows], left=2))
     cost = rows[-1]["cost_us"]
     if cost:
         print(f"{rows[-1].get('eliminated', 0)} states eliminated by the Schur path; cost per call "
               "(us, end state): " + ", ".join(f"{k} {v:.2f}" for k, v in cost.items()))
-    out = args.out if args.out != DEFAULT_OUT else ROOT / "docs" / "spindle_runup_counters.json"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=1))
+    write_json(args.out or ROOT / "docs" / "spindle_runup_counters.json", result)
     return 0
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--modes", type=int, nargs="*", default=[1, 2, 3, 4, 5, 6, 8])
-    ap.add_argument("--solver", default="rodas4", choices=SOLVERS)
-    ap.add_argument("--rtol", type=float, default=1e-6)
-    ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    ap = argparse.ArgumentParser(description=" ".join(__doc__.splitlines()[:2]))
+    ap.add_argument("--modes", type=int, nargs="*", default=[1, 2, 3, 4, 5, 6, 8],
+                    help="mode counts of the modal FMUs against the full one (default 1 2 3 "
+                         "4 5 6 8)")
+    ap.add_argument("--solver", default="rodas4", choices=SOLVERS,
+                    help="solver of the modal comparison and of --interp (default rodas4)")
+    ap.add_argument("--rtol", type=float, default=1e-6,
+                    help="relative tolerance (default 1e-6)")
+    ap.add_argument("--repeats", type=int, default=3,
+                    help="timed runs per row, the median kept (default 3)")
+    ap.add_argument("--out", type=Path, default=None,
+                    help="the JSON file to write (default: docs/spindle_runup.json, with "
+                         "--interp docs/spindle_runup_interp.json, with --counters "
+                         "docs/spindle_runup_counters.json, in this repository)")
     ap.add_argument("--interp", action="store_true", help="input derivatives against the "
                     "staircase (writes docs/spindle_runup_interp.json)")
     ap.add_argument("--interp-steps", type=int, nargs="*", default=[1, 5, 25, 125],
-                    help="communication steps of the interpolated runs, in units of DT")
+                    help="communication steps of the interpolated runs, in units of DT "
+                         "(default 1 5 25 125)")
     ap.add_argument("--stair-refine", type=int, nargs="*", default=[1, 10],
-                    help="communication steps of the staircase runs, DT divided by these")
-    ap.add_argument("--model", default="spindle", choices=("spindle", "spindle_modal"))
-    ap.add_argument("--n-modes", type=int, default=4)
+                    help="communication steps of the staircase runs, DT divided by these "
+                         "(default 1 10)")
+    ap.add_argument("--model", default="spindle", choices=("spindle", "spindle_modal"),
+                    help="--interp and --counters: the model (default spindle)")
+    ap.add_argument("--n-modes", type=int, default=4,
+                    help="modes of spindle_modal with --model spindle_modal (default 4)")
     ap.add_argument("--counters", action="store_true", help="C driver without Python: "
                     "solver counters and CPU time (writes docs/spindle_runup_counters.json)")
-    ap.add_argument("--solvers", nargs="*", default=[s for s in ("rodas4", "ros34pw2")
-                                                     if s in SOLVERS], choices=SOLVERS)
+    solvers = [s for s in ("rodas4", "ros34pw2") if s in SOLVERS]
+    ap.add_argument("--solvers", nargs="*", default=solvers, choices=SOLVERS,
+                    help=f"--counters: the solvers (default {' '.join(solvers)})")
     args = ap.parse_args(argv)
     if args.interp:
         return main_interp(args)
     if args.counters:
         return main_counters(args)
     sim_time = RAMP + HOLD
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, \
+            Progress(total=1 + len(args.modes), desc="spindle run-up") as bar:
+        bar.stage("spindle: building and running the full FMU")
         full = build_fmu(load_model("spindle"), out_dir=tmp, validate=False).path
         ref, wall_full = run(full, args.solver, args.rtol, args.repeats)
+        bar.advance(f"spindle: {wall_full:.2f} s")
         peak = float(np.max(ref["r_top"]))
         rows = [{"model": "spindle", "n_modes": None, "states": None,
                  "wall_s": wall_full, "rtf": wall_full / sim_time, "error": 0.0}]
         for n in args.modes:
+            bar.stage(f"spindle_modal, {n} modes: building and running")
             model = load_model("spindle_modal", n_modes=n)
             path = build_fmu(model, out_dir=Path(tmp) / f"m{n}", validate=False).path
             res, wall = run(path, args.solver, args.rtol, args.repeats)
@@ -306,6 +353,7 @@ def main(argv=None) -> int:
             rows.append({"model": "spindle_modal", "n_modes": n,
                          "states": len(model.of_kind("state")), "wall_s": wall,
                          "rtf": wall / sim_time, "error": err})
+            bar.advance(f"spindle_modal, {n} modes: {wall:.2f} s, error {err:.1e}")
     rows[0]["states"] = len(load_model("spindle").of_kind("state"))
     i_crit = int(np.argmax(ref["r_top"][: int(0.3 * RAMP / DT)]))  # below 4800 rpm
     result = {"scene": {"ramp_s": RAMP, "hold_s": HOLD, "dt_s": DT, "top_rpm": TOP_RPM,
@@ -319,15 +367,13 @@ def main(argv=None) -> int:
             break
         fewest = r["n_modes"]
     result["fewest_modes_within_1pct"] = fewest
-    print(f"{'model':<16}{'modes':>6}{'states':>8}{'wall s':>9}{'wall/sim':>10}{'error':>10}")
-    for r in rows:
-        print(f"{r['model']:<16}{str(r['n_modes'] or '-'):>6}{r['states']:>8}"
-              f"{r['wall_s']:>9.3f}{r['rtf']:>10.4f}{r['error']:>10.2e}")
+    print(table(["model", "modes", "states", "wall s", "wall/sim", "error"],
+                [[r["model"], str(r["n_modes"] or "-"), str(r["states"]), f"{r['wall_s']:.3f}",
+                  f"{r['rtf']:.4f}", f"{r['error']:.2e}"] for r in rows]))
     print(f"first critical passed at about {result['critical_rpm']:.0f} rpm (peak of r_top "
           f"below 4800 rpm); fewest modes within 1 % from there on: "
           f"{result['fewest_modes_within_1pct']}")
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=1))
+    write_json(args.out or ROOT / "docs" / "spindle_runup.json", result)
     return 0
 
 

@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import csv
 import math
+import sys
+
+import pytest
 
 from loomfmu.bench import main
 from loomfmu.bench.scenes import BENCH
@@ -22,6 +25,25 @@ def test_charts_command_runs_on_one_model(tmp_path):
         assert r["status"] == "ok" and math.isfinite(float(r["err_max"]))
         assert math.isfinite(float(r["err_final"])) and float(r["seconds"]) > 0
     assert any(r["family"] == "scipy" for r in rows)
+
+
+@pytest.mark.parametrize("extra, hide, message", [
+    ([], True, "loomfmu.sweep runs on dask.distributed, which is not installed: "
+               "pip install 'loomfmu[distributed]'"),
+    (["--scheduler", "localhost"], False, "scheduler = 'localhost'; allowed: None or an "
+                                          "address such as tcp://host:8786"),
+], ids=["no-distributed", "bad-scheduler"])
+def test_charts_on_dask_refused_in_one_line_with_exit_2(tmp_path, monkeypatch, capsys, extra,
+                                                        hide, message):
+    """Without dask.distributed (or with a bad --scheduler) `bench charts
+    --dask` says so in one line and exits 2, as `loomfmu sweep` does, before
+    any work (it printed a 20-line traceback)."""
+    if hide:
+        monkeypatch.setitem(sys.modules, "distributed", None)  # as if not installed
+    out = tmp_path / "charts"
+    code = main(["charts", "--dask", "--quick", "--models", "drive", "--out", str(out), *extra])
+    assert (code, capsys.readouterr().err) == (2, f"loomfmu bench: error: {message}\n")
+    assert not out.exists()
 
 
 def test_every_scene_names_outputs_of_its_model():
@@ -88,3 +110,26 @@ def test_fmu_runner_shared_by_two_threads_takes_turns(tmp_path):
         th.join()
     assert len(results) == 30
     assert all(np.array_equal(r, fresh) for r in results)
+
+
+@pytest.mark.parametrize("module", ["loomfmu.bench.cli", "loomfmu.sweep.__main__"])
+def test_help_gives_every_command_a_line_and_every_option_its_default(module):
+    """`loomfmu bench --help` and `loomfmu sweep --help`: each command has its
+    line (and shows it atop its own --help); each option has a help text
+    that states its default where it has one (flags and repeatable options
+    have none)."""
+    import argparse
+    import importlib
+
+    parser = importlib.import_module(module)._parser("prog")
+    parser = parser[0] if isinstance(parser, tuple) else parser
+    (sub,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    assert {a.dest: a.help for a in sub._choices_actions}.keys() == sub.choices.keys()
+    for cmd, helpline in ((a.dest, a.help) for a in sub._choices_actions):
+        assert helpline and sub.choices[cmd].description == helpline, cmd
+        for a in sub.choices[cmd]._actions:
+            if isinstance(a, argparse._HelpAction):
+                continue
+            assert a.help, (cmd, a.dest)
+            if a.default not in (None, False, []) and not a.required:
+                assert "default" in a.help, (cmd, a.option_strings, a.default, a.help)

@@ -3,10 +3,14 @@
     loomfmu bench charts [--quick] [--models heald_frame drive ...]
     loomfmu bench speed [--model heald_frame] [--repeats 5]
     loomfmu bench friction
+    loomfmu bench limit [--models heald_frame drive ...] [--solvers dopri5 rodas4]
 
 ``charts``: work-precision and failure charts for every model in
 :data:`loomfmu.bench.scenes.BENCH` (docs/bench/); ``speed`` and
-``friction``: the first two benchmarks (docs/speed.json, docs/friction.json).
+``friction``: the first two benchmarks (docs/speed.json, docs/friction.json);
+``limit``: each model at C level against its method's limit
+(docs/limit.json, docs/limit.md). ``loomfmu bench COMMAND --help``: a
+command's options and their defaults.
 """
 from .classic import friction, speed, time_at_error  # noqa: F401
 from .cli import main  # noqa: F401

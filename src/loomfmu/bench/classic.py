@@ -182,7 +182,7 @@ def main_speed(args) -> int:
 
 def main_friction(args) -> int:
     res = friction(args.repeats)
-    out = args.out if args.out != Path("docs/speed.json") else Path("docs/friction.json")
+    out = args.out
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(res, indent=2))
     print(f"{res['scene']}; mode switches in the reference by k_static: "

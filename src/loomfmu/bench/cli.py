@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -117,62 +118,88 @@ def _charts_dask(models, plan, quick, out, tmp, infos, rows, tasks, bar, dask, o
     return cases
 
 
-def main(argv=None, prog: str = "loomfmu bench") -> int:
+def _command(sub, name: str, text: str) -> argparse.ArgumentParser:
+    """A subcommand whose one line shows in the list and atop its own --help."""
+    return sub.add_parser(name, help=text, description=text)
+
+
+def _parser(prog: str) -> tuple[argparse.ArgumentParser, dict]:
+    """The parser and its subparsers by command."""
     ap = argparse.ArgumentParser(prog=prog,
                                  description="loomfmu benchmarks (never timed tests)")
-    ap.add_argument("what", choices=["charts", "speed", "friction", "limit"])
-    ap.add_argument("--model", default="heald_frame", help="speed: the model")
-    ap.add_argument("--models", nargs="+", default=None,
-                    help=f"charts: the models to sweep (default: all of {list(BENCH)}); "
-                         "limit: the models to run (default: every model of the registry)")
-    ap.add_argument("--solvers", nargs="+", default=None,
-                    help="limit: the solvers (default: all)")
-    ap.add_argument("--best-of", type=int, default=5,
-                    help="limit: timing batches of one RHS/Jacobian call, the best kept "
-                         "(1 ... 64; default 5)")
-    ap.add_argument("--fmpy-repeats", type=int, default=5,
-                    help="limit: FMPy runs per row, the median kept (0: none; default 5)")
-    ap.add_argument("--page", type=Path, default=None,
-                    help="limit: the markdown page to write (default ./docs/limit.md when "
-                         "--out is the default)")
-    ap.add_argument("--quick", action="store_true", help="charts: coarse sweeps")
-    ap.add_argument("--no-failures", action="store_true", help="charts: skip failure studies")
-    ap.add_argument("--no-c-level", action="store_true",
-                    help="charts: do not time our FMU's points again at C level (the fmu-c "
-                         "lines, by the driver of bench limit)")
-    ap.add_argument("--dask", action="store_true",
-                    help="charts: one dask task per (model, method) sweep, on a local "
-                         "cluster (--workers) or --scheduler")
-    ap.add_argument("--workers", type=int, default=2,
-                    help=f"charts --dask: local worker processes, one thread each "
-                         f"(1 ... {MAX_WORKERS}; default 2)")
-    ap.add_argument("--scheduler", default=None,
-                    help="charts --dask: address of a running dask scheduler "
-                         "(tcp://host:8786) instead of a local cluster")
-    ap.add_argument("--readme", type=Path, default=None,
-                    help="charts: page whose marked bench section to rewrite "
-                         "(default: ./docs/speed.md when --out is docs/bench, full runs "
-                         "only)")
-    ap.add_argument("--repeats", type=int, default=5,
-                    help="speed: timed runs per point, the fastest kept; limit: C runs per "
-                         "row, the median kept (>= 1; default 5)")
-    ap.add_argument("--scales", type=float, nargs="+", default=[1.0, 10.0],
-                    help="speed: scene lengths as multiples of the model's default experiment")
-    ap.add_argument("--out", type=Path, default=None,
-                    help="output: charts a folder (default ./docs/bench), speed, "
-                         "friction and limit a JSON file (default ./docs/speed.json, "
-                         "./docs/friction.json, ./docs/limit.json)")
+    sub = ap.add_subparsers(dest="command", required=True)
+    c = _command(sub, "charts", "work-precision and failure charts of every bench scene "
+                 "-> OUT/*.png, points.csv, summary.md, speed_table.json")
+    c.add_argument("--models", nargs="+", default=None, metavar="MODEL",
+                   help=f"the scenes to sweep (default: all of {', '.join(BENCH)})")
+    c.add_argument("--quick", action="store_true", help="coarse sweeps")
+    c.add_argument("--no-failures", action="store_true", help="skip the failure studies")
+    c.add_argument("--no-c-level", action="store_true",
+                   help="do not time our FMU's points again at C level (the fmu-c lines, by "
+                        "the driver of bench limit)")
+    c.add_argument("--dask", action="store_true",
+                   help="one dask task per (model, method) sweep, on a local cluster "
+                        "(--workers) or --scheduler")
+    c.add_argument("--workers", type=int, default=2,
+                   help=f"--dask: local worker processes, one thread each (1 ... "
+                        f"{MAX_WORKERS}; default 2)")
+    c.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="--dask: address of a running dask scheduler (tcp://host:8786) "
+                        "instead of a local cluster (default: none, a local cluster)")
+    c.add_argument("--readme", type=Path, default=None,
+                   help="page whose marked bench section to rewrite (default: ./docs/speed.md "
+                        "when --out is docs/bench, full runs only)")
+    c.add_argument("--out", type=Path, default=Path("docs/bench"),
+                   help="output folder (default ./docs/bench)")
+    s = _command(sub, "speed", "time at a target error of one model's FMU against scipy "
+                 "-> docs/speed.json")
+    s.add_argument("--model", default="heald_frame", help="the model (default heald_frame)")
+    s.add_argument("--repeats", type=int, default=5,
+                   help="timed runs per point, the median kept (>= 1; default 5)")
+    s.add_argument("--scales", type=float, nargs="+", default=[1.0, 10.0],
+                   help="scene lengths as multiples of the model's default experiment "
+                        "(default 1 10)")
+    s.add_argument("--out", type=Path, default=Path("docs/speed.json"),
+                   help="the JSON file (default ./docs/speed.json)")
+    f = _command(sub, "friction", "backrest: regularized against event-driven friction, "
+                 "error and cost as eps shrinks -> docs/friction.json")
+    f.add_argument("--repeats", type=int, default=5,
+                   help="timed runs per point, the median kept (>= 1; default 5)")
+    f.add_argument("--out", type=Path, default=Path("docs/friction.json"),
+                   help="the JSON file (default ./docs/friction.json)")
+    lim = _command(sub, "limit", "each model's verification run at C level against its "
+                   "method's limit, FMPy beside it -> docs/limit.json, limit.md")
+    lim.add_argument("--models", nargs="+", default=None, metavar="MODEL",
+                     help="the models to run (default: every model of the registry)")
+    lim.add_argument("--solvers", nargs="+", default=None, metavar="SOLVER",
+                     help="the solvers (default: all)")
+    lim.add_argument("--repeats", type=int, default=5,
+                     help="C runs per row, the median kept (1 ... 64; default 5)")
+    lim.add_argument("--best-of", type=int, default=5,
+                     help="timing batches of one RHS/Jacobian call, the best kept "
+                          "(1 ... 64; default 5)")
+    lim.add_argument("--fmpy-repeats", type=int, default=5,
+                     help="FMPy runs per row, the median kept (0: none; 0 ... 64; default 5)")
+    lim.add_argument("--out", type=Path, default=None,
+                     help="the JSON file (default ./docs/limit.json)")
+    lim.add_argument("--page", type=Path, default=None,
+                     help="the markdown page to write (default ./docs/limit.md when --out "
+                          "is not given, else none)")
+    return ap, {"charts": c, "speed": s, "friction": f, "limit": lim}
+
+
+def main(argv=None, prog: str = "loomfmu bench") -> int:
+    ap, subs = _parser(prog)
     args = ap.parse_args(argv)
-    if args.repeats < 1:
-        ap.error(f"--repeats {args.repeats}: allowed >= 1")
-    if args.what == "friction":
-        args.out = args.out or Path("docs/friction.json")
+    if args.command in ("speed", "friction") and args.repeats < 1:
+        subs[args.command].error(f"--repeats {args.repeats}: allowed >= 1")
+    if args.command == "friction":
         return classic.main_friction(args)
-    if args.what == "speed":
-        args.out = args.out or Path("docs/speed.json")
+    if args.command == "speed":
         return classic.main_speed(args)
-    if args.what == "limit":
-        return _main_limit(ap, args)
+    if args.command == "limit":
+        return _main_limit(subs["limit"], args)
+    ap = subs["charts"]
     if args.models is None:
         args.models = list(BENCH)
     unknown = sorted(set(args.models) - set(BENCH))
@@ -182,7 +209,14 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
         ap.error(f"--workers {args.workers}: allowed 1 ... {MAX_WORKERS}")
     if (args.scheduler is not None or args.workers != 2) and not args.dask:
         ap.error("--workers and --scheduler go with --dask")
-    out = args.out or Path("docs/bench")
+    if args.dask:
+        from ..sweep.bench import check_dask
+        try:  # dask.distributed missing, a refused scheduler: one line, exit 2 (as sweep)
+            check_dask(args.workers, args.scheduler)
+        except (ValueError, ImportError) as exc:
+            print(f"{prog}: error: {exc}", file=sys.stderr)
+            return 2
+    out = args.out
     readme = args.readme
     if readme is None and not args.quick and out == Path("docs/bench") and \
             Path("docs/speed.md").exists():

@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 from ..checks import check_number
+from ..codegen import SOLVERS
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -25,7 +26,8 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="local dask worker processes, one thread each (1 ... 64; default 2)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="a running dask scheduler (tcp://host:8786) instead of the local "
-                        "cluster; its workers need loomfmu installed")
+                        "cluster; its workers need loomfmu installed (default: none, the "
+                        "local cluster)")
     p.add_argument("--connect-timeout", type=float, default=10.0, metavar="SECONDS",
                    help="how long to wait for --scheduler to answer (0 < . <= 600; "
                         "default 10): no answer, a closed port or another service there "
@@ -41,27 +43,33 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="a built .fmu of the study's model (default: build it now)")
 
 
+def _command(sub, name: str, text: str) -> argparse.ArgumentParser:
+    """A subcommand whose one line shows in the list and atop its own --help."""
+    return sub.add_parser(name, help=text, description=text)
+
+
 def _parser(prog: str) -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog=prog, description="Parameter studies on dask.distributed "
                                  "(an embedded LocalCluster, or --scheduler).")
     sub = ap.add_subparsers(dest="cmd", required=True)
-    d = sub.add_parser("design-map", help="heald frame: b1, d1 vs max |x2| over loom widths "
-                       "and k_z -> OUT_DIR/design_map.{csv,png,md}")
+    d = _command(sub, "design-map", "heald frame: b1, d1 vs max |x2| over loom widths and "
+                 "k_z -> OUT_DIR/design_map.{csv,png,md}")
     d.add_argument("--gap", type=float, default=0.004,
                    help="clearance to the neighbouring frame, m (> 0; default 0.004): the "
                         "smallest b1 meeting it, per (width, k_z, d1)")
     _common(d)
-    g = sub.add_parser("drive-grid", help="drive tracking error over tau, T, cam "
-                       "-> OUT_DIR/drive_grid.{csv,png,md}")
+    g = _command(sub, "drive-grid", "drive tracking error over tau, T, cam "
+                 "-> OUT_DIR/drive_grid.{csv,png,md}")
     _common(g)
-    h = sub.add_parser("hinge", help="rigid frame's hinge load over every preset and speed "
-                       "-> OUT_DIR/hinge.{csv,png}")
+    h = _command(sub, "hinge", "rigid frame's hinge load over every preset and speed "
+                 "-> OUT_DIR/hinge.{csv,png}")
     _common(h)
-    t = sub.add_parser("trends", help="spindle trend studies on the full FMU against (15) "
-                       "-> OUT_DIR/trends.{csv,png,md}")
+    t = _command(sub, "trends", "spindle trend studies on the full FMU against (15) "
+                 "-> OUT_DIR/trends.{csv,png,md}")
     _common(t)
-    r = sub.add_parser("run", help="any model: a grid, lists or a Latin hypercube of values")
-    r.add_argument("model", metavar="MODEL")
+    r = _command(sub, "run", "any model: a grid, lists or a Latin hypercube of values")
+    r.add_argument("model", metavar="MODEL",
+                   help="a model of the registry (loomfmu list), built with --option")
     r.add_argument("--grid", action="append", default=[], metavar="NAME=V1,V2,...",
                    help="an axis of a full-factorial grid (repeatable)")
     r.add_argument("--list", action="append", default=[], metavar="NAME=V1,V2,...",
@@ -78,7 +86,8 @@ def _parser(prog: str) -> argparse.ArgumentParser:
     r.add_argument("--stop", type=float, required=True, help="stop time, s (> 0)")
     r.add_argument("--step", type=float, default=None,
                    help="communication step, s (default stop/1000)")
-    r.add_argument("--solver", default="dopri5", help="dopri5 | rodas4 | rk4")
+    r.add_argument("--solver", default="dopri5", choices=SOLVERS, metavar="SOLVER",
+                   help=f"the FMU's solver: {' | '.join(SOLVERS)} (default dopri5)")
     r.add_argument("--rtol", type=float, default=1e-6, help="(0, 0.1]; default 1e-6")
     r.add_argument("--atol", type=float, default=1e-9, help="> 0; default 1e-9")
     r.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",

@@ -70,6 +70,24 @@ ALL_METHODS = ([("fmu", s) for s in FMU_ADAPTIVE] + [("fmu", "rk4")]
                + [("casadi", p) for p in CASADI_PLUGINS])
 
 
+def check_dask(workers: int, scheduler: str | None, connect_timeout: float = 10.0) -> int:
+    """The dask arguments of :func:`work_precision_dask` (returns ``workers``),
+    dask.distributed installed and ``scheduler`` (if any) answering as a
+    dask scheduler: else ValueError or ImportError in one line, before any
+    work (``loomfmu bench charts --dask`` calls it first)."""
+    workers = check_int("workers", workers, lo=1, hi=MAX_WORKERS)
+    if scheduler is not None and (not isinstance(scheduler, str) or "://" not in scheduler):
+        raise ValueError(f"scheduler = {scheduler!r:.60}; allowed: None or an address "
+                         "such as tcp://host:8786")
+    if not 0 < connect_timeout <= MAX_CONNECT_TIMEOUT:
+        raise ValueError(f"connect_timeout = {connect_timeout!r}; allowed: "
+                         f"0 < . <= {MAX_CONNECT_TIMEOUT:g} s")
+    _need_distributed()
+    if scheduler is not None:
+        check_scheduler(scheduler, connect_timeout)
+    return workers
+
+
 def work_precision_dask(names: list[str], plan: Plan, quick: bool, *,
                         workers: int = 2, scheduler: str | None = None, only=None,
                         connect_timeout: float = 10.0, progress: bool = True) -> dict:
@@ -81,16 +99,7 @@ def work_precision_dask(names: list[str], plan: Plan, quick: bool, *,
     {"rows": {name: rows in the serial order}, "known": {name: (grid, ref,
     ref_note, casadi_note)}, "tasks": [per task: model, family, method,
     cpu_s, wall_s, pid]}."""
-    workers = check_int("workers", workers, lo=1, hi=MAX_WORKERS)
-    if scheduler is not None and (not isinstance(scheduler, str) or "://" not in scheduler):
-        raise ValueError(f"scheduler = {scheduler!r:.60}; allowed: None or an address "
-                         "such as tcp://host:8786")
-    if not 0 < connect_timeout <= MAX_CONNECT_TIMEOUT:
-        raise ValueError(f"connect_timeout = {connect_timeout!r}; allowed: "
-                         f"0 < . <= {MAX_CONNECT_TIMEOUT:g} s")
-    _need_distributed()
-    if scheduler is not None:
-        check_scheduler(scheduler, connect_timeout)
+    workers = check_dask(workers, scheduler, connect_timeout)
     from dask.distributed import as_completed
 
     from ..progress import Progress

@@ -32,7 +32,8 @@ class Study:
     cases: list of {name: value} (see loomfmu.sweep.space), at least one.
     figures: Figure / Derived (at least one). stop_time: s (> 0);
     output_interval: communication step, s (0 < . <= stop_time).
-    solver: dopri5 | rodas4 | rk4; rtol in (0, 0.1]; atol > 0.
+    solver: one of loomfmu.codegen.SOLVERS (the FMU's ``solver`` enumeration);
+    rtol in (0, 0.1]; atol > 0.
     fixed: start values set in every case. prepare: a module-level function
     ``prepare(case, fixed) -> (values, stop_time or None)`` that turns a case
     into the FMU's start values (a ValueError there marks the case invalid).

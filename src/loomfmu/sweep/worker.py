@@ -27,12 +27,12 @@ import fmpy
 import numpy as np
 
 from .. import fmpy_logger
+from ..codegen import SOLVERS
 
 #: FMI status codes -> the status a row records
 FMI_STATUS = {2: "discard", 3: "error", 4: "fatal"}
 #: statuses a row can have
 STATUSES = ("ok", "discard", "error", "fatal", "invalid", "failed")
-SOLVER_INDEX = {"dopri5": 1, "rodas4": 2, "rk4": 3}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -180,7 +180,8 @@ def run_case(blob: FmuBlob, setup: Setup, index: int, key: str, case: dict,
     except (ValueError, TypeError) as exc:
         row.update(status="invalid", message=str(exc), wall_s=0.0, worker=_worker())
         return row
-    start = {"solver": SOLVER_INDEX[setup.solver], "solver_atol": setup.atol, **values}
+    # the FMU's ``solver`` enumeration value: the 1-based position in SOLVERS
+    start = {"solver": SOLVERS.index(setup.solver) + 1, "solver_atol": setup.atol, **values}
     slot.log.clear()
     kwargs = dict(validate=False, model_description=slot.md, stop_time=stop,
                   relative_tolerance=setup.rtol, output_interval=setup.output_interval,
