@@ -120,6 +120,20 @@ def test_top_level_help_lists_every_subcommand_of_each_analysis():
         assert listed == set(choices.group(1).split(",")), (name, helptext, choices.group(0))
 
 
+def test_readme_command_table_names_every_subcommand():
+    """The README's table of commands lists each analysis' subcommands (its
+    rows `loomfmu NAME a\\|b ...`, together), as the parser has them."""
+    from loomfmu.cli import ANALYSES
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    for name, (_, helptext) in ANALYSES.items():
+        if " | " not in helptext:
+            continue
+        rows = re.findall(rf"^\| `loomfmu {name} ([^`\s]+)", readme, flags=re.M)
+        listed = {w for r in rows for w in r.replace("\\|", "|").split("|")}
+        wanted = set(helptext.split(": ", 1)[1].split(" | "))
+        assert wanted <= listed, (name, sorted(wanted - listed))
+
+
 def test_a_file_that_is_not_an_fmu_is_a_usage_error(tmp_path):
     """Not a zip, or a zip without modelDescription.xml: one line naming the
     file, exit 2 (before: simulate showed zipfile's traceback)."""
