@@ -463,8 +463,15 @@ def test_inspect_report_in_every_format(name, tmp_path):
     maths = page.count("<math ")
     lst = readable.listing(model)
     assert maths >= sum(map(len, (lst.shared, lst.equations, lst.outputs, lst.events)))
+    families = inspect_report._families(model.of_kind("parameter"))
+    member = {v.name: ms for ms in families.values() for _, v in ms}
     for v in model.variables:  # every variable is listed with its unit
-        assert f"<code>{v.name}</code>" in page
+        if v.name in member:   # or in its family's row and values table
+            ms = member[v.name]
+            assert f"<code>{ms[0][1].name} \u2026 {ms[-1][1].name}</code>" in page
+            assert f"<td>{inspect_report._fmt(v.start)}</td>" in page, v.name
+        else:
+            assert f"<code>{v.name}</code>" in page
     dae = dae_form(model)
     nnz = ca.jacobian(dae.F, dae.w).nnz()
     assert f"{nnz} structural non-zeros" in page
@@ -700,3 +707,30 @@ def test_validity_conditions_are_written_with_the_quantities():
     assert r"S \geq 0 \tag{v1}" in md and "warp in compression" in md
     frag = inspect_report.html_fragment(m)
     assert "Validity conditions" in frag
+
+
+def test_an_indexed_parameter_family_is_one_row_and_a_values_table():
+    """Parameters a1 ... a9 with one unit, source and description up to the
+    index are one row of the parameter table and a table of values (the
+    drive's 192 cam coefficients were 192 rows); a family below
+    FAMILY_MIN, and a member whose description differs, stay rows."""
+    from loomfmu import Model
+    m = Model("fam", description="families")
+    for j in range(1, 10):
+        m.parameter(f"a{j}", 0.5 * j, unit="m", description=f"cos({j} phi) coefficient",
+                    source="assumption: test")
+        m.parameter(f"b{j}", -float(j), unit="m", description=f"sin({j} phi) coefficient",
+                    source="assumption: test")
+    for j in range(1, 4):
+        m.parameter(f"c{j}", 1.0, description=f"short family {j}", source="assumption: test")
+    m.parameter("a0", 7.0, unit="m", description="mean radius", source="assumption: test")
+    x = m.state("x", 0.0, description="x")
+    m.eq(m.der(x), -x)
+    md = inspect_report.report(m, "md")
+    params = md.split("Parameters (22)", 1)[1].split("States", 1)[0]
+    rows = [l for l in params.splitlines() if l.startswith("| `")]
+    assert len(rows) == 2 + 3 + 1, rows        # a-family, b-family, c1-c3, a0
+    assert "cos(j phi) coefficient" in params and "9 values (table below)" in params
+    assert "Values of aj, bj:" in params
+    assert "| 7 | 3.5 | -7 |" in params          # j, a7, b7
+    assert "short family 2" in params and "mean radius" in params

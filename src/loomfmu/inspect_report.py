@@ -15,6 +15,7 @@ current browser), ``md`` (LaTeX between ``$$`` for GitHub and Jupyter),
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 import tempfile
 from pathlib import Path
@@ -54,6 +55,46 @@ def _eq(lhs, rhs) -> sympy.Eq:
     return sympy.Eq(lhs, rhs, evaluate=False)
 
 
+#: parameters named prefix + index (cam_A1 ... cam_A96) with one unit, one
+#: source and one description up to the index form a family; a family of at
+#: least this many is one row of the parameter table, its values a table of
+#: their own (the drive's 192 cam coefficients were 192 rows)
+FAMILY_MIN = 8
+
+
+def _families(params) -> dict[str, list]:
+    """prefix -> [(index, variable), ...] of the parameter families (FAMILY_MIN)."""
+    groups: dict[tuple, list] = {}
+    for v in params:
+        m = re.fullmatch(r"(.*\D)(\d+)", v.name)
+        if m:
+            template = re.sub(rf"(?<!\d){m.group(2)}(?!\d)", "j", v.description)
+            groups.setdefault((m.group(1), v.unit, v.source, template), []).append(
+                (int(m.group(2)), v))
+    return {key[0]: members for key, members in groups.items() if len(members) >= FAMILY_MIN}
+
+
+def _family_row(prefix: str, members: list) -> list:
+    first, last = members[0][1], members[-1][1]
+    template = re.sub(rf"(?<!\d){members[0][0]}(?!\d)", "j", first.description)
+    return [Code(f"{first.name} \u2026 {last.name}"), _sym(f"{prefix}j"), first.unit,
+            f"{len(members)} values (table below)", template, first.source]
+
+
+def _family_tables(families: dict[str, list]) -> list:
+    """The families' values, one table per set of indices (cam_Aj beside cam_Bj)."""
+    by_index: dict[tuple, list[str]] = {}
+    for prefix, members in families.items():
+        by_index.setdefault(tuple(i for i, _ in members), []).append(prefix)
+    out = []
+    for indices, prefixes in by_index.items():
+        values = {p: {i: v.start for i, v in families[p]} for p in prefixes}
+        out.append(f"Values of {', '.join(p + 'j' for p in prefixes)}:")
+        out.append(Table(["j"] + [f"{p}j" for p in prefixes],
+                         [[str(i)] + [_fmt(values[p][i]) for p in prefixes] for i in indices]))
+    return out
+
+
 def _variables(model) -> list[Section]:
     out = []
     for kind, title in KIND_TITLES.items():
@@ -62,14 +103,22 @@ def _variables(model) -> list[Section]:
             continue
         head = ["name", "symbol", "unit", "value" if kind == "parameter" else "start",
                 "description"] + (["source"] if kind == "parameter" else [])
+        families = _families(vs) if kind == "parameter" else {}
+        member = {v.name: p for p, ms in families.items() for _, v in ms}
         rows = []
         for v in vs:
+            if v.name in member:   # the family's row where its first member stood
+                prefix = member[v.name]
+                if families[prefix][0][1] is v:
+                    rows.append(_family_row(prefix, families[prefix]))
+                continue
             start = _fmt(v.start)
             if kind == "mode":
                 start += f" (values {', '.join(map(str, model.mode_values[v.name]))})"
             row = [Code(v.name), _sym(v.name), v.unit, start, v.description]
             rows.append(row + ([v.source] if kind == "parameter" else []))
-        out.append(Section(f"{title} ({len(vs)})", [Table(head, rows)], level=3))
+        out.append(Section(f"{title} ({len(vs)})", [Table(head, rows)] +
+                           _family_tables(families), level=3))
     return out
 
 
