@@ -46,6 +46,9 @@ SOLVER_DESCRIPTIONS = {
     "ros34pw2": "implicit adaptive Rosenbrock-W ROS34PW2 (order 3) reusing the Jacobian and "
                 "its factorization across steps, for stiff models",
 }
+#: the solvers that control their step by the tolerance (the others: a fixed
+#: step, solver_h_fixed)
+ADAPTIVE_SOLVERS = tuple(s for s in SOLVERS if s != "rk4")
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import casadi as ca
 
-from .codegen import SETTINGS, SOLVER_DESCRIPTIONS, SOLVERS
+from .codegen import ADAPTIVE_SOLVERS, SETTINGS, SOLVER_DESCRIPTIONS, SOLVERS
 from .declare import Model
 from .fmi_xml import fmi3_text
 from .registry import MODELS
@@ -542,12 +542,12 @@ def _fn(md: ET.Element, name: str) -> str:
 
 
 def _adaptive() -> list[str]:
-    """The adaptive embedded solvers (from codegen's descriptions)."""
-    return [s for s in SOLVERS if "adaptive" in SOLVER_DESCRIPTIONS[s]]
+    """The adaptive embedded solvers (codegen.ADAPTIVE_SOLVERS)."""
+    return list(ADAPTIVE_SOLVERS)
 
 
 def _fixed() -> list[str]:
-    return [s for s in SOLVERS if "adaptive" not in SOLVER_DESCRIPTIONS[s]]
+    return [s for s in SOLVERS if s not in ADAPTIVE_SOLVERS]
 
 
 def _words(items: list[str]) -> str:

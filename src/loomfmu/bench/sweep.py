@@ -14,13 +14,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ..codegen import ADAPTIVE_SOLVERS
 from ..declare import Model
 from .runners import CasadiModel, Fmu, Run, errors, scipy_run, timed
 from .scenes import Scene
 
 SCIPY_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
 CASADI_PLUGINS = ("cvodes", "idas")
-FMU_ADAPTIVE = ("dopri5", "rodas4", "ros34pw2")
+FMU_ADAPTIVE = ADAPTIVE_SOLVERS  # (codegen: the embedded solvers with step control)
 RK4_FACTORS = (16.0, 8.0, 4.0, 2.0, 1.0, 0.5)  # rk4 steps: model.h_fixed x these
 
 
