@@ -41,6 +41,7 @@ from loomfmu.symbolic import generalized_forces, lagrange_equations
 SEED = "seed 004"
 A = "assumption: the seed gives no numbers; "
 DEG = math.pi / 180
+#: the default of the parameter g (m/s2)
 G = 9.81
 #: allowed regularization speeds (rad/s): the range of the parameter eps
 EPS_RANGE = (1e-9, 10.0)
@@ -121,6 +122,10 @@ def _parameters(m: Model, shedding: bool) -> dict:
                max=0.3, source=A + "backrest tube diameter 90-110 mm")
     p["m_c"] = P("m_c", 20.0, unit="kg", description="roller mass", min=0.1, max=500.0,
                  source=A + "steel tube 100 x 4 mm, 1.9 m, with journals")
+    p["g"] = P("g", G, unit="m/s2", description="gravitational acceleration (the roller's "
+               "weight m_c g)", min=0.0, max=30.0,
+               source="assumption: 9.81 m/s2, standard gravity rounded (the seed gives no "
+               "value; the heald frame's g is 9.80665)")
     p["J_c"] = P("J_c", 0.0426, unit="kg.m2", description="roller moment of inertia about "
                  "O2", min=1e-5, max=10.0, source=A + "thick tube m (r_o^2 + r_i^2) / 2")
     p["J_1"] = P("J_1", 0.05, unit="kg.m2", description="lever assembly inertia about O1 "
@@ -236,7 +241,7 @@ def _states(m: Model, p: dict) -> _X:
                      "O2, roller's absolute rotation (phi1' + phi2')",
                      source="derived: seed 004 names Lagrange's equations of the second "
                      "kind, gives no T")
-    x.V = m.quantity("V", p["m_c"] * G * x.O2[1], unit="N.m", group=E, symbol="V",
+    x.V = m.quantity("V", p["m_c"] * p["g"] * x.O2[1], unit="N.m", group=E, symbol="V",
                      description="potential energy of the roller's weight (the lever's "
                      "centre of mass is at O1; the spring acts as a force, (9))",
                      source="derived: its moment -dV/dphi1 is the seed's (4)")
@@ -304,7 +309,7 @@ def _warp(m: Model, p: dict, x: _X, shedding: bool, fronts: int) -> dict:
 
 def _spring(m: Model, p: dict, x: _X) -> dict:
     SP = "spring"
-    F0 = m.quantity("F_0", (p["m_c"] * G * p["r1"] * ca.cos(p["phi_n"])
+    F0 = m.quantity("F_0", (p["m_c"] * p["g"] * p["r1"] * ca.cos(p["phi_n"])
                             + p["r1"] * p["S0"] * (ca.sin(p["phi_n"] + p["alpha1"])
                                                    - ca.sin(p["phi_n"] + p["alpha2"])))
                     / (p["r2"] * ca.sin(p["theta"])), unit="N", group=SP, symbol="F_0",
@@ -357,7 +362,7 @@ def _reactions(m: Model, p: dict, x: _X, w: dict, spring: dict):
     e2 = ca.vertcat(ca.cos(p["alpha2"]), ca.sin(p["alpha2"]))
     S1, S2 = w["S"][0], sum(w["S"][1:])
     R2 = m.quantity("R_2", p["m_c"] * x.a_O2 - (S1 * e1 + S2 * e2 + p["m_c"]
-                                                 * ca.vertcat(0, -G)),
+                                                 * ca.vertcat(0, -p["g"])),
                     unit="N", group=R, symbol=r"\vec R_2", description="reaction the roller "
                     "exerts on its pin O2 (x, y): Newton's law for the roller, m_c a_O2 = "
                     "warp + weight - R2", source=SEED + " (11); " + defect("B4"))

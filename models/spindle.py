@@ -157,12 +157,18 @@ def declare_rotor(m: Model, Omega: ca.SX, *, beam: str = "euler", n_turns: int =
     Id_b = par("Id_b", cal["Id_b"], "kg.m2", "empty bobbin diametral moment of inertia "
                "about its centre", CALIB, 0.0, 1e-2)
     Ip_b = par("Ip_b", 3.0e-6, "kg.m2", "empty bobbin polar moment of inertia",
-               "assumption: 30 g tube, radii 9/11 mm", 0.0, 1e-3)
+               "assumption: the geometric estimate m (r_i^2 + r_o^2) / 2 of a 30 g tube, "
+               "radii 9/11 mm, kept while the calibration fits m_b and Id_b as effective "
+               "values (m_b came out at its 10 g bound; the seed gives neither); Ip_b "
+               "enters only the gyroscopic terms", 0.0, 1e-3)
     m_y = par("m_y", cal["m_y"], "kg", "yarn mass on the full bobbin", CALIB, 0.0, 1.0)
     Id_y = par("Id_y", cal["Id_y"], "kg.m2", "yarn package diametral moment of inertia",
                CALIB, 0.0, 1e-2)
     Ip_y = par("Ip_y", 2.1e-5, "kg.m2", "yarn package polar moment of inertia",
-               "assumption: 75 g package, radii 11/21 mm", 0.0, 1e-3)
+               "assumption: the geometric estimate m (r_i^2 + r_o^2) / 2 of a 75 g "
+               "package, radii 11/21 mm, kept while the calibration fits m_y and Id_y as "
+               "effective values (m_y came out at 137 g; the seed gives neither); Ip_y "
+               "enters only the gyroscopic terms", 0.0, 1e-3)
     E_t = par("E_t", cal["E_t"], "Pa", "effective Young's modulus of the bobbin tube "
               "pressed on the blade's cone: its bending stiffness E_t I_t adds to the "
               "cone's (the seed's 当量转子, equivalent rotor)", CALIB, 0.0, 2e11)

@@ -183,6 +183,10 @@ def test_design_at_the_edge_of_its_range_says_so():
     def bend(r):
         return float(re.search(r"gives max \|x2\| = (\S+) m", r.stderr).group(1))
     assert bend(preset) < 0.5 * bend(res), (preset.stderr, res.stderr)
+    # --b1-range reaches the search: its edge is the one named
+    narrow = _design("--gap", "10", "--b1-range", "0.003", "0.004")
+    assert narrow.returncode == 2 and "b1_range = [0.003, 0.004]" in narrow.stderr, \
+        narrow.stderr
 
 
 @pytest.mark.parametrize("args, needle", [
@@ -190,6 +194,8 @@ def test_design_at_the_edge_of_its_range_says_so():
     (["--gap", "0.004", "--preset", "STB-999"], "width '999' cm is not in table 1"),
     (["--gap", "0.004", "--set", "k_z=abc"], "is not a number"),
     (["--gap", "0.004", "--set", "k_z"], "allowed: NAME=VALUE"),
+    (["--gap", "0.004", "--b1-range", "0.1", "0.05"], "allowed: LO < HI"),
+    (["--gap", "0.004", "--b1-range", "0.001", "0.05"], "--b1-range = 0.001"),
 ])
 def test_design_refuses_bad_arguments_before_searching(args, needle):
     res = _design(*args)

@@ -236,3 +236,18 @@ def test_outputs_kept_by_the_history_sample_equal_a_separate_evaluation(
         again = s.get(*names)
         assert np.array_equal(np.asarray(kept).view(np.int64),
                               np.asarray(again).view(np.int64)), (t, kept, again)
+
+
+def test_a_cam_on_a_drive_it_was_not_made_for_loses_part_of_its_gain():
+    """mismatch_rows: the assumed drive's compensated cam tracks within the
+    truncation (about 22 rpm) on that drive, several times worse where T is
+    20 % off, and still better than the uncompensated cam everywhere."""
+    from loomfmu.drive.tracking import mismatch_rows
+    with pytest.raises(ValueError, match="factors"):
+        mismatch_rows(factors=(0.0,))
+    rows = {(r["tau_s"], r["T_s"]): r for r in mismatch_rows(factors=(1.0, 1.2))}
+    matched = rows[(0.5, 2.0)]["compensated_vs_law_rpm"]
+    assert matched < 30
+    assert rows[(0.5, 2.4)]["compensated_vs_law_rpm"] > 3 * matched
+    for r in rows.values():
+        assert r["compensated_vs_law_rpm"] < 0.5 * r["uncompensated_vs_law_rpm"], r

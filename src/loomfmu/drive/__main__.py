@@ -27,8 +27,8 @@ def main(argv=None, prog: str = "loomfmu drive") -> int:
         from ..progress import Progress
         from .tracking import write_tracking
         with Progress(total=1, desc="drive tracking") as bar:
-            bar.stage("building the drive FMU twice (compensated, uncompensated cam) "
-                      "and simulating")
+            bar.stage("simulating the drive FMU: both cams for 9 (tau, T), then the "
+                      "assumed drive's cams on 9 other drives")
             text = write_tracking(args.out)
             bar.advance("done")
         print(text)

@@ -21,7 +21,13 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
     f = sub.add_parser("fidelity", help="rigid/planar vs spatial -> docs/heald_fidelity.md")
     f.add_argument("--out", type=Path, default=Path("docs/heald_fidelity.md"),
                    help="output file (default: ./docs/heald_fidelity.md)")
-    d = sub.add_parser("design", help="slat width b1 for a given gap to the next frame")
+    d = sub.add_parser("design", help="slat width b1 for a given gap to the next frame",
+                       description="The smallest slat width b1 whose largest horizontal "
+                       "mid-section displacement max |x2| over two frame cycles of the "
+                       "spatial model stays below the gap (Brent's method on the scipy "
+                       "reference). The criterion assumes the neighbouring frame's slat "
+                       "stays where it is: where both frames deflect, what counts is their "
+                       "relative motion.")
     d.add_argument("--gap", type=float, required=True,
                    help="clearance to the neighbouring frame, m (> 0)")
     d.add_argument("--d1", type=float, default=None,
@@ -32,6 +38,8 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
     d.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="a parameter of heald_frame, over the preset's (repeatable), "
                         "e.g. k_z=5")
+    d.add_argument("--b1-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="slat widths searched, m (default: 0.005 0.1; within 0.002 ... 0.2)")
     d.add_argument("--json", action="store_true", help="print the result as JSON")
     w = sub.add_parser("tension-input", help="the warp tension as an input: lockstep with "
                        "the geometry tension, shared defaults, the frame in opposition -> "
@@ -67,10 +75,17 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
             values = _design_values(args)
             check_number("gap", args.gap, lo=0.0, lo_open=True, unit="m")
             check_optional_number("d1", args.d1, lo=0.0, lo_open=True, unit="m")
+            if args.b1_range:
+                lo, hi = (check_number("--b1-range", b, lo=0.002, hi=0.2, unit="m")
+                          for b in args.b1_range)
+                if not lo < hi:
+                    raise ValueError(f"--b1-range {lo:g} {hi:g}; allowed: LO < HI")
             with Progress(total=1, desc="heald design") as bar:
                 bar.stage(f"searching the slat width b1 for gap {args.gap:g} m "
                           "(one spatial simulation per trial)")
-                res = cl.design_section(args.gap, d1=args.d1, values=values)
+                res = cl.design_section(args.gap, d1=args.d1, values=values,
+                                        **({"b1_range": tuple(args.b1_range)}
+                                           if args.b1_range else {}))
                 bar.advance("done")
         except ValueError as exc:
             print(f"{prog} design: error: {exc}", file=sys.stderr)
@@ -131,12 +146,17 @@ def _print_design(res: dict) -> None:
     """The design result with units (lengths in mm)."""
     labels = {"b1": "slat width b1", "d1": "wall thickness d1",
               "max_x2": "largest mid-section displacement max |x2|",
-              "gap": "clearance to the next frame"}
+              "gap": "gap to the next frame (the bound on max |x2|)"}
     for key, value in res.items():
         if key in labels and isinstance(value, (int, float)):
-            print(f"{labels[key]:<44}{value * 1e3:10.3f} mm")
+            print(f"{labels[key]:<48}{value * 1e3:10.3f} mm")
+        elif key == "b1_range":
+            lo, hi = value
+            print(f"{'slat widths searched':<48}{lo * 1e3:10.3f} ... {hi * 1e3:.3f} mm")
         else:
-            print(f"{key:<44}{value}")
+            print(f"{key:<48}{value}")
+    print(f"{'clearance left (gap - max |x2|)':<48}"
+          f"{(res['gap'] - res['max_x2']) * 1e3:10.3f} mm")
 
 
 if __name__ == "__main__":
