@@ -195,6 +195,10 @@ def test_design_at_the_edge_of_its_range_says_so():
     (["--gap", "0.004", "--set", "k_z=abc"], "is not a number"),
     (["--gap", "0.004", "--set", "k_z"], "allowed: NAME=VALUE"),
     (["--gap", "0.004", "--b1-range", "0.1", "0.05"], "allowed: LO < HI"),
+    (["--gap", "0.012", "--set", "omega=1e-9"], "values['omega'] = 1e-09; allowed"),
+    (["--gap", "0.012", "--set", "x2=0.1"], "['x2'] are states of heald_frame"),
+    (["--gap", "0.012", "--d1", "0.001", "--set", "d1=0.002"], "allowed: one of them"),
+    (["--gap", "0.012", "--preset", ""], "preset = ''; allowed:"),
     (["--gap", "0.004", "--b1-range", "0.001", "0.05"], "--b1-range = 0.001"),
 ])
 def test_design_refuses_bad_arguments_before_searching(args, needle):
@@ -202,6 +206,15 @@ def test_design_refuses_bad_arguments_before_searching(args, needle):
     assert res.returncode == 2, res.stdout + res.stderr
     assert needle in res.stderr.strip().splitlines()[-1], res.stderr
     assert "searching" not in res.stderr  # refused before the search's progress line
+
+
+def test_design_names_the_width_at_which_a_constraint_broke():
+    """m_RR = 3 kg holds at the model's b1 but not at the search's widest
+    slat: the error says where (before: as if --set were infeasible)."""
+    res = _design("--gap", "0.012", "--set", "m_RR=3")
+    assert res.returncode == 2, res.stdout + res.stderr
+    last = res.stderr.strip().splitlines()[-1]
+    assert "at the slat width b1 = 0.1 m of the search" in last and "m_RR" in last, last
 
 
 @pytest.fixture(scope="module")
@@ -266,6 +279,19 @@ def test_simulate_names_the_solver_that_ran_and_keeps_the_default_step(built, tm
     res2 = run("simulate", fmu, "--solver", "rk4", "--stop", "2", "--output", "h",
                "--csv", tmp_path / "b.csv")
     assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes(), res2.stderr
+
+
+def test_verify_an_fmu_without_its_binary_says_so_in_one_line(built, tmp_path):
+    out, _ = built
+    broken = tmp_path / "nobin.fmu"
+    with zipfile.ZipFile(out / "heald_frame_rigid.fmu") as src, \
+            zipfile.ZipFile(broken, "w") as dst:
+        for item in src.infolist():
+            if not item.filename.startswith("binaries/"):
+                dst.writestr(item, src.read(item))
+    res = run("verify", broken, "--solver", "dopri5")
+    assert res.returncode == 1 and "Traceback" not in res.stderr, res.stderr
+    assert "the FMU could not be run" in res.stderr.strip().splitlines()[-1], res.stderr
 
 
 def test_verify_an_fmu(built, tmp_path):

@@ -16,7 +16,7 @@ from loomfmu.scene import Scene, run
 from loomfmu.scene import two_mass as tm
 from loomfmu.scene.__main__ import main
 from loomfmu.scene.fmus import build_fmus
-from loomfmu.scene.run import Result, UnresolvedCoupling
+from loomfmu.scene.run import MIN_JUDGED_STEPS, Result, UnresolvedCoupling
 from loomfmu.scene.ssp import ssd_text, validate_ssd
 
 #: rpm -> rad/s, written out independently of loomfmu.units
@@ -321,6 +321,12 @@ def test_largest_step_change_measures_the_resolution():
     data["b.z"][50] = -3.0
     assert Result(data, "jacobi", 100, 0, coupled=["a.y"]).largest_step_change()[1] == "a.y"
     assert Result(data, "jacobi", 100, 0).largest_step_change() == (0.0, "")
+    # a run of fewer than MIN_JUDGED_STEPS steps is not judged (a signal from
+    # rest changes by about 2 / steps of its size however well resolved)
+    short = Result(data[:MIN_JUDGED_STEPS], "jacobi", MIN_JUDGED_STEPS - 1, 0, coupled=["a.y"])
+    assert short.largest_step_change() == (0.0, "")
+    assert Result(data[:MIN_JUDGED_STEPS + 1], "jacobi", MIN_JUDGED_STEPS, 0,
+                  coupled=["a.y"]).largest_step_change()[1] == "a.y"
     # a signal near zero (below atol) changes by nothing
     data["a.y"] *= 1e-12
     small = Result(data, "jacobi", 100, 0, coupled=["a.y"]).largest_step_change()[0]

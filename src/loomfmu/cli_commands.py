@@ -361,8 +361,8 @@ def cmd_simulate(args) -> int:
     stop = args.stop if args.stop is not None else float(experiment.stopTime)
     step = args.step if args.step is not None else float(experiment.stepSize)
     if step > stop:
-        raise UsageError(f"--step {step:g} s is longer than the run (--stop {stop:g} s); "
-                         f"allowed: a step <= {stop:g} s")
+        raise UsageError(f"--step {step!r} s is longer than the run (--stop {stop!r} s); "
+                         f"allowed: a step <= {stop!r} s")
     if stop / step > MAX_POINTS:
         raise UsageError(f"--stop {stop:g} with --step {step:g} gives {stop / step:.3g} "
                          f"points; allowed: at most {MAX_POINTS}: choose a larger --step")
@@ -495,11 +495,16 @@ def cmd_verify(args) -> int:
     # the variant, e.g. two_mass_force_fmi3_me; a renamed file: the model's name
     variant = args.fmu.stem if args.fmu.stem.startswith(md.modelName) else md.modelName
     with Progress(total=1, desc="verify") as bar:
+        try:
+            runs = _verify_with_progress(args.fmu, model, bar, rtol=args.rtol,
+                                         solvers=solvers, model_exchange=me)
+        except (RuntimeError, OSError) as exc:  # no binary for this platform, a bad one
+            print(f"loomfmu verify: the FMU could not be run: {' '.join(str(exc).split())}",
+                  file=sys.stderr)
+            return 1
         rep = {"rtol": args.rtol, "validation_problems": [],
                "fmi_version": int(str(md.fmiVersion)[0]),
-               "interface": "both" if len(have) == 2 else have[0],
-               **_verify_with_progress(args.fmu, model, bar, rtol=args.rtol,
-                                       solvers=solvers, model_exchange=me)}
+               "interface": "both" if len(have) == 2 else have[0], **runs}
         bar.advance(f"{variant}: done" + (f" ({ME_LABEL})" if me else ""))
     if args.document:
         from .fmu_doc import write_documentation

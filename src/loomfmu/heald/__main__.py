@@ -8,7 +8,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from ..checks import check_number, check_optional_number
+from ..checks import check_number
 from . import claims as cl
 
 
@@ -73,19 +73,18 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
     else:
         try:  # the arguments checked before the search starts
             values = _design_values(args)
-            check_number("gap", args.gap, lo=0.0, lo_open=True, unit="m")
-            check_optional_number("d1", args.d1, lo=0.0, lo_open=True, unit="m")
             if args.b1_range:
                 lo, hi = (check_number("--b1-range", b, lo=0.002, hi=0.2, unit="m")
                           for b in args.b1_range)
                 if not lo < hi:
                     raise ValueError(f"--b1-range {lo:g} {hi:g}; allowed: LO < HI")
+            kw = {"d1": args.d1, "values": values,
+                  **({"b1_range": tuple(args.b1_range)} if args.b1_range else {})}
+            cl.check_design(args.gap, **kw)
             with Progress(total=1, desc="heald design") as bar:
                 bar.stage(f"searching the slat width b1 for gap {args.gap:g} m "
                           "(one spatial simulation per trial)")
-                res = cl.design_section(args.gap, d1=args.d1, values=values,
-                                        **({"b1_range": tuple(args.b1_range)}
-                                           if args.b1_range else {}))
+                res = cl.design_section(args.gap, **kw)
                 bar.advance("done")
         except ValueError as exc:
             print(f"{prog} design: error: {exc}", file=sys.stderr)
@@ -130,7 +129,8 @@ def _tension_input(Progress) -> str:
 def _design_values(args) -> dict[str, float]:
     """heald_frame parameters for the design search: the preset's, then --set."""
     from .presets import preset_values
-    values = dict(preset_values(args.preset, "heald_frame")) if args.preset else {}
+    values = (dict(preset_values(args.preset, "heald_frame")) if args.preset is not None
+              else {})
     for item in args.set:
         name, sep, text = item.partition("=")
         if not sep or not name.strip():

@@ -109,6 +109,17 @@ def natural_frequencies(model=None, values: dict | None = None) -> list[dict]:
     return out
 
 
+#: most points of a run's 1 ms output grid (omega's lower bound: two frame
+#: cycles at 0.0251 rad/s last 1 000 s)
+MAX_POINTS = 1_000_000
+
+
+def min_omega(cycles: int = 2) -> float:
+    """The slowest drive speed (rad/s) a run of ``cycles`` frame cycles takes
+    (MAX_POINTS on its 1 ms grid)."""
+    return cycles * 4 * math.pi / (1e-3 * MAX_POINTS)
+
+
 def run(name="heald_frame", values=None, *, rtol=1e-9, atol=1e-12, cycles=2, options=None):
     """scipy reference of ``name`` (one of HEALD_MODELS) over ``cycles`` frame
     cycles (1 ... MAX_CYCLES; 1 ms grid); values: parameters, inputs, states
@@ -119,7 +130,8 @@ def run(name="heald_frame", values=None, *, rtol=1e-9, atol=1e-12, cycles=2, opt
     model = load_model(name, **options)
     values = _check_values(model, values)
     if "omega" in values:
-        check_number("values['omega']", values["omega"], lo=0.0, lo_open=True, unit="rad/s")
+        # the run's 1 ms grid holds at most MAX_POINTS points over its cycles
+        check_number("values['omega']", values["omega"], lo=min_omega(cycles), unit="rad/s")
     if options:  # start_values uses the default build; equilibrium of this build:
         return _run_built(model, values, rtol, atol, cycles)
     omega = (values or {}).get("omega", 60.0)
@@ -387,6 +399,48 @@ def fidelity_markdown(res) -> str:
 
 
 # -- design -----------------------------------------------------------------------
+def check_design(gap: float, *, d1: float | None = None, b1_range=(0.005, 0.1),
+                 values: dict | None = None) -> tuple[float, dict, float, float]:
+    """design_section's arguments checked, before any simulation: (gap, the
+    values with d1 in them, lo, hi).  values: parameters and inputs of
+    heald_frame (its states start from the static equilibrium the search
+    computes for each width: a start value would be overwritten); d1 either
+    as the argument or among the values, not both; omega at least
+    min_omega()."""
+    gap = check_number("gap", gap, lo=0.0, lo_open=True, unit="m")
+    model = load_model("heald_frame")
+    values = _check_values(model, values)
+    states = sorted(set(values) & {v.name for v in model.of_kind("state")})
+    if states:
+        raise ValueError(f"values: {states} are states of heald_frame, whose start the "
+                         "search sets to the static equilibrium of each width; allowed: "
+                         "parameters and inputs")
+    if "omega" in values:
+        check_number("values['omega']", values["omega"], lo=min_omega(), unit="rad/s")
+    base = dict(values)
+    d1 = check_optional_number("d1", d1, lo=0.0, lo_open=True, unit="m")
+    if d1 is not None:
+        if "d1" in base:
+            raise ValueError(f"d1 = {d1!r} and values['d1'] = {base['d1']!r}; allowed: "
+                             "one of them")
+        base["d1"] = d1
+    try:
+        lo, hi = (check_number("b1_range", b, lo=0.002, hi=0.2, unit="m") for b in b1_range)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"b1_range = {b1_range!r:.60}; allowed: (lo, hi) with "
+                         f"0.002 <= lo < hi <= 0.2 m") from e
+    if not lo < hi:
+        raise ValueError(f"b1_range = {b1_range!r}; allowed: (lo, hi) with lo < hi")
+    if "b1" in base:
+        raise ValueError("values: 'b1' is what design_section searches; allowed: values "
+                         "without b1")
+    d1v = base.get("d1", 0.0014)
+    if 2 * d1v >= lo:
+        raise ValueError(f"d1 = {d1v!r} m; allowed: < b1_range[0]/2 = {lo/2} m (the wall "
+                         "must be thinner than half the narrowest width)")
+    return gap, base, lo, hi
+
+
 def design_section(gap: float, *, d1: float | None = None, b1_range=(0.005, 0.1),
                    values: dict | None = None, rtol: float = 1e-8) -> dict:
     """Smallest slat width b1 (m, across the frame) whose largest horizontal
@@ -403,29 +457,15 @@ def design_section(gap: float, *, d1: float | None = None, b1_range=(0.005, 0.1)
     width lies below the range (widen it, or the gap is not limiting).
     """
     from scipy.optimize import brentq
-    gap = check_number("gap", gap, lo=0.0, lo_open=True, unit="m")
-    values = _check_values(load_model("heald_frame"), values)
-    base = dict(values)
-    d1 = check_optional_number("d1", d1, lo=0.0, lo_open=True, unit="m")
-    if d1 is not None:
-        base["d1"] = d1
-    try:
-        lo, hi = (check_number("b1_range", b, lo=0.002, hi=0.2, unit="m") for b in b1_range)
-    except (TypeError, ValueError) as e:
-        raise ValueError(f"b1_range = {b1_range!r:.60}; allowed: (lo, hi) with "
-                         f"0.002 <= lo < hi <= 0.2 m") from e
-    if not lo < hi:
-        raise ValueError(f"b1_range = {b1_range!r}; allowed: (lo, hi) with lo < hi")
-    if "b1" in base:
-        raise ValueError("values: 'b1' is what design_section searches; allowed: values "
-                         "without b1")
+    gap, base, lo, hi = check_design(gap, d1=d1, b1_range=b1_range, values=values)
     d1v = base.get("d1", 0.0014)
-    if 2 * d1v >= lo:
-        raise ValueError(f"d1 = {d1v!r} m; allowed: < b1_range[0]/2 = {lo/2} m (the wall "
-                         "must be thinner than half the narrowest width)")
 
     def excess(b1):
-        return max_x2({**base, "b1": b1}, rtol=rtol) - gap
+        try:
+            return max_x2({**base, "b1": b1}, rtol=rtol) - gap
+        except ValueError as e:   # e.g. a constraint that the width itself breaks
+            raise ValueError(f"at the slat width b1 = {b1:.6g} m of the search over "
+                             f"b1_range = [{lo}, {hi}] m: {e}") from None
     at_hi = excess(hi)
     if at_hi > 0:
         raise ValueError(f"gap = {gap!r} m: the search hit the upper edge of b1_range = "

@@ -126,13 +126,13 @@ def _run(args, prog: str) -> int:
         print(f"  note: {note}")
     change, name = res.largest_step_change()
     if change > UNRESOLVED:
+        advice = "a smaller --rtol" if args.adaptive else "a smaller --step, or --adaptive"
         print(f"{prog}: warning: " + unresolved_message(change, name).replace(
-            "a smaller step, or the adaptive step", "a smaller --step, or --adaptive"),
-            file=sys.stderr)
+            "a smaller step, or the adaptive step", advice), file=sys.stderr)
     elif name:
         print(f"  largest change within one step: {100 * change:.3g} % of {name}'s largest "
               "magnitude (the coupling error grows with it: compare a run at half the "
-              "step, or use --adaptive)")
+              "step" + (", or a smaller --rtol)" if args.adaptive else ", or use --adaptive)"))
     for comp, lines in res.log.items():
         if lines:
             print(f"  {comp} logged {len(lines)} line(s), the last: {lines[-1]}")

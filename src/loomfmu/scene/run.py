@@ -25,6 +25,10 @@ SAFETY, FAC_MIN, FAC_MAX = 0.9, 0.2, 2.0
 #: largest magnitude within one communication step is not resolved by the
 #: steps (Result.largest_step_change): the run is flagged (scene run warns)
 UNRESOLVED = 0.1
+#: fewest steps a run needs for that judgement: over fewer steps a signal
+#: that starts from rest changes by about 2 / steps of its size per step
+#: however well resolved (a quadratic ramp), which 20 steps keep at 0.1
+MIN_JUDGED_STEPS = 20
 
 
 class UnresolvedCoupling(UserWarning):
@@ -65,19 +69,20 @@ class Result:
         relative to that variable's largest magnitude over the run plus
         ``atol`` (as the adaptive master scales its error estimate; a signal
         that stays near zero changes by nothing), inf where a value is not
-        finite, and the variable's name ("" with none recorded).  How well the steps resolve what the master holds or
-        extrapolates: a co-simulation whose result holds changes each by a
-        few per cent of its size per step or less; one that the step makes
-        unstable by about its whole size (the growth factor per step minus
-        one).  Other outputs are not judged: a friction moment jumps at a
+        finite, and the variable's name; (0.0, "") with none recorded or a
+        run of fewer than MIN_JUDGED_STEPS steps.  How well the steps resolve
+        what the master holds or extrapolates: a co-simulation whose result
+        holds changes each by a few per cent of its size per step or less;
+        one that the step makes unstable by about its whole size (the growth
+        factor per step minus one).  Other outputs are not judged: a friction moment jumps at a
         switch, a rotor's orbit oscillates far faster than the coupling.
         Computed from the recorded values after the run: it costs the master
         nothing per step."""
         worst, name = 0.0, ""
+        if len(self.data) - 1 < MIN_JUDGED_STEPS:
+            return worst, name
         for n in self.coupled:
             y = self.data[n]
-            if len(y) < 2:
-                continue
             if not np.all(np.isfinite(y)):
                 return math.inf, n
             change = float(np.max(np.abs(np.diff(y)))) / (self.atol + float(np.max(np.abs(y))))
