@@ -196,3 +196,36 @@ def test_model_defaults_reproduce_the_seeds_six_frequencies(spindle):
     for fill, case in ((0.0, "empty"), (1.0, "full")):
         got = spindle.forward_freqs_rpm(spindle.values(fill=fill))
         np.testing.assert_allclose(got, SEED_FREQS[case], rtol=0.05)
+
+
+def test_critical_speeds_are_where_the_forward_whirl_meets_the_spin_speed(spindle):
+    sp = spindle
+    """Each critical speed is a spin speed at which one of the lowest forward
+    whirl frequencies equals it (to the refinement's 1e-3 rpm, here checked
+    to 0.01 rpm); the full bobbin's are lower than the empty one's."""
+    crit = sp.critical_speeds({"fill": 1.0})
+    assert len(crit) >= 2 and crit == sorted(crit)
+    for c in crit:
+        f = sp.forward_freqs_rpm({"fill": 1.0}, speed_rpm=c, n=3)
+        assert np.min(np.abs(f - c)) < 0.01, (c, f)
+    assert min(crit) < min(sp.critical_speeds({"fill": 0.0}))
+    with pytest.raises(ValueError, match="max_rpm"):
+        sp.critical_speeds(max_rpm=-1.0)
+
+
+def test_rotor_critical_flags_a_critical_speed_near_the_working_speed(capsys):
+    """loomfmu rotor critical: with the blade's diameter factor k_d = 0.8 the
+    full bobbin has a critical speed near 16 000 rpm: a warning on stderr."""
+    from loomfmu.rotor_study import main
+    assert main(["critical"]) == 0
+    out, err = capsys.readouterr()
+    assert "full bobbin" in out and "warning" not in err
+    assert main(["critical", "--set", "k_d=0.8"]) == 0
+    out, err = capsys.readouterr()
+    assert "within 10 % of the working speed 16000 rpm" in err, (out, err)
+    with pytest.raises(SystemExit) as exc:
+        main(["critical", "--set", "fill=1"])
+    assert exc.value.code == 2 and "both bobbins" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        main(["charts", "--set", "k_d=1"])
+    assert exc.value.code == 2

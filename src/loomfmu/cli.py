@@ -31,7 +31,7 @@ from .registry import MODELS
 ANALYSES = {
     "heald": ("loomfmu.heald.__main__", "heald frame: claims | fidelity | design | tension-input"),
     "drive": ("loomfmu.drive.__main__", "spindle drive: table | charts | tracking"),
-    "rotor": ("loomfmu.rotor_study", "spindle rotor: calibrate | trends | charts | all"),
+    "rotor": ("loomfmu.rotor_study", "spindle rotor: calibrate | trends | charts | all | critical"),
     "bench": ("loomfmu.bench.cli", "benchmarks: charts | speed | friction | limit"),
     "docs": ("loomfmu.docs", "docs/models/<model>.md from the declarations"),
     "inspect": ("loomfmu.inspect_report",

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -99,6 +100,32 @@ class Spindle:
         modes = whirl_modes(M, (C if damped else 0 * C) + Om * G, K, self.xi, self.yi)
         f = [md.freq / RPM for md in modes if md.forward][:n]
         return np.array(f + [np.nan] * (n - len(f)))
+
+    def critical_speeds(self, values=None, max_rpm=40000.0, n=3,
+                        scan_rpm=250.0) -> list[float]:
+        """The spin speeds (rpm, ascending, up to max_rpm) at which one of the
+        n lowest forward-whirl frequencies equals the spin speed: where the
+        unbalance, which turns with the spindle, excites a mode.  Found on a
+        scan every scan_rpm, each crossing refined by Brent's method to
+        1e-3 rpm; values: parameters (default the defaults; fill selects the
+        bobbin)."""
+        from scipy.optimize import brentq
+        max_rpm = check_number("max_rpm", max_rpm, lo=0.0, lo_open=True, hi=1e6, unit="rpm")
+        n = check_int("n", n, lo=1, hi=20)
+        scan_rpm = check_number("scan_rpm", scan_rpm, lo=1.0, hi=max_rpm, unit="rpm")
+        v = self.values(**check_mapping("values", values, self.names,
+                                        what="spindle parameters"))
+
+        def gap(s, j):
+            return self.forward_freqs_rpm(v, speed_rpm=s, n=n)[j] - s
+        speeds = np.append(np.arange(0.0, max_rpm, scan_rpm), max_rpm)
+        d = np.array([self.forward_freqs_rpm(v, speed_rpm=s, n=n) for s in speeds]) - \
+            speeds[:, None]
+        found = []
+        for j in range(n):
+            for i in np.nonzero(np.sign(d[1:, j]) * np.sign(d[:-1, j]) < 0)[0]:
+                found.append(brentq(gap, speeds[i], speeds[i + 1], args=(j,), xtol=1e-3))
+        return sorted(found)
 
     def unbalance(self, speed_rpm, values=None, e_b=5e-6, e_w=5e-6):
         """Orbit radii (top, bottom) from (15) for the bobbin's and whorl's
@@ -224,19 +251,72 @@ def write_calibration(out: Path = DOCS / "spindle_calibration.md") -> dict:
     return result
 
 
+#: a critical speed within this fraction of the working speed is flagged
+CRITICAL_MARGIN = 0.1
+
+
+def _critical(args) -> int:
+    """loomfmu rotor critical: the critical speeds of both bobbins, flagged
+    within CRITICAL_MARGIN of the working speed."""
+    values = {}
+    for item in args.set:
+        name, sep, text = item.partition("=")
+        if not sep or not name.strip():
+            raise ValueError(f"--set {item!r}; allowed: NAME=VALUE")
+        try:
+            values[name.strip()] = float(text)
+        except ValueError:
+            raise ValueError(f"--set {item!r}: {text!r} is not a number") from None
+    if "fill" in values:
+        raise ValueError("--set fill: both bobbins are computed (fill 0 and 1); allowed: "
+                         "other parameters")
+    speed = check_number("--speed", args.speed, lo=0.0, lo_open=True, hi=1e5, unit="rpm")
+    sp = Spindle({})
+    sp.values(**values)   # names and ranges checked before the scan
+    top = max(40000.0, 2.5 * speed)
+    print(f"critical speeds (forward whirl = spin speed) up to {top:g} rpm; working speed "
+          f"{speed:g} rpm" + (f"; {', '.join(f'{k} = {v:g}' for k, v in values.items())}"
+                              if values else ""))
+    near = []
+    for label, fill in (("empty bobbin", 0.0), ("full bobbin", 1.0)):
+        crit = sp.critical_speeds({**values, "fill": fill}, max_rpm=top)
+        text = ", ".join(f"{c:.0f} ({100 * (c - speed) / speed:+.0f} %)" for c in crit)
+        print(f"  {label:<13} {text or 'none'}")
+        near += [(label, c) for c in crit if abs(c - speed) <= CRITICAL_MARGIN * speed]
+    for label, c in near:
+        print(f"warning: {label}: a critical speed at {c:.0f} rpm is within "
+              f"{100 * CRITICAL_MARGIN:g} % of the working speed {speed:g} rpm",
+              file=sys.stderr)
+    return 0
+
+
 def main(argv=None, prog: str = "loomfmu rotor") -> int:
     ap = argparse.ArgumentParser(prog=prog, description="Spindle studies (seed 003): "
                                  "calibration to the seed's natural frequencies, amplitude "
                                  "against speed, section V's parameter trends, charts.")
-    ap.add_argument("command", choices=["calibrate", "trends", "charts", "all"],
-                    help="calibrate: fit the supports to the seed's six frequencies -> "
+    ap.add_argument("command", choices=["calibrate", "trends", "charts", "all", "critical"],
+                    help="critical: the critical speeds (forward whirl = spin speed) of "
+                         "the empty and the full bobbin and their margin to the working "
+                         "speed, printed (--set, --speed); "
+                         "calibrate: fit the supports to the seed's six frequencies -> "
                          "OUT/spindle_calibration.md; trends: parameter studies -> "
                          "OUT/spindle_trends.md and OUT/spindle/trend_*.png; charts: "
                          "Campbell, unbalance response, compliance -> OUT/spindle/*.png; all: the "
                          "three in turn")
     ap.add_argument("--out", type=Path, default=DOCS,
                     help="output folder (default: ./docs)")
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                    help="critical: a spindle parameter (repeatable), e.g. k_d=0.8")
+    ap.add_argument("--speed", type=float, default=WORK_RPM,
+                    help=f"critical: the working speed, rpm (default {WORK_RPM:g})")
     args = ap.parse_args(argv)
+    if args.command == "critical":
+        try:
+            return _critical(args)
+        except ValueError as exc:
+            ap.exit(2, f"{prog} critical: error: {exc}\n")
+    if args.set or args.speed != WORK_RPM:
+        ap.error("--set and --speed apply to the command critical")
     from .progress import Progress
     todo = ["calibrate", "trends", "charts"] if args.command == "all" else [args.command]
     with Progress(total=len(todo), desc="rotor") as bar:
