@@ -723,7 +723,8 @@ def test_an_indexed_parameter_family_is_one_row_and_a_values_table():
                     source="assumption: test")
     for j in range(1, 4):
         m.parameter(f"c{j}", 1.0, description=f"short family {j}", source="assumption: test")
-    m.parameter("a0", 7.0, unit="m", description="mean radius", source="assumption: test")
+    m.parameter("a0", 7.0, unit="m", description="mean radius", source="assumption: test",
+                min=0.0, max=10.0)
     x = m.state("x", 0.0, description="x")
     m.eq(m.der(x), -x)
     md = inspect_report.report(m, "md")
@@ -734,3 +735,5 @@ def test_an_indexed_parameter_family_is_one_row_and_a_values_table():
     assert "Values of aj, bj:" in params
     assert "| 7 | 3.5 | -7 |" in params          # j, a7, b7
     assert "short family 2" in params and "mean radius" in params
+    # each parameter's range, as the FMU checks it
+    assert "| 7 | [0, 10] | mean radius |" in params

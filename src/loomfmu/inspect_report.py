@@ -74,11 +74,18 @@ def _families(params) -> dict[str, list]:
     return {key[0]: members for key, members in groups.items() if len(members) >= FAMILY_MIN}
 
 
+def _range(v) -> str:
+    """A parameter's allowed range, as the FMU checks it ([min, max])."""
+    return f"[{_fmt(float(v.min))}, {_fmt(float(v.max))}]"
+
+
 def _family_row(prefix: str, members: list) -> list:
     first, last = members[0][1], members[-1][1]
     template = re.sub(rf"(?<!\d){members[0][0]}(?!\d)", "j", first.description)
+    ranges = {_range(v) for _, v in members}
     return [Code(f"{first.name} \u2026 {last.name}"), _sym(f"{prefix}j"), first.unit,
-            f"{len(members)} values (table below)", template, first.source]
+            f"{len(members)} values (table below)",
+            ranges.pop() if len(ranges) == 1 else "each its own", template, first.source]
 
 
 def _family_tables(families: dict[str, list]) -> list:
@@ -101,8 +108,8 @@ def _variables(model) -> list[Section]:
         vs = model.of_kind(kind)
         if not vs:
             continue
-        head = ["name", "symbol", "unit", "value" if kind == "parameter" else "start",
-                "description"] + (["source"] if kind == "parameter" else [])
+        head = (["name", "symbol", "unit", "value", "range", "description", "source"]
+                if kind == "parameter" else ["name", "symbol", "unit", "start", "description"])
         families = _families(vs) if kind == "parameter" else {}
         member = {v.name: p for p, ms in families.items() for _, v in ms}
         rows = []
@@ -115,8 +122,9 @@ def _variables(model) -> list[Section]:
             start = _fmt(v.start)
             if kind == "mode":
                 start += f" (values {', '.join(map(str, model.mode_values[v.name]))})"
-            row = [Code(v.name), _sym(v.name), v.unit, start, v.description]
-            rows.append(row + ([v.source] if kind == "parameter" else []))
+            rows.append([Code(v.name), _sym(v.name), v.unit, start, _range(v), v.description,
+                         v.source] if kind == "parameter" else
+                        [Code(v.name), _sym(v.name), v.unit, start, v.description])
         out.append(Section(f"{title} ({len(vs)})", [Table(head, rows)] +
                            _family_tables(families), level=3))
     return out
