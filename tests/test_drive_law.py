@@ -317,6 +317,8 @@ def test_all_problems_reported_and_bad_arguments():
     with pytest.raises(ValueError) as e:
         DriveParams(T=-1.0, tau=-1.0, D_N=0.01)
     assert all(f in str(e.value) for f in ("T must", "tau must", "D_N must"))
+    with pytest.raises(ValueError, match=r"K must be > 0 \(\(rev/s\)/V\), got 0"):
+        DriveParams(K=0.0)   # the field's unit in the message
     with pytest.raises(ValueError, match="m must"):
         dr.fourier(P0, -1)
     with pytest.raises(ValueError, match="T_g"):

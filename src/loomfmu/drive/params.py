@@ -68,11 +68,12 @@ class DriveParams:
                 out.append(f"{f.name} must be a finite number, got {v!r}")
         if out:
             return out
+        unit = {f.name: f.metadata["unit"] for f in fields(self)}
         positive = ("D_B", "n_min", "T_c", "T_n", "K", "k_g", "r_min")
         for name in positive:
             v = getattr(self, name)
             if v <= 0:
-                out.append(f"{name} must be > 0, got {v!r}")
+                out.append(f"{name} must be > 0 ({unit[name]}), got {v!r}")
         for name in ("T", "tau", "T_g"):
             v = getattr(self, name)
             if v < 0:
