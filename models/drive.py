@@ -17,7 +17,7 @@ FMU keeps its history (cubic Hermite between accepted steps by default).
 
 The derivation (speed law, cam design, cam series, delay equation, history)
 is kept as named quantities by models/drive_derivation.py, with the print
-defects D6, D8-D13 (printed form, corrected form, reason; DEFECTS there)
+defects D3-D6, D8-D13 (printed form, corrected form, reason; DEFECTS there)
 next to the quantities they affect (``loomfmu inspect drive``).
 """
 from __future__ import annotations

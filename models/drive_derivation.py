@@ -28,6 +28,12 @@ HISTORY = "delay history and breakpoints"
 
 #: seed 001's print defects in this model: (printed, corrected, reason)
 DEFECTS = {
+    "D3": ("(2) d_n (partial d / partial t) = g n", "d (dd/dt) = g n",
+           "d depends on t only, so the derivative is total"),
+    "D4": ("g1 = (D_n^2 - D_b^2)/2n_c t_c", "g1 = (D_N^2 - D_B^2)/(2 n_c t_c) (g2 alike)",
+           "inline-fraction ambiguity; the bracketed form follows from integrating (2)"),
+    "D5": ("(5) n^0(d_n)n_1 + K_n d_n", "n0(d) = n1 + K_n d",
+           "'=' lost; the printed n1 and K_n fit only this form"),
     "D6": ("(6) n_max = n0 - n1 ln(n_max/n0) - g1 K_n^2 t + 0",
            "n_max - n0 - n1 ln(n_max/n0) - g1 K_n^2 t = 0", "'-' was read as '=' and '= 0' "
            "as '+ 0'; the printed form makes n0 rise above n_max in the layer, the "
@@ -71,6 +77,22 @@ def law_quantities(m, cam: str, harmonics_m: int) -> None:
     Q("omega_P", c.omega, unit="rad/s", description="fundamental angular frequency of the "
       "speed law's series", symbol=r"\omega", source="derived: 2 pi / P (not stated in "
       + SEED + ")", group=LAW)
+    Q("n1", c.n1 * rpm, unit="rpm", description="intercept of the linear law n0(d) = n1 + "
+      "K_n d between the cop diameter d and the speed (" + defect_note("D5") + "); n1 = "
+      "(D_N n_min - D_B n_max)/(D_N - D_B), may be negative", symbol="n_1",
+      source=SEED + " (5)", group=LAW)
+    Q("K_n", c.K_n * rpm, unit="rpm/m", description="slope of the linear law (5): K_n = "
+      "(n_max - n_min)/(D_N - D_B)", symbol="K_n", source=SEED + " (5)", group=LAW)
+    Q("Delta", c.Delta * rpm, unit="rpm", description="n_max - n_min - n1 ln(n_max/n_min), "
+      "which the winding (2) with (5) makes g1 K_n^2 T_c and g2 K_n^2 T_n (" +
+      defect_note("D3") + ")", symbol=r"\Delta", source="derived: integrating seed 001 "
+      "(2) with (5) (docs/seed_notes/drive_spec.md)", group=LAW)
+    Q("g1", c.g1, unit="m2", description="winding constant of the layer (slow stroke, d: "
+      "D_N -> D_B), Delta/(K_n^2 T_c), from the stroke's duration T_c (" +
+      defect_note("D4") + "; D12: the seed's n_c t_c replaced by the actual duration)",
+      symbol="g_1", source=SEED + " (2), (6)", group=LAW)
+    Q("g2", c.g2, unit="m2", description="winding constant of the interlayer (fast stroke), "
+      "Delta/(K_n^2 T_n)", symbol="g_2", source=SEED + " (2), (7)", group=LAW)
     Q("n0_mean", C0 / 2 * rpm, unit="rpm", description="mean of the optimal speed law n0(t) "
       "over a period; n0 solves (6) in the layer and (7) in the interlayer ("
       + defect_note("D6") + ")", symbol=r"C_0/2", source=SEED + " (5)-(8)", group=LAW)
