@@ -17,7 +17,7 @@ range), 2 on a usage error.
 """
 import sys
 
-from loomfmu.cli import main
+from loomfmu.cli.dispatch import main
 
 if __name__ == "__main__":
     sys.exit(main(["build", *sys.argv[1:]]))

@@ -69,7 +69,7 @@ class Fixtures:
 
     @cached_property
     def ref(self):
-        from loomfmu.reference import reference
+        from loomfmu.verification.reference import reference
         return reference(self.model, t_end=0.01)
 
     @cached_property
@@ -79,7 +79,7 @@ class Fixtures:
 
     @cached_property
     def rotor(self):
-        from loomfmu.rotor import Rotor
+        from loomfmu.mechanics.rotor import Rotor
         r = Rotor(2e11, 7800.0)
         r.element(0.1, 0.01)
         return r
@@ -91,12 +91,12 @@ class Fixtures:
 
     @cached_property
     def spindle(self):
-        from loomfmu.rotor_study import Spindle
+        from loomfmu.spindle.study import Spindle
         return Spindle({})
 
     def small(self):
         """A fresh small model with a state x (for declaration calls)."""
-        from loomfmu.declare import Model
+        from loomfmu.declare.model import Model
         m = Model("small")
         m.state("x", 0.0, description="x")
         return m
@@ -112,12 +112,12 @@ def _load(name, **kw):
 
 
 def _ref(fx, **kw):
-    from loomfmu.reference import reference
+    from loomfmu.verification.reference import reference
     return reference(fx.model, **kw)
 
 
 def _sim(fx, **kw):
-    from loomfmu.verify import simulate
+    from loomfmu.verification.verify import simulate
     kw.setdefault("fmu", fx.fmu)
     return simulate(kw.pop("fmu"), **kw)
 
@@ -144,17 +144,17 @@ def _claims(fn: str, *args, **kw):
 
 
 def _rotor(fn: str, *args, **kw):
-    import loomfmu.rotor as ro
+    import loomfmu.mechanics.rotor as ro
     return getattr(ro, fn)(*args, **kw)
 
 
 def _analysis(fn: str, *args, **kw):
-    import loomfmu.rotor_analysis as ra
+    import loomfmu.spindle.analysis as ra
     return getattr(ra, fn)(*args, **kw)
 
 
 def _model(**kw):
-    from loomfmu.declare import Model
+    from loomfmu.declare.model import Model
     return Model(kw.pop("name", "m"), **kw)
 
 
@@ -185,7 +185,7 @@ def _a_file(folder: Path) -> Path:
 
 
 def _joint(fx, **kw):
-    from loomfmu.friction import coulomb_joint
+    from loomfmu.mechanics.friction import coulomb_joint
     m = fx.small()
     tq = m.algebraic("tq", description="friction torque")
     args = dict(speed=m.var("x").sym, torque=tq, normal=1.0, r_kinetic=0.1, r_static=0.2)
@@ -273,7 +273,7 @@ def cases() -> list[Case]:
         add(f"reference(input_steps={steps!r}, t_end=0.05)", arg,
             lambda fx, s=steps: _ref(fx, input_steps=s, t_end=0.05))
     add("reference('heald_frame')", "model",
-        lambda fx: __import__("loomfmu.reference").reference.reference("heald_frame"))
+        lambda fx: __import__("loomfmu.verification.reference").reference.reference("heald_frame"))
 
     # -- simulate, compare, verify -----------------------------------------------------
     for v in ("euler", "DOPRI5", 1):
@@ -310,11 +310,11 @@ def cases() -> list[Case]:
     add("simulate(3)", "fmu", lambda fx: _sim(fx, fmu=3))
 
     def _verify(fx, **kw):
-        from loomfmu.verify import verify
+        from loomfmu.verification.verify import verify
         return verify(fx.fmu, kw.pop("model", fx.model), **kw)
 
     def _compare(fx, run=None, names=("h",)):
-        from loomfmu.verify import compare
+        from loomfmu.verification.verify import compare
         return compare(fx.ref if run is None else run, fx.ref, list(names))
 
     add("verify(solvers=['euler'])", "solvers", lambda fx: _verify(fx, solvers=["euler"]))
@@ -523,11 +523,11 @@ def cases() -> list[Case]:
         lambda fx: _analysis("whirl_modes", *fx.mats, [0], [5]))
 
     def _study(fn, *a, **kw):
-        import loomfmu.rotor_study as rs
+        import loomfmu.spindle.study as rs
         return getattr(rs, fn)(*a, **kw)
 
     def _trends(fn, *a, **kw):
-        import loomfmu.rotor_trends as rt
+        import loomfmu.spindle.trends as rt
         return getattr(rt, fn)(*a, **kw)
     add("Spindle({'beem': 'x'})", "beem", lambda fx: _study("Spindle", {"beem": "x"}))
     add("spindle.values(fill=2)", "fill", lambda fx: fx.spindle.values(fill=2.0))
@@ -616,7 +616,7 @@ def cases() -> list[Case]:
         lambda fx: _build(fx, out_dir=fx.tmp, interface="hil"))
 
     def _unit(u):
-        from loomfmu.units import check_unit
+        from loomfmu.declare.units import check_unit
         return check_unit(u)
     add("check_unit('furlong')", "unit", lambda fx: _unit("furlong"))
     add("check_unit(3)", "unit", lambda fx: _unit(3))
@@ -631,7 +631,7 @@ def cases() -> list[Case]:
     def _symbolic(fn, *a):
         import casadi as ca
 
-        from loomfmu import symbolic
+        from loomfmu.mechanics import lagrange as symbolic
         q, qd = ca.SX.sym("q", 2), ca.SX.sym("qd", 2)
         subst = {"q": q, "qd": qd, "qdd": ca.SX.sym("qdd", 3), "T": ca.dot(qd, qd),
                  "V": ca.SX(0), "Q": ca.SX.zeros(2)}

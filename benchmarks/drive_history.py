@@ -17,8 +17,8 @@ from test_drive_fmu import CAM  # noqa: E402  (the scene the tests use)
 
 from loomfmu import build_fmu  # noqa: E402
 from loomfmu.models.drive import build  # noqa: E402
-from loomfmu.reference import reference  # noqa: E402
-from loomfmu.verify import compare, simulate  # noqa: E402
+from loomfmu.verification.reference import reference  # noqa: E402
+from loomfmu.verification.verify import compare, simulate  # noqa: E402
 
 
 def main() -> int:

@@ -61,7 +61,7 @@ from fmpy.fmi2 import FMU2Slave
 from loomfmu import build_fmu, load_model
 from loomfmu.bench import limit as L
 from loomfmu.scene.fmus import build_fmus
-from loomfmu.scene.library import SCENES, load_scene
+from loomfmu.machines.library import SCENES, load_scene
 from loomfmu.scene.run import run as run_scene
 
 FRACTIONS = (0.125, 0.25, 0.5, 1.0)
@@ -329,7 +329,7 @@ class _LoopModels:
 
     @staticmethod
     def loop_a():
-        from loomfmu.declare import Model
+        from loomfmu.declare.model import Model
         m = Model("loop_a", description="test loop side a", stop_time=1.0, step_size=1e-2,
                   h_fixed=1e-3)
         g = m.parameter("g", 1.5, description="feedthrough gain", source=_LoopModels.SRC)
@@ -341,7 +341,7 @@ class _LoopModels:
 
     @staticmethod
     def loop_b(cubic: bool = False):
-        from loomfmu.declare import Model
+        from loomfmu.declare.model import Model
         m = Model("loop_b3" if cubic else "loop_b", description="test loop side b",
                   stop_time=1.0, step_size=1e-2, h_fixed=1e-3)
         k = m.parameter("k", 2.0, description="feedthrough gain", source=_LoopModels.SRC)
@@ -355,7 +355,7 @@ class _LoopModels:
     @staticmethod
     def loop_sqrt():
         import casadi as ca
-        from loomfmu.declare import Model
+        from loomfmu.declare.model import Model
         m = Model("loop_sqrt", description="test loop side b: a square root",
                   stop_time=1.0, step_size=1e-2, h_fixed=1e-3)
         u = m.input("u", 0.0, description="input")
@@ -366,7 +366,7 @@ class _LoopModels:
 
     @staticmethod
     def invalid_after():
-        from loomfmu.declare import Model
+        from loomfmu.declare.model import Model
         m = Model("invalid_after", description="test: not valid beyond t = T_INVALID",
                   stop_time=1.0, step_size=1e-2, h_fixed=1e-3)
         x = m.state("x", 0.37, description="time left")

@@ -27,10 +27,10 @@ from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
 
 from loomfmu import build_fmu, load_model
-from loomfmu.declare import Model
+from loomfmu.declare.model import Model
 from loomfmu.models.drive import build as build_drive
-from loomfmu.reference import reference
-from loomfmu.verify import simulate
+from loomfmu.verification.reference import reference
+from loomfmu.verification.verify import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 SOLVERS = {1: "dopri5", 2: "rodas4", 3: "rk4"}

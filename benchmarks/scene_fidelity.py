@@ -1,5 +1,5 @@
 """Which levels each seed scene needs (issue 15, item 3): the selector of
-loomfmu.scene.fidelity on the loom and spinning scenes, per quantity, at
+loomfmu.machines.fidelity on the loom and spinning scenes, per quantity, at
 1 % and 0.1 % of each output's range.
 
     .venv/bin/python benchmarks/scene_fidelity.py [--out-dir docs/fidelity]
@@ -20,7 +20,7 @@ import tempfile
 import textwrap
 from pathlib import Path
 
-from loomfmu.scene.fidelity import evaluate
+from loomfmu.machines.fidelity import evaluate
 
 #: scene -> quantity -> outputs (the issue's list)
 QUANTITIES = {
@@ -69,7 +69,7 @@ def chart(ev, path: Path) -> Path:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from loomfmu.scene.fidelity import _short
+    from loomfmu.machines.fidelity import _short
     quantities = QUANTITIES[ev.scene]
     fig, axes = plt.subplots(1, len(quantities), figsize=(4.2 * len(quantities), 4.9),
                              sharex=True)

@@ -3,10 +3,10 @@ masters fail on them.
 
     .venv/bin/python benchmarks/scene_seeds.py [--out-dir docs] [--quick] [--part all|spinning|loom|fidelity] [--charts-only]
 
-Spinning position (loomfmu.scene.spinning): the drive with its layer cam
+Spinning position (loomfmu.machines.spinning): the drive with its layer cam
 feeding the full FE spindle over the second layer cycle (the first carries
 the drive's start transient), cam compensated and uncompensated:
-docs/scenes/spinning_layer.png.  Loom (loomfmu.scene.loom): the backrest's
+docs/scenes/spinning_layer.png.  Loom (loomfmu.machines.loom): the backrest's
 stick-slip under shedding and the frames' out-of-plane motion with the
 returned tension against the prescribed (geometry) tension:
 docs/scenes/loom_shedding.png.

@@ -1,6 +1,6 @@
 """Stability and error of each master on the two-mass benchmark against the
 communication step, for input extrapolation of order 0, 1 and 2: theory (the
-exact co-simulation maps of loomfmu.scene.two_mass) as lines, runs of our
+exact co-simulation maps of loomfmu.machines.two_mass) as lines, runs of our
 master and of libcosim on the exported SSP as points.  Writes
 docs/scenes/two_mass_stability.png, its json and the verdict table between
 the markers in docs/scenes.md.

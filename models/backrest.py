@@ -33,10 +33,10 @@ import math
 
 import casadi as ca
 
-from loomfmu.checks import check_bool, check_choice, check_number
-from loomfmu.declare import Model
-from loomfmu.friction import coulomb_joint
-from loomfmu.symbolic import generalized_forces, lagrange_equations
+from loomfmu.declare.checks import check_bool, check_choice, check_number
+from loomfmu.declare.model import Model
+from loomfmu.mechanics.friction import coulomb_joint
+from loomfmu.mechanics.lagrange import generalized_forces, lagrange_equations
 
 SEED = "seed 004"
 A = "assumption: the seed gives no numbers; "
@@ -353,7 +353,7 @@ def _lagrange(m: Model, p: dict, x: _X, w: dict, spring: dict) -> None:
                description="Lagrange's equations of the second kind, L = T - V, each = 0: "
                f"the model's equations {first + 1} and {first + 2} (model.equations"
                f"[{first}:{first + 2}])", source=SEED + ", Lagrange's equations of the "
-               "second kind [1]; derived by CasADi AD (loomfmu.symbolic)")
+               "second kind [1]; derived by CasADi AD (loomfmu.mechanics.lagrange)")
 
 
 def _reactions(m: Model, p: dict, x: _X, w: dict, spring: dict):

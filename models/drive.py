@@ -24,10 +24,11 @@ from __future__ import annotations
 
 import casadi as ca
 
-from loomfmu.checks import check_choice, check_int, check_number
-from loomfmu.declare import Model
-from loomfmu.drive import DriveParams, cam_profile_phi, f_rad as cam_ratio
-from loomfmu.drive.law import MAX_HARMONICS
+from loomfmu.declare.checks import check_choice, check_int, check_number
+from loomfmu.declare.model import Model
+from loomfmu.mechanics.drive_params import DriveParams
+from loomfmu.mechanics.layer_cam import cam_profile_phi, f_rad as cam_ratio
+from loomfmu.mechanics.drive_law import MAX_HARMONICS
 from loomfmu.models.drive_derivation import (cam_quantities, drive_quantities,
                                              history_quantities, law_quantities)
 
@@ -61,7 +62,7 @@ def build(*, cam: str = "compensated", harmonics: int = 96, m: int = 40,
                stop_time=30.0, step_size=0.01, h_fixed=1e-3,
                options={"cam": cam, "harmonics": harmonics, "m": m, "max_delay": max_delay})
     P = m_.parameter
-    dp = DriveParams()  # the assumed machine values, documented in loomfmu.drive.params
+    dp = DriveParams()  # the assumed machine values, documented in loomfmu.mechanics.drive_params
     K = P("K", dp.K * 60.0, unit="rpm/V", description="static gain of the drive", min=1.0,
           max=1e6, source=SEED + " (9); value " + A + "0-10 V <-> 0-18000 rpm")
     T = P("T", dp.T, unit="s", description="time constant of the drive", min=1e-6, max=100.0,

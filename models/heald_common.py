@@ -1,7 +1,7 @@
 """Declarations shared by the three heald-frame models (rigid, planar, spatial).
 
 Each ``declare_*`` function adds one group of variables to a
-:class:`~loomfmu.declare.Model` and returns the symbols and expressions the
+:class:`~loomfmu.declare.model.Model` and returns the symbols and expressions the
 model modules need.  Nothing here is analysis: the kinetostatic formulas,
 the preset tables and the claims live in :mod:`loomfmu.heald`.
 
@@ -21,7 +21,7 @@ f_y > 0 (frame above the shed's centre line) pulls the frame down.  With a
 rigid frame (y_i'' = 0) this is seed 002's (4)-(5): weight, inertia
 (m_RR + M_STR m_G) a and the warp action N_OSN.  It needs the reduced masses
 to be part of the frame: sum M_y <= m_RR (checked by
-:func:`loomfmu.heald.presets.preset_values`).
+:func:`loomfmu.mechanics.heald_presets.preset_values`).
 """
 from __future__ import annotations
 
@@ -30,16 +30,15 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from loomfmu.checks import check_choice, check_mapping
-from loomfmu.declare import Model
+from loomfmu.declare.checks import check_choice, check_mapping
+from loomfmu.declare.model import Model
+from loomfmu.mechanics.heald_presets import G_STD
 
 SEED0 = "seed 000"
 SEED2 = "seed 002"
 DEG = math.pi / 180.0
 #: Dwell boundaries of the motion law in one revolution (seed 000, phi_a cases).
 BREAKPOINTS_DEG = (0.0, 40.0, 320.0)
-#: Standard gravity (seed 002 writes G = m g).
-G_STD = 9.80665
 
 
 #: print defects of seed 000: (where, printed, corrected, reason, how to get the
@@ -429,7 +428,7 @@ def apply_preset(m: Model, preset: str | None) -> None:
     has (with the tension as an input, T_min and T_max are not parameters)."""
     if preset is None:
         return
-    from loomfmu.heald.presets import preset_values
+    from loomfmu.mechanics.heald_presets import preset_values
     names = {v.name for v in m.of_kind("parameter")}
     apply_values(m, {k: v for k, v in preset_values(preset, m.name).items() if k in names})
 

@@ -30,7 +30,7 @@ import math
 
 import casadi as ca
 
-from loomfmu.declare import Model
+from loomfmu.declare.model import Model
 from loomfmu.models.heald_common import (  # noqa: F401  (re-exported for tests)
     BREAKPOINTS_DEG, DEFECTS, DEG, SEED0, WARP_TENSION, apply_preset, apply_values, box_inertia,
     check_option, declare_hinge_outputs, declare_loads, declare_motion, declare_motion_outputs,
@@ -49,7 +49,7 @@ def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
 
     end_dwell, inertia: 'corrected' or 'printed' (defects D2, D3).
     h_B_law: 'constant' (the seed) or 'variable' (cantilever length follows the frame).
-    preset: a name of :func:`loomfmu.heald.presets.preset_names` (start values).
+    preset: a name of :func:`loomfmu.mechanics.heald_presets.preset_names` (start values).
     warp_tension: 'geometry' (seed 000: T from the shed's elongation; output T) or
         'input' (T, the total tension of the frame's ends, is an input: the warp
         port takes tension in and gives the elongation dl out).
@@ -118,6 +118,6 @@ def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
     # start at the static deflection under the warp load at the start angle
     m.set_starts_from(ca.vertcat(X, Y), ca.vertcat(dx_f * w.f_x, -dy_f * w.f_y))
     declare_ports(m, w)
-    from loomfmu.heald.derivation import declare_quantities
+    from loomfmu.models.heald_derivation import declare_quantities
     declare_quantities(m, mo=mo, w=w, sec=sec, bx=bx, by=by, k_B=k_B, inertia=inertia)
     return m

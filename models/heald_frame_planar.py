@@ -13,7 +13,7 @@ import math
 
 import casadi as ca
 
-from loomfmu.declare import Model
+from loomfmu.declare.model import Model
 from loomfmu.models.heald_common import (
     WARP_TENSION, apply_preset, check_option, declare_hinge_outputs, declare_loads,
     declare_motion, declare_motion_outputs, declare_ports, declare_section, declare_warp,
@@ -54,6 +54,6 @@ def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
     apply_preset(m, preset)
     m.set_starts_from(Y, -dy_f * w.f_y)
     declare_ports(m, w)
-    from loomfmu.heald.derivation import declare_quantities
+    from loomfmu.models.heald_derivation import declare_quantities
     declare_quantities(m, mo=mo, w=w, sec=sec, by=by)
     return m

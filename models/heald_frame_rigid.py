@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from loomfmu.declare import Model
+from loomfmu.declare.model import Model
 from loomfmu.models.heald_common import (
     WARP_TENSION, apply_preset, check_option, declare_hinge_outputs, declare_loads,
     declare_motion, declare_motion_outputs, declare_ports, declare_warp, declare_warp_outputs)
@@ -34,6 +34,6 @@ def build(*, end_dwell: str = "corrected", preset: str | None = None,
     declare_hinge_outputs(m, ld, mo, w)
     apply_preset(m, preset)
     declare_ports(m, w)
-    from loomfmu.heald.derivation import declare_quantities
+    from loomfmu.models.heald_derivation import declare_quantities
     declare_quantities(m, mo=mo, w=w)
     return m

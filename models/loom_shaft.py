@@ -1,5 +1,5 @@
 """Main shaft of a loom as a speed source: the shaft that drives the heald
-frames (scene ``loom``, loomfmu.scene.loom).
+frames (scene ``loom``, loomfmu.machines.loom).
 
     theta' = omega,   omega = omega_0 (1 + delta cos(theta - theta_b))
 
@@ -9,7 +9,7 @@ loom (default 0: constant speed, which is what the heald frame's motion law
 assumes: it takes the speed's derivative as zero), theta_b the shaft angle
 of the fastest point.  The shaft is stiff and its motor strong: the torque
 the frames take back is not modelled, so its ``frames`` port carries the
-speed only (a flange port with a subset of its roles, loomfmu.ports).
+speed only (a flange port with a subset of its roles, loomfmu.declare.ports).
 """
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ import math
 
 import casadi as ca
 
-from loomfmu.declare import Model
+from loomfmu.declare.model import Model
 
 A = "assumption: "
 

@@ -12,7 +12,7 @@ to its top.  Bobbin (tube + yarn, ``fill`` 0 empty .. 1 full) and whorl are
 rigid disks.  The housing of the lower support (the centre tube on the coil
 spring) has its own x, y DOF.  The D1201 geometry is not in the seed: every
 dimension is an assumption (docs/spindle.md), the unknown support
-and bobbin values are calibrated (``python -m loomfmu.rotor calibrate``).
+and bobbin values are calibrated (``python -m loomfmu.mechanics.rotor calibrate``).
 
 Print defects (docs/spindle.md, S1-S5): the rotary-inertia matrix's
 (4,2) entry is -l^2 (printed l^2); (2), (3) read K_xy = K_yx = 0; (5) has
@@ -23,7 +23,7 @@ derivation's quantities they affect (``loomfmu inspect spindle``).
 
 The equations are written in first-order form, der(q) = v and der(v) = a,
 where a solves M a = F - (C + Omega G) v - K q by a banded symbolic LDL^T
-(loomfmu.rotor.band_ldl_solve): M stays symbolic in every parameter, and the
+(loomfmu.mechanics.rotor.band_ldl_solve): M stays symbolic in every parameter, and the
 right-hand side grows as n bw^2 instead of the n^3 of a dense symbolic solve.
 """
 from __future__ import annotations
@@ -33,11 +33,11 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 
-from loomfmu.checks import check_choice, check_int
-from loomfmu.declare import Model
+from loomfmu.declare.checks import check_choice, check_int
+from loomfmu.declare.model import Model
 from loomfmu.models.spindle_derivation import (force_quantities, modal_quantities,
                                                rotor_quantities, unbalance_quantity)
-from loomfmu.rotor import (Rotor, band_ldl_solve, circle_section, coil_spring_stiffness,
+from loomfmu.mechanics.rotor import (Rotor, band_ldl_solve, circle_section, coil_spring_stiffness,
                            film_eccentricities, film_layer_damping, film_layer_stiffness,
                            isotropic, series_sum, spring_radii)
 
@@ -45,9 +45,9 @@ SEED = "seed 003"
 RPM = 2 * math.pi / 60
 ASSUME_GEOM = ("assumption: D1201 geometry is not in the seed; typical ring-spinning "
                "spindle of the D12 family (7.8 mm blade at the bolster)")
-CALIB = "calibrated: python -m loomfmu.rotor calibrate (seed 003, natural frequencies)"
+CALIB = "calibrated: python -m loomfmu.mechanics.rotor calibrate (seed 003, natural frequencies)"
 
-#: Calibrated values (written by ``python -m loomfmu.rotor calibrate``; see
+#: Calibrated values (written by ``python -m loomfmu.mechanics.rotor calibrate``; see
 #: docs/spindle_calibration.md).  Keys are parameter names.
 CALIBRATED = {
     "E_t": 3.949e9,

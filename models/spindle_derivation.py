@@ -11,13 +11,13 @@ here, and shown next to the quantity they affect: S1 on the rotary-inertia
 and gyroscopic element matrices (with the printed matrix as a quantity), S2
 on the film coefficients, S3 on the layers' damping (both forms kept), S5 on
 the coil spring.  S4 concerns (20), the transfer function of the frequency
-analysis (loomfmu.rotor_analysis), not these models.
+analysis (loomfmu.spindle.analysis), not these models.
 """
 from __future__ import annotations
 
 import casadi as ca
 
-from loomfmu.rotor import film_integral_C, film_integral_K
+from loomfmu.mechanics.rotor import film_integral_C, film_integral_K
 
 SEED = "seed 003"
 ELEMENT = "beam element (element 1, symbolic in the parameters)"

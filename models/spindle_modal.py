@@ -26,8 +26,8 @@ import casadi as ca
 import numpy as np
 import scipy.linalg as sla
 
-from loomfmu.checks import check_int, check_number
-from loomfmu.declare import Model
+from loomfmu.declare.checks import check_int, check_number
+from loomfmu.declare.model import Model
 from loomfmu.models.spindle import (RPM, declare_dynamics, declare_rotor, node_labels,
                                     spindle_system)
 

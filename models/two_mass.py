@@ -16,12 +16,12 @@ one side and an input on the other.
 Both subsystems are linear with constant coefficients, so with inputs held
 constant over a communication step they integrate exactly by a matrix
 exponential; the co-simulated trajectory is then a linear map per step
-(derivation and stability: docs/scenes.md, loomfmu.scene.two_mass).
+(derivation and stability: docs/scenes.md, loomfmu.machines.two_mass).
 """
 from __future__ import annotations
 
-from loomfmu.checks import check_choice
-from loomfmu.declare import Model
+from loomfmu.declare.checks import check_choice
+from loomfmu.declare.model import Model
 
 #: the source of every value: the benchmark has no seed; these are chosen
 A = ("assumption: canonical two-mass co-simulation benchmark (Kuebler & Schiehlen 2000; "

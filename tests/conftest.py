@@ -8,7 +8,7 @@ from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
 from fmpy import calloc, free
 
 from loomfmu import build_fmu, load_model
-from loomfmu.fmpy_logger import restore_fmpy_proxy
+from loomfmu.verification.fmpy_logger import restore_fmpy_proxy
 
 
 @pytest.fixture(scope="session")
@@ -65,7 +65,7 @@ def _fmpy_logger_proxy_restored():
     """Tests that call fmpy.simulate_fmu(..., logger=f) on an FMI 2 FMU leave
     FMPy's global logger proxy pointing at f's thunk, freed with the instance:
     a later FMU on FMPy's default callbacks that logs would call freed memory
-    (see loomfmu.fmpy_logger). Point it back at FMPy's printer after each test."""
+    (see loomfmu.verification.fmpy_logger). Point it back at FMPy's printer after each test."""
     yield
     restore_fmpy_proxy()
 

@@ -31,9 +31,9 @@ from fmpy import simulate_fmu
 from fmpy.fmi1 import FMICallException
 
 from loomfmu import build_fmu
-from loomfmu.codegen import casadi_functions
-from loomfmu.declare import Model
-from loomfmu.ode import dae_form
+from loomfmu.export.codegen import casadi_functions
+from loomfmu.declare.model import Model
+from loomfmu.export.dae import dae_form
 
 DOPRI5, RODAS4, RK4 = 1, 2, 3
 

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from loomfmu import build_fmu, load_model
-from loomfmu.friction import BACKWARD, FORWARD
-from loomfmu.ode import dae_form
-from loomfmu.reference import _Dae, reference
+from loomfmu.mechanics.friction import BACKWARD, FORWARD
+from loomfmu.export.dae import dae_form
+from loomfmu.verification.reference import _Dae, reference
 
 G = 9.81
 

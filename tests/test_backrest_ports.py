@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from loomfmu import build_fmu, load_model
-from loomfmu.ports import port_kind
-from loomfmu.reference import reference
+from loomfmu.declare.ports import port_kind
+from loomfmu.verification.reference import reference
 
 
 def _params(model):

@@ -15,7 +15,7 @@ import pytest
 
 from loomfmu import load_model
 from loomfmu.models import backrest as backrest_module
-from loomfmu.friction import BACKWARD, FORWARD, STUCK
+from loomfmu.mechanics.friction import BACKWARD, FORWARD, STUCK
 
 G = 9.81
 

@@ -13,7 +13,7 @@ import pytest
 from loomfmu import build_fmu, load_model
 from loomfmu.bench import main
 from loomfmu.bench import limit as L
-from loomfmu.codegen import SOLVERS
+from loomfmu.declare.solvers import SOLVERS
 
 MODEL = "loom_shaft"
 

@@ -112,7 +112,7 @@ def test_fmu_runner_shared_by_two_threads_takes_turns(tmp_path):
     assert all(np.array_equal(r, fresh) for r in results)
 
 
-@pytest.mark.parametrize("module", ["loomfmu.bench.cli", "loomfmu.sweep.__main__"])
+@pytest.mark.parametrize("module", ["loomfmu.bench.cli", "loomfmu.cli.sweep"])
 def test_help_gives_every_command_a_line_and_every_option_its_default(module):
     """`loomfmu bench --help` and `loomfmu sweep --help`: each command has its
     line (and shows it atop its own --help); each option has a help text

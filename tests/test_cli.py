@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from loomfmu.codegen import SOLVERS
+from loomfmu.declare.solvers import SOLVERS
 from loomfmu.registry import MODELS
 
 BIN = Path(sys.executable).parent
@@ -109,7 +109,7 @@ def test_usage_errors_say_what_is_allowed_in_one_line_and_exit_2(args, needle):
 def test_top_level_help_lists_every_subcommand_of_each_analysis():
     """'loomfmu --help' names each analysis' subcommands (e.g. bench ...
     limit) exactly as the analysis' own parser has them."""
-    from loomfmu.cli import ANALYSES
+    from loomfmu.cli.dispatch import ANALYSES
     for name, (_, helptext) in ANALYSES.items():
         if " | " not in helptext:
             continue
@@ -123,7 +123,7 @@ def test_top_level_help_lists_every_subcommand_of_each_analysis():
 def test_readme_command_table_names_every_subcommand():
     """The README's table of commands lists each analysis' subcommands (its
     rows `loomfmu NAME a\\|b ...`, together), as the parser has them."""
-    from loomfmu.cli import ANALYSES
+    from loomfmu.cli.dispatch import ANALYSES
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
     for name, (_, helptext) in ANALYSES.items():
         if " | " not in helptext:
@@ -240,7 +240,7 @@ def test_build_verifies_reports_documents_and_shows_progress(built):
     with zipfile.ZipFile(out / "heald_frame_rigid.fmu") as z:
         page = z.read("documentation/index.html").decode()
     assert "rodas4" in page and "reference" in page.lower()
-    # the equations as loomfmu.readable prints them (MathML), not CasADi text
+    # the equations as loomfmu.inspection.readable prints them (MathML), not CasADi text
     assert "<math" in page and "loomfmu inspect heald_frame_rigid" in page
 
 
@@ -353,7 +353,7 @@ def _rows(stdout: str) -> list[list[str]]:
 def test_verify_a_model_exchange_fmu_runs_the_importer_once(variants, tmp_path):
     """Not four rows named after solvers that do not run: one FMPy CVode run,
     labelled so, under the variant's name; --document writes that row."""
-    from loomfmu.verify import ME_LABEL
+    from loomfmu.verification.verify import ME_LABEL
     fmu = tmp_path / "two_mass_force_fmi3_me.fmu"
     fmu.write_bytes((variants / fmu.name).read_bytes())
     res = run("verify", fmu, "--document")
@@ -374,7 +374,7 @@ def test_verify_a_model_exchange_fmu_runs_the_importer_once(variants, tmp_path):
 
 
 def test_verify_a_both_fmu_checks_the_embedded_solvers_and_optionally_the_importer(variants):
-    from loomfmu.verify import ME_LABEL
+    from loomfmu.verification.verify import ME_LABEL
     fmu = variants / "two_mass_force_fmi2_both.fmu"
     res = run("verify", fmu, "--solver", "ros34pw2", "--model-exchange")
     assert res.returncode == 0, res.stderr
@@ -399,8 +399,8 @@ def test_simulate_a_model_exchange_fmu_names_the_importer_and_refuses_solver(var
 
 
 def test_summary_columns_are_as_wide_as_their_contents():
-    from loomfmu.cli_commands import summary
-    from loomfmu.verify import ME_LABEL
+    from loomfmu.cli.commands import summary
+    from loomfmu.verification.verify import ME_LABEL
     err = {"errors": {"a_rather_long_output_name": {"max_abs": 1e-3, "max_rel_range": 2e-4}},
            "wall_seconds": 0.5}
     rep = {"validation_problems": [], "reference_wall_seconds": 1.25,
@@ -438,7 +438,7 @@ def test_model_exchange_run_is_compared_at_its_communication_points_only():
     """FMPy's model exchange records an event time twice (before, after):
     those rows are left out, or the jump would count as the FMU's error."""
     import numpy as np
-    from loomfmu.verify import FmuRun, _output_points
+    from loomfmu.verification.verify import FmuRun, _output_points
     t = np.array([0.0, 0.001, 0.0015, 0.0015, 0.002, 0.003, 0.003, 0.004])
     y = np.arange(len(t), dtype=float)
     run = _output_points(FmuRun(t, {"a": y}, 0.1))

@@ -8,7 +8,7 @@ import pytest
 from fmpy import simulate_fmu
 
 from loomfmu import build_fmu, load_model
-from loomfmu.compile_cache import _key, cache_dir, compile_objects, prune
+from loomfmu.fmu.compile_cache import _key, cache_dir, compile_objects, prune
 
 
 def _binary(fmu):
@@ -81,7 +81,7 @@ def test_key_follows_headers_macros_and_flags_not_paths(tmp_path):
 
 
 def test_compile_error_is_reported_and_not_cached(tmp_path, monkeypatch):
-    from loomfmu.builder import BuildError
+    from loomfmu.fmu.builder import BuildError
     cache = tmp_path / "cache"
     monkeypatch.setenv("LOOMFMU_BUILD_CACHE", str(cache))
     (tmp_path / "bad.c").write_text("int f(void) { return undefined_name; }\n")
@@ -123,7 +123,7 @@ def test_a_poisoned_entry_is_compiled_again_when_the_objects_do_not_link(tmp_pat
 
 
 def test_a_read_only_cache_is_still_read(tmp_path, monkeypatch):
-    import loomfmu.compile_cache as cc
+    import loomfmu.fmu.compile_cache as cc
     monkeypatch.setenv("LOOMFMU_BUILD_CACHE", str(tmp_path / "cache"))
     model = load_model("two_mass_force")
     build_fmu(model, out_dir=tmp_path / "a", validate=False)
@@ -139,7 +139,7 @@ def test_a_read_only_cache_is_still_read(tmp_path, monkeypatch):
 
 
 def test_a_failed_write_leaves_no_partial_file(tmp_path, monkeypatch):
-    import loomfmu.compile_cache as cc
+    import loomfmu.fmu.compile_cache as cc
     cache = tmp_path / "cache"
     monkeypatch.setenv("LOOMFMU_BUILD_CACHE", str(cache))
 
@@ -156,7 +156,7 @@ def test_a_failed_write_leaves_no_partial_file(tmp_path, monkeypatch):
 
 
 def test_a_missing_compiler_is_a_build_error_naming_it(tmp_path):
-    from loomfmu.builder import BuildError
+    from loomfmu.fmu.builder import BuildError
     (tmp_path / "f.c").write_text("int f(void) { return 1; }\n")
     with pytest.raises(BuildError, match="'no_such_cc_xyz' cannot be run.*on PATH"):
         compile_objects([(tmp_path / "f.c", ("-O2",))], [], tmp_path, cc="no_such_cc_xyz")

@@ -7,9 +7,9 @@ import math
 import pytest
 
 from loomfmu import Model, build_fmu, load_model
-from loomfmu.ode import explicit_ode
-from loomfmu.reference import reference
-from loomfmu.verify import simulate
+from loomfmu.export.dae import explicit_ode
+from loomfmu.verification.reference import reference
+from loomfmu.verification.verify import simulate
 
 
 def small_model():
@@ -100,7 +100,7 @@ def test_delay_tau_of_parameters_only():
 
 
 def test_event_reassigned_to_another_mode_and_mode_without_rule_are_rejected():
-    from loomfmu.ode import dae_form
+    from loomfmu.export.dae import dae_form
     m = small_model()
     x = m.var("x").sym
     a = m.mode("qa", 0, (0, 1), description="mode a")
@@ -114,7 +114,7 @@ def test_event_reassigned_to_another_mode_and_mode_without_rule_are_rejected():
 
 
 def test_delays_with_events_are_refused():
-    from loomfmu.ode import dae_form
+    from loomfmu.export.dae import dae_form
     m = small_model()
     x = m.var("x").sym
     m.delay("xd", x, 0.1, max_delay=1.0, description="x, 0.1 s ago")

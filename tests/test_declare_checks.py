@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from loomfmu import build_fmu
-from loomfmu.checks import check_text
-from loomfmu.codegen import SETTINGS, SOLVERS
-from loomfmu.declare import Model, reserved_names
-from loomfmu.verify import simulate
+from loomfmu.declare.checks import check_text
+from loomfmu.declare.solvers import SETTINGS, SOLVERS
+from loomfmu.declare.model import Model, reserved_names
+from loomfmu.verification.verify import simulate
 
 #: texts that XML and C handle with escaping: they must still build
 GOOD_TEXT = 'Drehzahl ü 1/min — ≤ <&> "q" */ %s \\ line1\nline2\ttab'

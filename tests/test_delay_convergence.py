@@ -24,8 +24,8 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from loomfmu import build_fmu
-from loomfmu.declare import Model
-from loomfmu.verify import simulate
+from loomfmu.declare.model import Model
+from loomfmu.verification.verify import simulate
 
 T_END = 5.0
 TAUS = (1.0, 0.3, 0.05)

@@ -12,8 +12,8 @@ from fmpy.fmi1 import FMICallException
 
 from loomfmu import build_fmu
 from loomfmu.models.drive import build
-from loomfmu.reference import reference
-from loomfmu.verify import compare, simulate
+from loomfmu.verification.reference import reference
+from loomfmu.verification.verify import compare, simulate
 
 K, T, N_MIN = 1800.0, 2.0, 12000.0
 #: a small cam, fast enough that the delayed signal varies within solver steps
@@ -120,7 +120,7 @@ def test_compensated_cam_removes_lag_and_delay_up_to_truncation(tmp_path):
     import dataclasses
     from loomfmu import load_model
     from loomfmu.drive import DriveParams, tracking_error
-    from loomfmu.drive.law import law_constants
+    from loomfmu.mechanics.drive_law import law_constants
     from loomfmu.drive.tracking import cam_values
     model = load_model("drive", harmonics=48, m=12)
     fmu = build_fmu(model, out_dir=tmp_path, validate=False).path

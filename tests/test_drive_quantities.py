@@ -11,11 +11,11 @@ import pytest
 
 from loomfmu import build_fmu, load_model
 from loomfmu.drive import DriveParams
-from loomfmu.drive.cam import forward_gain, time_of_angle
-from loomfmu.drive.law import fourier, law_constants, speed_law
+from loomfmu.mechanics.layer_cam import forward_gain, time_of_angle
+from loomfmu.mechanics.drive_law import fourier, law_constants, speed_law
 from loomfmu.models.drive_derivation import DEFECTS
-from loomfmu.units import UNITS
-from loomfmu.verify import simulate
+from loomfmu.declare.units import UNITS
+from loomfmu.verification.verify import simulate
 
 
 @pytest.fixture(scope="module")

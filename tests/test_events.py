@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from loomfmu import build_fmu
-from loomfmu.declare import Model
+from loomfmu.declare.model import Model
 
 
 def _touch_model(root: float) -> Model:

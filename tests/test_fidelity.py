@@ -1,5 +1,5 @@
 """The fidelity levels (loomfmu.fidelity) and the per-scene selector
-(loomfmu.scene.fidelity): real FMUs of the loom scene run on our master and
+(loomfmu.machines.fidelity): real FMUs of the loom scene run on our master and
 compared against the highest-fidelity run; bad arguments named."""
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import pytest
 
 from loomfmu.fidelity import LEVELS, SPINDLE_MODES_HZ, cut_frequency, level, undeclared
 from loomfmu.registry import FIDELITY
-from loomfmu.scene import fidelity as sf
-from loomfmu.scene.__main__ import main as scene_main
+from loomfmu.machines import fidelity as sf
+from loomfmu.cli.scene import main as scene_main
 
 STOP = 0.5   # s: two picks of the loom at 240 picks/min
 
@@ -165,7 +165,7 @@ def test_the_command_refuses_a_bad_tolerance_in_one_line(capsys):
 
 
 def test_loomfmu_list_prints_what_each_level_leaves_out(capsys):
-    from loomfmu.cli import main
+    from loomfmu.cli.dispatch import main
     assert main(["list"]) == 0
     out = capsys.readouterr().out
     for name, lv in LEVELS.items():

@@ -1,6 +1,6 @@
 """An FMI 3 container (FMPy's container FMU, fmpy.container_fmu) runs the
 two-mass scene built from our FMI 3 co-simulation FMUs (two_mass_force,
-two_mass_displacement; loomfmu.scene.two_mass), and agrees with our own
+two_mass_displacement; loomfmu.machines.two_mass), and agrees with our own
 master (loomfmu.scene, FMI 2 FMUs of the same declarations) at the same fixed
 step, and with the exact co-simulation map of the benchmark.
 
@@ -32,7 +32,7 @@ from fmpy.validation import validate_fmu
 
 from test_fmi_variants import variant_builds  # FMUs shared by the variant tests
 from loomfmu.scene import run
-from loomfmu.scene.two_mass import TIGHT, Params, cosim_map, scene
+from loomfmu.machines.two_mass import TIGHT, Params, cosim_map, scene
 
 H = 1e-3      # the container's fixed step = our master's communication step
 STOP = 0.2

@@ -1,6 +1,6 @@
 """One declaration, four interfaces: FMI 2.0 and 3.0 model descriptions for
 co-simulation, model exchange or both, written from one variable table
-(loomfmu.fmi_xml), and the builder's FMU layout per variant.
+(loomfmu.export.fmi_xml), and the builder's FMU layout per variant.
 
 Oracles: FMPy's validation (the FMI schemas and its model-structure checks),
 FMPy's own schema for terminalsAndIcons.xml and buildDescription.xml, the
@@ -24,12 +24,12 @@ from fmpy.validation import validate_fmu
 from lxml import etree
 
 from loomfmu import build_fmu, load_model
-from loomfmu.builder import fmi_headers_dir, terminals_problems
-from loomfmu.codegen import model_guid, real_table
-from loomfmu.fmi_xml import (INDICATOR_PREFIX, fmi3_text, model_description, terminals_and_icons,
+from loomfmu.fmu.builder import fmi_headers_dir, terminals_problems
+from loomfmu.export.codegen import model_guid, real_table
+from loomfmu.export.fmi_xml import (INDICATOR_PREFIX, fmi3_text, model_description, terminals_and_icons,
                              variable_table)
-from loomfmu.fmu_doc import DOC_MEMBER
-from loomfmu.ode import dae_form
+from loomfmu.fmu.documentation import DOC_MEMBER
+from loomfmu.export.dae import dae_form
 
 #: modes, events, implicit (backrest); a delay (drive); events, explicit,
 #: ports of two kinds (heald_frame_rigid); direct feedthrough (two_mass_force)

@@ -1,5 +1,5 @@
 """Our FMPy runs with a logger do not leave FMPy's global logger proxy
-(logging.so's s_logger) pointing at a freed thunk (loomfmu.fmpy_logger).
+(logging.so's s_logger) pointing at a freed thunk (loomfmu.verification.fmpy_logger).
 
 Before: verify.simulate called fmpy.simulate_fmu(logger=...), whose thunk was
 freed with the instance; the next FMU on FMPy's default callbacks that logged
@@ -13,8 +13,9 @@ import sys
 
 import pytest
 
-from loomfmu import build_fmu, fmpy_logger
-from loomfmu.declare import Model
+from loomfmu import build_fmu
+from loomfmu.verification import fmpy_logger
+from loomfmu.declare.model import Model
 
 
 def _spring() -> Model:
@@ -37,7 +38,7 @@ def fmu(tmp_path_factory):
 SCRIPT = """
 import gc, sys
 import fmpy
-from loomfmu.verify import simulate
+from loomfmu.verification.verify import simulate
 fmu = sys.argv[1]
 run = simulate(fmu, rtol=1e-6, values={"solver_rtol": 1e-10}, stop_time=0.1)
 assert any("overridden" in m for m in run.log), run.log   # our logger got the warning

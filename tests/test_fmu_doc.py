@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from loomfmu import MODELS, build_fmu, load_model
-from loomfmu.codegen import SETTINGS
-from loomfmu.fmu_doc import DOC_MEMBER, html_for, write_documentation
-from loomfmu.verify import verify
+from loomfmu.declare.solvers import SETTINGS
+from loomfmu.fmu.documentation import DOC_MEMBER, html_for, write_documentation
+from loomfmu.verification.verify import verify
 
 _BUILT: dict = {}
 
@@ -210,8 +210,8 @@ def test_print_defects_are_listed_one_item_each(name, keys):
 
 # ------------------------------------------------------------- variants
 def _variant_page(name: str, fmi_version: int, interface: str, verification=None) -> str:
-    from loomfmu.fmi_xml import model_description
-    from loomfmu.ode import dae_form
+    from loomfmu.export.fmi_xml import model_description
+    from loomfmu.export.dae import dae_form
     model = load_model(name)
     xml = model_description(model, dae_form(model), "{00000000-0000-0000-0000-000000000000}",
                             [], fmi_version=fmi_version, interface=interface)
@@ -247,7 +247,7 @@ def test_both_page_keeps_the_solvers_and_adds_the_importer_s_duties():
 
 
 def test_the_adaptive_solvers_are_those_of_codegen():
-    from loomfmu.codegen import ADAPTIVE_SOLVERS, SOLVER_DESCRIPTIONS, SOLVERS
+    from loomfmu.declare.solvers import ADAPTIVE_SOLVERS, SOLVER_DESCRIPTIONS, SOLVERS
     text = _section(_variant_page("two_mass_force", 2, "cs"), "solver")
     adaptive = [s for s in SOLVERS if "adaptive" in SOLVER_DESCRIPTIONS[s]]
     assert "ros34pw2" in adaptive and list(ADAPTIVE_SOLVERS) == adaptive
@@ -282,7 +282,7 @@ def test_model_exchange_with_a_delay_states_the_step_limit_and_how_to_run_fmpy()
 
 
 def test_model_exchange_verification_is_documented_as_one_cvode_run():
-    from loomfmu.verify import ME_LABEL
+    from loomfmu.verification.verify import ME_LABEL
     ver = {"reference_wall_seconds": 1.0, "reference_rhs_calls": 10, "rtol": 1e-6,
            "solvers": {ME_LABEL: {"interface": "me", "wall_seconds": 0.1, "log": [],
                                   "errors": {"v1_out": {"max_abs": 1e-4,

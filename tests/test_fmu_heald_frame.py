@@ -16,9 +16,9 @@ from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu
 
 from loomfmu import load_model
-from loomfmu.codegen import SOLVERS
-from loomfmu.reference import reference
-from loomfmu.verify import compare, simulate
+from loomfmu.declare.solvers import SOLVERS
+from loomfmu.verification.reference import reference
+from loomfmu.verification.verify import compare, simulate
 
 OUTPUTS = ["h", "h_dot", "h_ddot", "x1_out", "x2_out", "y2_out", "T", "dl", "f_x", "f_y"]
 

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from loomfmu import Model, build_fmu
-from loomfmu.friction import BACKWARD, FORWARD, STUCK, coulomb_joint
-from loomfmu.reference import reference
+from loomfmu.mechanics.friction import BACKWARD, FORWARD, STUCK, coulomb_joint
+from loomfmu.verification.reference import reference
 
 M, K, G, MU_S, MU_K, V0 = 1.0, 100.0, 9.81, 0.4, 0.3, 0.1
 OMEGA = math.sqrt(K / M)

@@ -9,8 +9,8 @@ from fmpy.validation import validate_fmu
 
 from loomfmu import load_model
 from loomfmu.heald.claims import start_values
-from loomfmu.reference import reference
-from loomfmu.verify import compare, simulate
+from loomfmu.verification.reference import reference
+from loomfmu.verification.verify import compare, simulate
 
 PLANAR = ["h", "h_ddot", "y2_out", "T", "f_y", "N_rem"]
 RIGID = ["h", "h_ddot", "T", "f_x", "f_y", "N_rem", "G_rem"]

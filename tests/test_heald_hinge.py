@@ -10,7 +10,7 @@ import pytest
 from loomfmu.heald import PHASES, hinge_load_kinetostatic, hinge_load_phases
 from loomfmu.heald.claims import start_values
 from loomfmu.heald.hinge import max_phases, motion, phase_of
-from loomfmu.verify import simulate
+from loomfmu.verification.verify import simulate
 
 G = 9.80665
 

@@ -6,8 +6,8 @@ from fmpy.fmi1 import FMICallException
 
 from loomfmu import load_model
 from loomfmu.heald import preset_names, preset_values
-from loomfmu.heald.presets import TABLE2, warp_force
-from loomfmu.verify import simulate
+from loomfmu.mechanics.heald_presets import TABLE2, warp_force
+from loomfmu.verification.verify import simulate
 
 
 def test_preset_values_come_from_the_tables():

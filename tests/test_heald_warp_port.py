@@ -16,11 +16,11 @@ from fmpy.validation import validate_fmu
 
 from loomfmu import build_fmu, load_model
 from loomfmu.heald.tension_input import lockstep
-from loomfmu.ports import PORT_KINDS
-from loomfmu.reference import reference
+from loomfmu.declare.ports import PORT_KINDS
+from loomfmu.verification.reference import reference
 from loomfmu.registry import build_options
-from loomfmu.units import same_quantity
-from loomfmu.verify import simulate
+from loomfmu.declare.units import same_quantity
+from loomfmu.verification.verify import simulate
 
 LEVELS = ["heald_frame", "heald_frame_planar", "heald_frame_rigid"]
 SLATS = ["x2_out", "y2_out", "N_rem"]

@@ -19,9 +19,9 @@ from fmpy import read_model_description
 from fmpy.fmi1 import FMICallException
 
 from loomfmu import build_fmu, load_model
-from loomfmu.codegen import SOLVERS
-from loomfmu.declare import Model
-from loomfmu.reference import reference
+from loomfmu.declare.solvers import SOLVERS
+from loomfmu.declare.model import Model
+from loomfmu.verification.reference import reference
 
 TAU = 0.1  # delay of the delayed integrator
 A, B, U0 = 2.0, 3.0, 0.5  # u(t) = U0 + A t + B t^2 / 2

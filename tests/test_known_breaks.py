@@ -18,7 +18,7 @@ import casadi as ca
 import pytest
 
 from loomfmu import load_model
-from loomfmu.declare import Model
+from loomfmu.declare.model import Model
 from test_early_return import Run, _driver  # the runtime driver of a built FMU
 
 T1 = 0.4372

@@ -113,7 +113,7 @@ def test_model_exchange_misuse_under_the_sanitizers(tmp_path):
     import os
     import zipfile
     from loomfmu import build_fmu
-    from loomfmu.builder import fmi_headers_dir
+    from loomfmu.fmu.builder import fmi_headers_dir
     fmu = build_fmu(load_model("backrest"), out_dir=tmp_path, interface="both",
                     validate=False).path
     with zipfile.ZipFile(fmu) as z:

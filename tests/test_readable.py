@@ -2,7 +2,7 @@
 
 For every model in loomfmu.MODELS: every equation residual, every output's
 defining expression, every event indicator, mode rule, reinit, start
-expression, delay and constraint is converted to SymPy (loomfmu.readable),
+expression, delay and constraint is converted to SymPy (loomfmu.inspection.readable),
 then the printed form (the Listing: shared subexpressions named once, the
 equations as lhs = rhs, the outputs, event indicators, mode rules and
 delayed expressions; the
@@ -24,8 +24,8 @@ import pytest
 import sympy
 
 from loomfmu import MODELS, load_model
-from loomfmu import readable
-from loomfmu.readable.listing import _lift
+from loomfmu.inspection import readable
+from loomfmu.inspection.readable.listing import _lift
 
 RTOL = 1e-9
 N_POINTS = 4
@@ -434,8 +434,8 @@ def test_long_lines_are_broken_into_named_parts():
 
 from html.parser import HTMLParser  # noqa: E402
 
-from loomfmu import inspect_doc, inspect_report  # noqa: E402
-from loomfmu.ode import dae_form  # noqa: E402
+from loomfmu.inspection import document as inspect_doc, report as inspect_report  # noqa: E402
+from loomfmu.export.dae import dae_form  # noqa: E402
 
 
 class _Tags(HTMLParser):
@@ -662,7 +662,7 @@ def test_picture_shows_round_off_apart():
     grey and kept out of the colour scale; a symbolic large matrix is
     coloured at the parameters' defaults."""
     from loomfmu import Model
-    from loomfmu.inspect_derivation import TINY_COLOUR, derivation
+    from loomfmu.inspection.derivation import TINY_COLOUR, derivation
     m = Model("pic", description="pictures")
     k = m.parameter("k", 1e3, description="a stiffness", min=1.0, source="assumption: test")
     x = m.state("x", 0.0, description="x")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from loomfmu.docs import model_markdown
+from loomfmu.inspection.model_pages import model_markdown
 from loomfmu.registry import MODELS, load_model
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -63,7 +63,7 @@ def test_link_finder_sees_links_and_skips_code(tmp_path):
 def test_generated_model_docs_are_current(name):
     path = ROOT / "docs" / "models" / f"{name}.md"
     assert path.read_text() == model_markdown(load_model(name)), (
-        f"{path} is stale: run python -m loomfmu.docs")
+        f"{path} is stale: run python -m loomfmu.inspection.model_pages")
 
 
 def test_readme_derivation_example_prints_what_its_comments_show(capsys):

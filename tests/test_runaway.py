@@ -22,7 +22,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import fmi2LastSuccessfulTime
 
 from loomfmu import build_fmu, load_model
-from loomfmu.codegen import MAX_STEPS_DEFAULT
+from loomfmu.declare.solvers import MAX_STEPS_DEFAULT
 
 
 @pytest.fixture(scope="module")
@@ -128,7 +128,7 @@ def test_state_leaving_its_declared_range_is_discarded(tmp_path, slave_factory):
     u = 10; the communication step is discarded at the last accepted point,
     with the state, its value and its range in the log, and the same
     model stepped inside its range runs on."""
-    from loomfmu.declare import Model
+    from loomfmu.declare.model import Model
 
     m = Model("ranged", stop_time=1.0, step_size=0.1)
     x = m.state("x", 0.0, description="a ranged state", min=-1.0, max=1.0)

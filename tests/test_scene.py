@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 
 from loomfmu.scene import Scene, run
-from loomfmu.scene import two_mass as tm
-from loomfmu.scene.__main__ import main
+from loomfmu.machines import two_mass as tm
+from loomfmu.cli.scene import main
 from loomfmu.scene.fmus import build_fmus
 from loomfmu.scene.run import MIN_JUDGED_STEPS, Result, UnresolvedCoupling
 from loomfmu.scene.ssp import ssd_text, validate_ssd
 
-#: rpm -> rad/s, written out independently of loomfmu.units
+#: rpm -> rad/s, written out independently of loomfmu.declare.units
 RPM = 2 * math.pi / 60
 
 
@@ -178,7 +178,7 @@ def test_the_fmu_cache_is_keyed_by_the_code_not_only_the_variables(monkeypatch):
     """A model edit that keeps every variable gets a new file name (a stale
     FMU is not reused)."""
     import loomfmu.scene.fmus as fmus_mod
-    from loomfmu.declare import Model
+    from loomfmu.declare.model import Model
     from loomfmu.scene.declare import Component
     from loomfmu.scene.interface import interface_of_model
 

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from loomfmu.declare import Model
+from loomfmu.declare.model import Model
 from loomfmu.scene import Scene, run
-from loomfmu.scene import two_mass as tm
+from loomfmu.machines import two_mass as tm
 from loomfmu.scene.extrapolation import (History, shift, shift_rows, taylor, taylor_many,
                                          value)
 from loomfmu.scene.fmus import build_fmus
@@ -281,7 +281,7 @@ def test_an_output_that_cannot_be_read_names_component_call_time_and_log(loop_fm
                        r"t = 0 s \(.*status 3.*\); its log: .*y") as exc:
         run(s, fmus=paths, loop_options={"loop_method": method})
     assert "NaN" in str(exc.value) or "nan" in str(exc.value)
-    import loomfmu.scene.__main__ as cli
+    import loomfmu.cli.scene as cli
     monkeypatch.setattr(cli, "load_scene", lambda name: s)
     assert cli.main(["run", "loop_sqrt", "--stop", "0.05"]) == 1
     captured = capsys.readouterr()
@@ -543,7 +543,7 @@ def test_extrapolation_is_refused_where_an_fmu_cannot_interpolate(bench, tmp_pat
 
 
 def test_scene_command_takes_the_extrapolation_and_the_order(bench, capsys):
-    from loomfmu.scene.__main__ import main
+    from loomfmu.cli.scene import main
     fmu_dir = str(bench[1]["force"].parent)
     assert main(["run", "two_mass", "--master", "gauss-seidel", "--extrapolation", "2",
                  "--order", "disp,force", "--stop", "0.01", "--fmu-dir", fmu_dir]) == 0

@@ -1,7 +1,7 @@
-"""The seed scenes (loomfmu.scene.spinning, loomfmu.scene.loom) on real FMUs:
+"""The seed scenes (loomfmu.machines.spinning, loomfmu.machines.loom) on real FMUs:
 they declare and run on our master, the exported SSP runs on libcosim and
 agrees with our master at the same algorithm and step, the spindle started
-by loomfmu.spindle_start stays periodic in the spinning scene, the frames
+by loomfmu.spindle.start stays periodic in the spinning scene, the frames
 run in opposition and the warp stays taut.  Short horizons; the FMUs are
 built once per module."""
 from __future__ import annotations
@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 
 from loomfmu.scene import Scene, run
-from loomfmu.scene import loom as loom_scene
-from loomfmu.scene import spinning
-from loomfmu.scene.__main__ import main
+from loomfmu.machines import loom as loom_scene
+from loomfmu.machines import spinning
+from loomfmu.cli.scene import main
 from loomfmu.scene.fmus import build_fmus
 from loomfmu.scene.libcosim import run_ssp
-from loomfmu.scene.library import SCENES, load_scene
+from loomfmu.machines.library import SCENES, load_scene
 from loomfmu.scene.ssp import export_ssp
 
 @pytest.fixture(scope="module")
@@ -152,7 +152,7 @@ def test_loom_shaft_speed_fluctuation_against_its_closed_form(fmu_dir):
     """theta' = w0 (1 + d cos theta) has the closed form
     tan(theta / 2) = sqrt((1 + d) / (1 - d)) tan(w0 sqrt(1 - d^2) t / 2)."""
     from loomfmu import build_fmu, load_model
-    from loomfmu.verify import simulate
+    from loomfmu.verification.verify import simulate
     fmu = build_fmu(load_model("loom_shaft"), out_dir=fmu_dir / "shaft", validate=False).path
     w0, d = 8 * math.pi, 0.05
     r = simulate(fmu, values={"delta": d}, stop_time=1.0, output_interval=1e-3)

@@ -1,5 +1,5 @@
 """The two-mass benchmark (force-displacement coupling) against its exact
-co-simulation map (loomfmu.scene.two_mass, derivation in docs/scenes.md):
+co-simulation map (loomfmu.machines.two_mass, derivation in docs/scenes.md):
 our masters reproduce the map's trajectory, lose stability where its
 spectral radius crosses 1, the adaptive run is the product of the maps of
 its accepted steps (rejected steps leave no trace), and libcosim runs the
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from loomfmu.scene import run
-from loomfmu.scene import two_mass as tm
+from loomfmu.machines import two_mass as tm
 from loomfmu.scene.fmus import build_fmus
 
 #: these tests run the masters at and past their stability limits on purpose:

@@ -9,7 +9,7 @@ import subprocess
 import zipfile
 
 from loomfmu import build_fmu, load_model
-from loomfmu.builder import fmi_headers_dir
+from loomfmu.fmu.builder import fmi_headers_dir
 
 
 def _global_symbols(fmu, workdir):

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 import scipy.integrate as si
 
-from loomfmu.rotor import (Rotor, band_ldl_solve, equivalent_support, film_damping,
+from loomfmu.mechanics.rotor import (Rotor, band_ldl_solve, equivalent_support, film_damping,
                            film_integral_C, film_integral_K, spring_radii)
-from loomfmu.rotor_analysis import (RPM, direct_compliance, dynamic_compliance,
+from loomfmu.spindle.analysis import (RPM, direct_compliance, dynamic_compliance,
                                     undamped_frequencies, unbalance_response, whirl_modes)
-from loomfmu.rotor_study import Spindle
+from loomfmu.spindle.study import Spindle
 
 E, RHO, G, KAPPA = 2.1e11, 7800.0, 8.1e10, 0.9
 
@@ -192,7 +192,7 @@ def test_forward_whirl_stiffens_and_backward_softens_with_speed(spindle):
 def test_model_defaults_reproduce_the_seeds_six_frequencies(spindle):
     """The calibrated defaults give the seed's natural frequencies at 16 000 rpm
     (section V(一)1) within 5 % (docs/spindle_calibration.md: within 3 %)."""
-    from loomfmu.rotor_study import SEED_FREQS
+    from loomfmu.spindle.study import SEED_FREQS
     for fill, case in ((0.0, "empty"), (1.0, "full")):
         got = spindle.forward_freqs_rpm(spindle.values(fill=fill))
         np.testing.assert_allclose(got, SEED_FREQS[case], rtol=0.05)
@@ -216,7 +216,7 @@ def test_critical_speeds_are_where_the_forward_whirl_meets_the_spin_speed(spindl
 def test_rotor_critical_flags_a_critical_speed_near_the_working_speed(capsys):
     """loomfmu rotor critical: with the blade's diameter factor k_d = 0.8 the
     full bobbin has a critical speed near 16 000 rpm: a warning on stderr."""
-    from loomfmu.rotor_study import main
+    from loomfmu.spindle.__main__ import main
     assert main(["critical"]) == 0
     out, err = capsys.readouterr()
     assert "full bobbin" in out and "warning" not in err

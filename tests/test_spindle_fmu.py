@@ -8,10 +8,10 @@ import pytest
 from fmpy.validation import validate_fmu
 
 from loomfmu import load_model
-from loomfmu.reference import reference
-from loomfmu.rotor_analysis import RPM, unbalance_response
-from loomfmu.rotor_study import Spindle
-from loomfmu.verify import compare, simulate
+from loomfmu.verification.reference import reference
+from loomfmu.spindle.analysis import RPM, unbalance_response
+from loomfmu.spindle.study import Spindle
+from loomfmu.verification.verify import compare, simulate
 
 OUTPUTS = ["x_top", "y_top", "r_top", "x_footstep", "r_footstep", "F_upper_x",
            "F_upper", "F_lower_x", "F_lower"]

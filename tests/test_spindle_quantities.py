@@ -14,11 +14,11 @@ import pytest
 from scipy.integrate import quad
 
 from loomfmu import load_model
-from loomfmu.declare import Model
+from loomfmu.declare.model import Model
 from loomfmu.models.spindle import RPM, declare_rotor, spindle_system
 from loomfmu.models.spindle_derivation import DEFECTS
-from loomfmu.ode import explicit_ode
-from loomfmu.units import UNITS
+from loomfmu.export.dae import explicit_ode
+from loomfmu.declare.units import UNITS
 
 SEED_RNG = 20261123
 

@@ -1,13 +1,13 @@
-"""loomfmu.spindle_start.periodic_start: the spindle FMUs started there run on
+"""loomfmu.spindle.start.periodic_start: the spindle FMUs started there run on
 their periodic solution (no transient), full FE and modal."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from loomfmu.rotor_study import Spindle
-from loomfmu.spindle_start import periodic_start
-from loomfmu.verify import simulate
+from loomfmu.spindle.study import Spindle
+from loomfmu.spindle.start import periodic_start
+from loomfmu.verification.verify import simulate
 
 ECC = 5e-6
 REVOLUTIONS = 5

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from loomfmu import build_fmu, load_model
-from loomfmu.spindle_start import periodic_start
-from loomfmu.verify import simulate
+from loomfmu.spindle.start import periodic_start
+from loomfmu.verification.verify import simulate
 
 RPM, ECC, REVOLUTIONS = 16000.0, 5e-6, 3
 OUTPUTS = ["r_top", "F_upper", "F_lower"]

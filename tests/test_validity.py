@@ -16,8 +16,8 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import fmi2LastSuccessfulTime, fmi2Terminated
 
 from loomfmu import build_fmu
-from loomfmu.declare import Model
-from loomfmu.reference import reference
+from loomfmu.declare.model import Model
+from loomfmu.verification.reference import reference
 
 OMEGA = 2.0
 T_STAR = math.acos(-0.5) / OMEGA  # x = cos(2 t) reaches -0.5

@@ -1,6 +1,6 @@
 """``python -m loomfmu``: the same as the ``loomfmu`` command."""
 import sys
 
-from .cli import main
+from loomfmu.cli.dispatch import main
 
 sys.exit(main())

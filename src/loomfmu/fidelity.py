@@ -3,7 +3,7 @@
 For every model of :data:`loomfmu.registry.FIDELITY` a :class:`Level` says
 what the model leaves out, what it still represents, a cost hint (with the
 measurement it comes from), the documented case where it suffices, and what
-the selector (:mod:`loomfmu.scene.fidelity`) needs to judge whether a scene
+the selector (:mod:`loomfmu.machines.fidelity`) needs to judge whether a scene
 exercised what it leaves out:
 
 * ``cut_hz``: the lowest natural frequency the level leaves out (Hz).  A
@@ -172,5 +172,5 @@ def cut_frequency(model: str, options: dict | None = None) -> float | None:
 
 def undeclared() -> list[str]:
     """Models of loomfmu.registry.FIDELITY without a Level (should be none)."""
-    from .registry import FIDELITY
+    from loomfmu.registry import FIDELITY
     return sorted(m for levels in FIDELITY.values() for m in levels if m not in LEVELS)

@@ -8,8 +8,8 @@ from __future__ import annotations
 import importlib
 import inspect
 
-from .checks import check_names
-from .declare import Model
+from loomfmu.declare.checks import check_names
+from loomfmu.declare.model import Model
 
 #: model name -> (module in loomfmu.models, build options)
 MODELS: dict[str, tuple[str, dict]] = {
@@ -22,7 +22,7 @@ MODELS: dict[str, tuple[str, dict]] = {
     "spindle": ("spindle", {}),
     "spindle_modal": ("spindle_modal", {}),
     "loom_shaft": ("loom_shaft", {}),
-    # the co-simulation benchmark split into two FMUs (loomfmu.scene.two_mass)
+    # the co-simulation benchmark split into two FMUs (loomfmu.machines.two_mass)
     "two_mass_force": ("two_mass", {"side": "force"}),
     "two_mass_displacement": ("two_mass", {"side": "displacement"}),
 }

@@ -11,6 +11,9 @@
 ``limit``: each model at C level against its method's limit
 (docs/limit.json, docs/limit.md). ``loomfmu bench COMMAND --help``: a
 command's options and their defaults.
+
+May import: every layer but the command line; the benchmark scripts in
+benchmarks/ import it.
 """
-from .classic import friction, speed, time_at_error  # noqa: F401
-from .cli import main  # noqa: F401
+from loomfmu.bench.classic import friction, speed, time_at_error  # noqa: F401
+from loomfmu.bench.cli import main  # noqa: F401

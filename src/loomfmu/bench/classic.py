@@ -24,10 +24,10 @@ import numpy as np
 
 from fmpy import read_model_description
 
-from ..builder import build_fmu
-from ..reference import reference
-from ..registry import load_model
-from ..verify import compare, simulate
+from loomfmu.fmu.builder import build_fmu
+from loomfmu.verification.reference import reference
+from loomfmu.registry import load_model
+from loomfmu.verification.verify import compare, simulate
 
 FMU_RTOLS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
 SCIPY_RTOLS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9)

@@ -8,10 +8,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from ..progress import Progress
-from . import classic, failures, limit, report
-from .scenes import BENCH, load_scene_model
-from .sweep import Plan, prepare, work_precision
+from loomfmu.progress import Progress
+from loomfmu.bench import classic, failures, limit, report
+from loomfmu.bench.scenes import BENCH, load_scene_model
+from loomfmu.bench.sweep import Plan, prepare, work_precision
 
 #: most local dask workers (as loomfmu.sweep.run.MAX_WORKERS; not imported
 #: from there so the serial run needs no dask)
@@ -24,7 +24,7 @@ def charts(models, *, quick: bool, out: Path, readme: Path | None, failures_on: 
     """Every chart, the CSV and the summary for ``models`` (scene names).
 
     dask: None (serial) or the keyword arguments of
-    :func:`loomfmu.sweep.bench.work_precision_dask` (workers, scheduler): one
+    :func:`loomfmu.bench.dask.work_precision_dask` (workers, scheduler): one
     dask task per (model, method) sweep. plan: the sweeps' settings (default
     ``Plan.make(quick)``); only: the (family, method) pairs to sweep (None:
     all); c_level: also time our FMU's points at C level (family "fmu-c",
@@ -94,10 +94,10 @@ def _info(scene, grid, ref_note: str, casadi_note: str) -> dict:
 
 def _charts_dask(models, plan, quick, out, tmp, infos, rows, tasks, bar, dask, only,
                  failures_on, c_level=False) -> dict:
-    """The work-precision sweeps on dask (loomfmu.sweep.bench); fills infos,
+    """The work-precision sweeps on dask (loomfmu.bench.dask); fills infos,
     rows and tasks, draws the charts; returns the scenes prepared here (from
     the workers' grids and references) for the failure studies."""
-    from ..sweep.bench import work_precision_dask
+    from loomfmu.bench.dask import work_precision_dask
     names = [n for n in models if load_scene_model(n) is not None]
     bar.stage(f"{', '.join(names)}: work-precision sweeps on dask")
     got = work_precision_dask(names, plan, quick, only=only, **dask)
@@ -210,7 +210,7 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
     if (args.scheduler is not None or args.workers != 2) and not args.dask:
         ap.error("--workers and --scheduler go with --dask")
     if args.dask:
-        from ..sweep.bench import check_dask
+        from loomfmu.bench.dask import check_dask
         try:  # dask.distributed missing, a refused scheduler: one line, exit 2 (as sweep)
             check_dask(args.workers, args.scheduler)
         except (ValueError, ImportError) as exc:
@@ -230,8 +230,8 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
 
 
 def _main_limit(ap, args) -> int:
-    from ..codegen import SOLVERS
-    from ..registry import MODELS
+    from loomfmu.declare.solvers import SOLVERS
+    from loomfmu.registry import MODELS
     models = args.models or list(MODELS)
     solvers = args.solvers or list(SOLVERS)
     for opt, given, allowed in (("--models", models, MODELS), ("--solvers", solvers, SOLVERS)):

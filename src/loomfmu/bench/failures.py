@@ -29,8 +29,8 @@ import matplotlib
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from .runners import CasadiModel, Run, errors, scipy_run, timed
-from .sweep import Case, Plan, point
+from loomfmu.bench.runners import CasadiModel, Run, errors, scipy_run, timed
+from loomfmu.bench.sweep import Case, Plan, point
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -454,7 +454,7 @@ def _plain_scipy(cm: CasadiModel, grid, *, method: str, rtol: float, atol: float
         xs[sel] = sol.sol(grid[sel]).T
         if t1 >= t_end or sol.status != 1:
             break
-        # past the root (as loomfmu.reference does), then watch the events again
+        # past the root (as loomfmu.verification.reference does), then watch the events again
         gap = 1e-10 * max(1.0, abs(t1))
         x = solve_ivp(rhs, (t1, t1 + gap), sol.y[:, -1], method=method, rtol=rtol,
                       atol=atol).y[:, -1]

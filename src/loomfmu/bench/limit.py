@@ -9,7 +9,7 @@ For every model (:data:`loomfmu.registry.MODELS`) the FMU is built, its own
 ``sources/`` and ``limit_driver.c`` (next to this file) are compiled with gcc
 into one program, which runs the model's verification experiment (the
 FMU's default experiment: stop time, communication step; rtol 1e-6, atol
-1e-9, as :func:`loomfmu.verify.verify`) through the FMI 2.0 functions without
+1e-9, as :func:`loomfmu.verification.verify.verify`) through the FMI 2.0 functions without
 Python and reads the solver's counters from the instance.  The limit
 (:func:`limit_seconds`) is the fewest evaluations the method needs for the
 steps it took: accepted steps x new stages per step x the best time of one
@@ -28,10 +28,10 @@ import time
 import zipfile
 from pathlib import Path
 
-from ..builder import GENERATED_FLAGS, STRICT_FLAGS, build_fmu, fmi_headers_dir
-from ..checks import check_int, check_name_list
-from ..codegen import SOLVERS
-from ..registry import MODELS, load_model
+from loomfmu.fmu.builder import GENERATED_FLAGS, STRICT_FLAGS, build_fmu, fmi_headers_dir
+from loomfmu.declare.checks import check_int, check_name_list
+from loomfmu.declare.solvers import SOLVERS
+from loomfmu.registry import MODELS, load_model
 
 DRIVER = Path(__file__).with_name("limit_driver.c")
 
@@ -42,7 +42,7 @@ DRIVER = Path(__file__).with_name("limit_driver.c")
 #: ros34pw2 (a W-method) 4, its first f(t, x) the previous step's last, and
 #: reuses its Jacobian over steps (None: the Jacobians the run evaluated).
 STAGES = {"dopri5": (6, 0), "rodas4": (6, 1), "rk4": (4, 0), "ros34pw2": (4, None)}
-#: the verification run's tolerances (loomfmu.verify.verify's defaults)
+#: the verification run's tolerances (loomfmu.verification.verify.verify's defaults)
 RTOL, ATOL = 1e-6, 1e-9
 
 
@@ -378,7 +378,7 @@ def speed_points(name: str, rows: list[dict], *, quick: bool, work: Path,
     ``repeats``).  The trajectory is the same (same code, same calls; the
     final outputs are compared with FMPy's, tests/test_bench_limit.py), so
     each point keeps the FMPy point's errors.  Family "fmu-c"."""
-    from .scenes import BENCH, load_scene_model
+    from loomfmu.bench.scenes import BENCH, load_scene_model
     scene, model = BENCH[name], load_scene_model(name)
     mine = [r for r in rows if r["model"] == name and r["family"] == "fmu"
             and r["study"] == "wp" and r["status"] == "ok"]

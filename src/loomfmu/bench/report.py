@@ -15,7 +15,7 @@ from pathlib import Path
 
 import matplotlib
 
-from .classic import time_at_error
+from loomfmu.bench.classic import time_at_error
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -141,7 +141,7 @@ with `fmu_instance`: start values, initialization, every step and output
 read); loading its library and FMPy's binding of its functions (about
 1.3 ms per new instance) are outside the time, as building CasADi's
 integrator is outside CasADi's. scipy's time is its integration only, with
-a Python right-hand side from the same declaration (`loomfmu.reference`);
+a Python right-hand side from the same declaration (`loomfmu.verification.reference`);
 CasADi's is the integrator call only. The dotted "fmu-c" lines are the
 same FMU runs (same settings, same communication grid, the same
 trajectory: final outputs equal bit for bit) driven by the C program of

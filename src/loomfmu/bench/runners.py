@@ -13,12 +13,12 @@ Methods, all on the same declaration:
   of its own methods) is left out as CasADi's is: building the integrator
   (``ca.integrator``) is outside its time.  ``Fmu.run(..., fresh=True)``
   times a new instance instead (load, instantiate, run, free:
-  ``loomfmu.verify.simulate``).
+  ``loomfmu.verification.verify.simulate``).
 * ``scipy``: ``solve_ivp`` with a Python right-hand side, through
-  :func:`loomfmu.reference.reference` (events, friction modes and delays
+  :func:`loomfmu.verification.reference.reference` (events, friction modes and delays
   included).  Time: the integration only (``Reference.wall_seconds``).
 * ``casadi``: CasADi's ``cvodes`` / ``idas`` on the symbolic right-hand side
-  (:func:`loomfmu.ode.dae_form`), outputs on the same grid.  Time: the
+  (:func:`loomfmu.export.dae.dae_form`), outputs on the same grid.  Time: the
   integrator call only.  CasADi's integrators know neither our events nor
   modes nor delays: models with modes or delays are left out; models with
   events (breakpoints) are integrated straight through them.
@@ -43,13 +43,13 @@ import fmpy
 import numpy as np
 from fmpy import read_model_description
 
-from .. import fmpy_logger
-from ..builder import build_fmu
-from ..codegen import SOLVERS
-from ..declare import Model
-from ..ode import dae_form
-from ..reference import reference
-from ..verify import simulate
+from loomfmu.verification import fmpy_logger
+from loomfmu.fmu.builder import build_fmu
+from loomfmu.declare.solvers import SOLVERS
+from loomfmu.declare.model import Model
+from loomfmu.export.dae import dae_form
+from loomfmu.verification.reference import reference
+from loomfmu.verification.verify import simulate
 
 #: runs longer than this (s) are not repeated
 LONG_RUN = 1.0

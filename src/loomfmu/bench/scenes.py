@@ -11,8 +11,8 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass, field
 
-from ..declare import Model
-from ..registry import MODELS, load_model
+from loomfmu.declare.model import Model
+from loomfmu.registry import MODELS, load_model
 
 
 @dataclass(frozen=True)
@@ -25,7 +25,7 @@ class Scene:
     values: start values (parameters, inputs held constant).
     atol_scale: atol = rtol * atol_scale for every adaptive method (the
     magnitude of the smallest state that matters).
-    reference: "scipy" (DOP853 through loomfmu.reference, with the model's
+    reference: "scipy" (DOP853 through loomfmu.verification.reference, with the model's
     events, modes and delays) or "cvodes" (CasADi's CVODES on the same
     symbolic right-hand side; for large stiff models).
     """

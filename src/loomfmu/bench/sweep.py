@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..codegen import ADAPTIVE_SOLVERS
-from ..declare import Model
-from .runners import CasadiModel, Fmu, Run, errors, scipy_run, timed
-from .scenes import Scene
+from loomfmu.declare.solvers import ADAPTIVE_SOLVERS
+from loomfmu.declare.model import Model
+from loomfmu.bench.runners import CasadiModel, Fmu, Run, errors, scipy_run, timed
+from loomfmu.bench.scenes import Scene
 
 SCIPY_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
 CASADI_PLUGINS = ("cvodes", "idas")
@@ -94,7 +94,7 @@ def prepare(name: str, scene: Scene, model: Model, plan: Plan, quick: bool,
         rtol = plan.ref_rtol
         ref = scipy_run(model, grid, method="DOP853", rtol=rtol, atol=rtol * scene.atol_scale,
                         values=scene.values)
-        note = f"scipy DOP853 at rtol {rtol:.0e} (loomfmu.reference)"
+        note = f"scipy DOP853 at rtol {rtol:.0e} (loomfmu.verification.reference)"
     return Case(name, scene, model, fmu, stop, interval, grid, ref, note, casadi, casadi_note)
 
 

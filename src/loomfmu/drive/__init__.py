@@ -1,22 +1,31 @@
 """Spindle drive with pure delay and the layer cam that compensates it (seed 001).
 
-* :mod:`.params`: :class:`DriveParams` (machine values, all assumptions);
-* :mod:`.law`: the optimal speed law n0(t) of (5)-(7), its slope, cumulative
-  revolutions and Fourier series (8);
-* :mod:`.cam`: the compensated cam (3), cam angle (4), profile r(phi) as a
-  Fourier table for the drive FMU, periodic steady state of the drive, and
-  the tracking error;
-* :mod:`.report`: ``loomfmu drive {table, charts}``.
+The laws the drive model is declared with live in :mod:`loomfmu.mechanics`
+and are re-exported here:
+
+* :mod:`loomfmu.mechanics.drive_params`: :class:`DriveParams` (machine
+  values, all assumptions);
+* :mod:`loomfmu.mechanics.drive_law`: the optimal speed law n0(t) of (5)-(7),
+  its slope, cumulative revolutions and Fourier series (8);
+* :mod:`loomfmu.mechanics.layer_cam`: the compensated cam (3), cam angle (4),
+  profile r(phi) as a Fourier table for the drive FMU, periodic steady state
+  of the drive, and the tracking error.
+
+The analyses: :mod:`.report` (``loomfmu drive {table, charts}``) and
+:mod:`.tracking` (``loomfmu drive tracking``).
 
 Speeds are rev/s inside, rpm only at the edges (:data:`RPM`).
+
+May import: every layer below the mechanism packages; not another
+mechanism's package.
 """
-from .cam import (U_z, cam_angle, cam_coefficients, cam_from_fourier, cam_profile_phi,
+from loomfmu.mechanics.layer_cam import (U_z, cam_angle, cam_coefficients, cam_from_fourier, cam_profile_phi,
                   cam_radius, cam_radius_ideal, drive_response_coefficients, f_rad,
                   fmu_cam_parameters, forward_gain, inverse_gain, pressure_angle,
                   profile_error, profile_radius, simulate_drive_steady, time_of_angle,
                   ideal_radius_at_reversals, tracking_error)
-from .law import (LawConstants, amplitude_phase, fourier, invert_increasing, law_constants,
+from loomfmu.mechanics.drive_law import (LawConstants, amplitude_phase, fourier, invert_increasing, law_constants,
                   revolutions, series, speed_law, speed_slope, trig_eval)
-from .params import RPM, DriveParams
+from loomfmu.mechanics.drive_params import RPM, DriveParams
 
 __all__ = [n for n in dir() if not n.startswith("_")]

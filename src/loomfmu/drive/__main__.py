@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from . import report
+from loomfmu.drive import report
 
 
 def main(argv=None, prog: str = "loomfmu drive") -> int:
@@ -24,8 +24,8 @@ def main(argv=None, prog: str = "loomfmu drive") -> int:
                    help="output file (default: ./docs/drive_tracking.md)")
     args = ap.parse_args(argv)
     if args.cmd == "tracking":
-        from ..progress import Progress
-        from .tracking import write_tracking
+        from loomfmu.progress import Progress
+        from loomfmu.drive.tracking import write_tracking
         with Progress(total=1, desc="drive tracking") as bar:
             bar.stage("simulating the drive FMU: both cams for 9 (tau, T), then the "
                       "assumed drive's cams on 9 other drives")

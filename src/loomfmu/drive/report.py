@@ -9,13 +9,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .cam import (cam_coefficients, cam_profile_phi, cam_radius, cam_radius_ideal, f_rad,
+from loomfmu.mechanics.layer_cam import (cam_coefficients, cam_profile_phi, cam_radius, cam_radius_ideal, f_rad,
                   ideal_radius_at_reversals, inverse_gain, pressure_angle, profile_error,
                   simulate_drive_steady)
-from .law import amplitude_phase, fourier, law_constants, series, speed_law, speed_slope
-from ..checks import check_bool, check_int
-from .law import MAX_HARMONICS
-from .params import RPM, DriveParams, check_params
+from loomfmu.mechanics.drive_law import amplitude_phase, fourier, law_constants, series, speed_law, speed_slope
+from loomfmu.declare.checks import check_bool, check_int
+from loomfmu.mechanics.drive_law import MAX_HARMONICS
+from loomfmu.mechanics.drive_params import RPM, DriveParams, check_params
 
 #: harmonics of the reference cam
 M_REF = 40
@@ -165,7 +165,7 @@ def write_charts(out_dir: Path, p: DriveParams | None = None) -> list[Path]:
     phi = np.linspace(0, 2 * np.pi, 2001)
     fig = plt.figure(figsize=(7, 7))
     ax = fig.add_subplot(projection="polar")
-    from .cam import profile_radius
+    from loomfmu.mechanics.layer_cam import profile_radius
     for comp, label in ((True, "compensated"), (False, "uncompensated (∝ n0)")):
         prof = cam_profile_phi(p, M_REF, compensate=comp)
         ax.plot(phi, profile_radius(phi, prof) * 1e3, label=f"{label}, m = {M_REF}")

@@ -8,8 +8,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from ..checks import check_number
-from . import claims as cl
+from loomfmu.declare.checks import check_number
+from loomfmu.heald import claims as cl
 
 
 def main(argv=None, prog: str = "loomfmu heald") -> int:
@@ -47,15 +47,15 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
     w.add_argument("--out", type=Path, default=Path("docs/heald_tension_input.md"),
                    help="output file (default: ./docs/heald_tension_input.md)")
     args = ap.parse_args(argv)
-    from ..progress import Progress
+    from loomfmu.progress import Progress
     if args.cmd == "claims":
         with Progress(total=1, desc="heald claims") as bar:
             bar.stage("simulating the seeds' scenes")
             text = cl.claims_markdown(cl.claims())
             bar.advance("done")
     elif args.cmd == "fidelity":
-        from ..builder import build_fmu
-        from ..registry import load_model
+        from loomfmu.fmu.builder import build_fmu
+        from loomfmu.registry import load_model
         levels = (("spatial", "heald_frame"), ("planar", "heald_frame_planar"),
                   ("rigid", "heald_frame_rigid"))
         with tempfile.TemporaryDirectory() as tmp, \
@@ -102,9 +102,9 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
 
 
 def _tension_input(Progress) -> str:
-    from ..builder import build_fmu
-    from ..registry import load_model
-    from . import tension_input as ti
+    from loomfmu.fmu.builder import build_fmu
+    from loomfmu.registry import load_model
+    from loomfmu.heald import tension_input as ti
     with tempfile.TemporaryDirectory() as tmp, \
             Progress(total=4, desc="heald tension-input") as bar:
         bar.stage("building heald_frame (geometry and input tension), heald_frame_rigid (input)")
@@ -128,7 +128,7 @@ def _tension_input(Progress) -> str:
 
 def _design_values(args) -> dict[str, float]:
     """heald_frame parameters for the design search: the preset's, then --set."""
-    from .presets import preset_values
+    from loomfmu.mechanics.heald_presets import preset_values
     values = (dict(preset_values(args.preset, "heald_frame")) if args.preset is not None
               else {})
     for item in args.set:

@@ -14,13 +14,14 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from ..models.heald_common import G_STD, stiffness  # noqa: F401
-from ..checks import check_choice, check_int, check_mapping, check_number, check_optional_number
-from ..declare import Model
-from ..ode import explicit_ode
-from ..reference import check_model, reference, settable
-from ..registry import load_model
-from . import hinge, presets
+from loomfmu.models.heald_common import G_STD, stiffness  # noqa: F401
+from loomfmu.declare.checks import check_choice, check_int, check_mapping, check_number, check_optional_number
+from loomfmu.declare.model import Model
+from loomfmu.export.dae import explicit_ode
+from loomfmu.verification.reference import check_model, reference, settable
+from loomfmu.registry import load_model
+from loomfmu.heald import hinge
+from loomfmu.mechanics import heald_presets as presets
 
 G = G_STD
 #: Seed 002, table 3: loom width (m), max hinge load F (N), peak acceleration (g).
@@ -334,8 +335,8 @@ def fidelity(fmus: dict[str, Path], k_zs=(1.0, 1.001, 1.002, 1.005, 1.01, 1.02, 
     spatial output's range (x2: the planar model has none, so its error is
     the spatial max |x2| relative to the range of y2).  k_zs: shed
     asymmetries in [0.1, 50]; repeats: timing runs per FMU (1 ... 100)."""
-    from ..checks import check_array, check_names
-    from ..verify import simulate
+    from loomfmu.declare.checks import check_array, check_names
+    from loomfmu.verification.verify import simulate
     if not isinstance(fmus, dict):
         raise ValueError(f"fmus = {fmus!r:.60}; allowed: a dict {{fidelity: FMU path}}")
     check_names("fmus", fmus, ("spatial", "planar", "rigid"), what="fidelities")

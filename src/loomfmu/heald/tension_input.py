@@ -22,7 +22,7 @@ import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from loomfmu.checks import check_number
+from loomfmu.declare.checks import check_number
 
 SLATS = ("x2_out", "y2_out", "N_rem")
 
@@ -123,7 +123,7 @@ def defaults(n: int = 20001) -> dict[str, float]:
 def opposition(rigid_input_fmu) -> dict[str, float]:
     """max |h_A + h_B| with frame B started at phi = 2 pi, max |dl_A - dl_B|,
     and h at the start for phi = pi (half-way up, not in opposition)."""
-    from loomfmu.verify import simulate
+    from loomfmu.verification.verify import simulate
     a = simulate(rigid_input_fmu, rtol=1e-9, output=["h", "dl"])
     b = simulate(rigid_input_fmu, rtol=1e-9, output=["h", "dl"], values={"phi": 2 * math.pi})
     c = simulate(rigid_input_fmu, rtol=1e-9, output=["h"], values={"phi": math.pi})

@@ -22,22 +22,22 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..checks import check_mapping, check_number, is_real
-from .interface import Interface, conversion, interface_of_fmu, interface_of_model
+from loomfmu.declare.checks import check_mapping, check_number, is_real
+from loomfmu.scene.interface import Interface, conversion, interface_of_fmu, interface_of_model
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 def model_names() -> list[str]:
-    from ..registry import MODELS
+    from loomfmu.registry import MODELS
     return sorted(MODELS)
 
 
 def declare_model(name, options: dict):
-    """The declaration (loomfmu.declare.Model) of model ``name`` (a name of
+    """The declaration (loomfmu.declare.model.Model) of model ``name`` (a name of
     loomfmu.registry.MODELS) with build options; a Model given itself is
     returned as is (it takes no options)."""
-    from ..declare import Model
-    from ..registry import MODELS, load_model
+    from loomfmu.declare.model import Model
+    from loomfmu.registry import MODELS, load_model
     if isinstance(name, Model):
         if options:
             raise ValueError(f"options = {options!r:.60}: model {name.name!r} is a "
@@ -125,7 +125,7 @@ class Scene:
             parameters=None, start=None) -> Component:
         """Add component ``name`` (an identifier): ``model`` (a model name, see
         :func:`model_names`, built with ``options``; or a declared
-        loomfmu.declare.Model, built as declared), or ``fmu`` (a path to an
+        loomfmu.declare.model.Model, built as declared), or ``fmu`` (a path to an
         FMI 2.0 co-simulation FMU); ``parameters`` and ``start``: values by
         variable name (parameters; states and inputs with a settable start)."""
         if not isinstance(name, str) or not _NAME.match(name):
@@ -144,7 +144,7 @@ class Scene:
                 raise ValueError(f"component {name!r}: options apply to model=, not fmu=")
             comp = Component(name, interface_of_fmu(fmu), fmu=Path(fmu))
         else:
-            from ..declare import Model
+            from loomfmu.declare.model import Model
             decl = declare_model(model, options)
             comp = Component(name, interface_of_model(decl),
                              model=decl.name if isinstance(model, Model) else model,

@@ -15,11 +15,12 @@ from pathlib import Path
 
 from fmpy import read_model_description
 
-from .declare import Component, Scene, declare_model
+from loomfmu.scene.declare import Component, Scene, declare_model
 
 
 #: files whose text goes into every FMU (the runtime) or makes its code
-_GENERATOR = ("codegen.py", "fmi_xml.py", "fmi_structure.py", "builder.py", "ode.py")
+_GENERATOR = ("export/codegen.py", "export/fmi_xml.py", "export/fmi_structure.py",
+              "fmu/builder.py", "export/dae.py")
 
 
 def _generator_text() -> str:
@@ -32,7 +33,7 @@ def _generator_text() -> str:
 def fmu_file_name(comp: Component) -> str:
     """``<model>-<hash>.fmu``: one file per model, options and code (see the
     module's doc)."""
-    from ..ode import dae_form
+    from loomfmu.export.dae import dae_form
     decl = (comp.declaration if comp.declaration is not None
             else declare_model(comp.model, comp.options))
     dae = dae_form(decl)
@@ -85,7 +86,7 @@ def build_fmus(scene: Scene, fmu_dir, *, rebuild: bool = False, progress=None
     """Component name -> FMU path.  Models are built into ``fmu_dir`` (reused
     when a file of the same model, options and variables is there, unless
     ``rebuild``)."""
-    from ..builder import build_fmu
+    from loomfmu.fmu.builder import build_fmu
     fmu_dir = Path(fmu_dir)
     paths: dict[str, Path] = {}
     for comp in scene.components.values():

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from fmpy import read_model_description
 
-from ..units import UNITS
+from loomfmu.declare.units import UNITS
 
 #: SI base units in FMI's BaseUnit order
 BASE = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
@@ -85,7 +85,7 @@ class Interface:
 
 
 def unit_from_table(name: str) -> UnitInfo:
-    """A unit of loomfmu.units.UNITS."""
+    """A unit of loomfmu.declare.units.UNITS."""
     entry = UNITS[name]
     return UnitInfo(name, tuple(float(entry.get(b, 0)) for b in BASE),
                     float(entry.get("factor", 1.0)), float(entry.get("offset", 0.0)))
@@ -151,10 +151,10 @@ def interface_of_fmu(path: str | os.PathLike) -> Interface:
 
 
 def interface_of_model(model) -> Interface:
-    """The interface of a declared model (loomfmu.declare.Model): its model
+    """The interface of a declared model (loomfmu.declare.model.Model): its model
     description, generated without compiling, and its declared ports."""
-    from ..fmi_xml import model_description
-    from ..ode import dae_form
+    from loomfmu.export.fmi_xml import model_description
+    from loomfmu.export.dae import dae_form
     xml = model_description(model, dae_form(model), "{00000000-0000-0000-0000-000000000000}",
                             ["model.c"])
     with tempfile.TemporaryDirectory() as tmp:

@@ -7,7 +7,7 @@ an FMU holds over a step are the outputs read right after the previous step,
 before any input changed.  An output with direct feedthrough (the two-mass
 coupling force depends on the position it receives) is therefore read with
 the input of the previous step: libcosim's step is our Jacobi step with the
-feedthrough resolved one step late (:func:`loomfmu.scene.two_mass.cosim_map`
+feedthrough resolved one step late (:func:`loomfmu.machines.two_mass.cosim_map`
 gives both maps).
 
 libcosim 0.0.6 reads the SSP's parameter sets but skips a value for a
@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..checks import check_number
+from loomfmu.declare.checks import check_number
 
 #: nanoseconds per second: libcosim's time unit
 NS = 1_000_000_000

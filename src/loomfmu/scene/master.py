@@ -31,8 +31,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .extrapolation import ORDERS, History, shift, shift_rows, taylor_many, value
-from .system import FMUError, ModelInvalid, System
+from loomfmu.scene.extrapolation import ORDERS, History, shift, shift_rows, taylor_many, value
+from loomfmu.scene.system import FMUError, ModelInvalid, System
 
 
 @dataclass(frozen=True)

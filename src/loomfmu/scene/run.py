@@ -11,12 +11,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..checks import check_number
-from ..progress import Progress
-from .declare import Scene
-from .fmus import build_fmus, check_fmus
-from .master import MASTERS, check_options, make_master
-from .system import System
+from loomfmu.declare.checks import check_number
+from loomfmu.progress import Progress
+from loomfmu.scene.declare import Scene
+from loomfmu.scene.fmus import build_fmus, check_fmus
+from loomfmu.scene.master import MASTERS, check_options, make_master
+from loomfmu.scene.system import System
 
 #: step-size controller of the adaptive run (error ~ h^(order + 1) for an
 #: extrapolation of that order)

@@ -23,9 +23,9 @@ import xml.etree.ElementTree as ET
 import zipfile
 from pathlib import Path
 
-from ..fmi_xml import SOLVER_INDEX
-from .declare import Scene
-from .fmus import build_fmus
+from loomfmu.export.fmi_xml import SOLVER_INDEX
+from loomfmu.scene.declare import Scene
+from loomfmu.scene.fmus import build_fmus
 
 SSD = "http://ssp-standard.org/SSP1/SystemStructureDescription"
 SSC = "http://ssp-standard.org/SSP1/SystemStructureCommon"

@@ -37,7 +37,7 @@ from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
 #: FMU log lines kept per instance (the latest), shown when a call fails
 LOG_LINES = 200
 
-from .declare import Connection, Scene, _self_loop, feedthrough_blocks
+from loomfmu.scene.declare import Connection, Scene, _self_loop, feedthrough_blocks
 
 
 class FMUError(RuntimeError):

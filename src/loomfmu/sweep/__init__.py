@@ -13,13 +13,16 @@ outputs) and the experiment. run_study runs it on an embedded LocalCluster
 (or any scheduler), one task per case, each worker extracting the FMU once
 and resetting one instance between cases; rows go to a CSV keyed by a case
 hash, so a rerun resumes. run_serial is the plain loop it is checked
-against. The seeds' studies: loomfmu.sweep.studies.
+against. The seeds' studies: loomfmu.machines.studies.
+
+May import: declare, registry, export, verification, fmu.  A generic
+layer: it never imports a mechanism's content.
 """
-from .figures import REDUCTIONS, Derived, Figure, parse_figure
-from .run import StudyResult, fmu_blob, run_serial, run_study
-from .space import grid, latin_hypercube, lists
-from .study import Study, case_key
-from .worker import STATUSES
+from loomfmu.sweep.figures import REDUCTIONS, Derived, Figure, parse_figure
+from loomfmu.sweep.run import StudyResult, fmu_blob, run_serial, run_study
+from loomfmu.sweep.space import grid, latin_hypercube, lists
+from loomfmu.sweep.study import Study, case_key
+from loomfmu.sweep.worker import STATUSES
 
 __all__ = ["Derived", "Figure", "REDUCTIONS", "STATUSES", "Study", "StudyResult", "case_key",
            "fmu_blob", "grid", "latin_hypercube", "lists", "parse_figure", "run_serial",

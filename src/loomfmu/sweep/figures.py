@@ -14,7 +14,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..checks import check_choice, check_number
+from loomfmu.declare.checks import check_choice, check_number
 
 #: reductions of one output over time
 REDUCTIONS = {

@@ -20,11 +20,11 @@ import tempfile
 import time
 from pathlib import Path
 
-from ..checks import check_bool, check_int, check_number
-from . import store
-from .connect import MAX_CONNECT_TIMEOUT, check_scheduler, refused
-from .study import Study, case_key
-from .worker import STATUSES, FmuBlob, run_batch, run_case
+from loomfmu.declare.checks import check_bool, check_int, check_number
+from loomfmu.sweep import store
+from loomfmu.sweep.connect import MAX_CONNECT_TIMEOUT, check_scheduler, refused
+from loomfmu.sweep.study import Study, case_key
+from loomfmu.sweep.worker import STATUSES, FmuBlob, run_batch, run_case
 
 #: most local worker processes
 MAX_WORKERS = 64
@@ -83,8 +83,8 @@ def fmu_blob(study: Study, fmu: Path | str | None = None) -> FmuBlob:
     """The study's FMU as bytes: ``fmu`` (a built .fmu of the study's model)
     or built now from loomfmu.registry with the study's options."""
     if fmu is None:
-        from ..builder import build_fmu
-        from ..registry import load_model
+        from loomfmu.fmu.builder import build_fmu
+        from loomfmu.registry import load_model
         with tempfile.TemporaryDirectory() as tmp:
             path = build_fmu(load_model(study.model, **study.options), out_dir=tmp,
                              validate=False).path
@@ -252,7 +252,7 @@ def _dask_run(study, blob, pending, where, progress, appender,
               stats: dict, batch: int) -> dict:
     from dask.distributed import as_completed
 
-    from ..progress import Progress
+    from loomfmu.progress import Progress
     t0 = time.perf_counter()
     workers, scheduler, connect_timeout = where
     client, cluster = open_client(workers, scheduler, connect_timeout)

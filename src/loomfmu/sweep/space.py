@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from ..checks import check_int
+from loomfmu.declare.checks import check_int
 
 #: most cases one space may hold
 MAX_CASES = 1_000_000

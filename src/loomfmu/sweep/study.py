@@ -16,11 +16,11 @@ import json
 import math
 from typing import Callable
 
-from ..checks import check_choice, check_number, check_names
-from ..codegen import SOLVERS
-from ..registry import MODELS
-from .figures import Derived, Figure
-from .worker import Setup
+from loomfmu.declare.checks import check_choice, check_number, check_names
+from loomfmu.declare.solvers import SOLVERS
+from loomfmu.registry import MODELS
+from loomfmu.sweep.figures import Derived, Figure
+from loomfmu.sweep.worker import Setup
 
 #: most communication points of one case
 MAX_POINTS = 1_000_000
@@ -32,7 +32,7 @@ class Study:
     cases: list of {name: value} (see loomfmu.sweep.space), at least one.
     figures: Figure / Derived (at least one). stop_time: s (> 0);
     output_interval: communication step, s (0 < . <= stop_time).
-    solver: one of loomfmu.codegen.SOLVERS (the FMU's ``solver`` enumeration);
+    solver: one of loomfmu.declare.solvers.SOLVERS (the FMU's ``solver`` enumeration);
     rtol in (0, 0.1]; atol > 0.
     fixed: start values set in every case. prepare: a module-level function
     ``prepare(case, fixed) -> (values, stop_time or None)`` that turns a case

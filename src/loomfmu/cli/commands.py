@@ -1,0 +1,517 @@
+"""The work behind ``loomfmu list|build|simulate|verify`` (parsing is in cli.py)."""
+from __future__ import annotations
+
+import difflib
+import importlib
+import inspect
+import json
+import math
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+
+from loomfmu.fidelity import LEVELS
+from loomfmu.progress import Progress
+from loomfmu.registry import FIDELITY, MODELS, load_model
+
+
+class UsageError(Exception):
+    """A command line that names something that does not exist or is out of range."""
+
+
+# ---------------------------------------------------------------- arguments
+def parse_value(text: str):
+    """'3' -> 3, '2.5' -> 2.5, 'true' -> True, 'none' -> None, else the string."""
+    low = text.strip().lower()
+    if low in ("true", "false"):
+        return low == "true"
+    if low == "none":
+        return None
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
+def parse_assignments(items: list[str], flag: str) -> dict:
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise UsageError(f"{flag} {item!r}: expected NAME=VALUE")
+        out[key.strip()] = parse_value(value)
+    return out
+
+
+def _suggest(name: str, allowed) -> str:
+    close = difflib.get_close_matches(name, list(allowed), n=3)
+    return f" (did you mean {', '.join(close)}?)" if close else ""
+
+
+def option_defaults(name: str) -> dict[str, object]:
+    """The build options of model ``name`` with their defaults."""
+    module, fixed = MODELS[name]
+    sig = inspect.signature(importlib.import_module(f"loomfmu.models.{module}").build)
+    return {k: fixed.get(k, p.default) for k, p in sig.parameters.items() if k not in fixed}
+
+
+def check_model(name: str) -> None:
+    if name not in MODELS:
+        raise UsageError(f"model {name!r} is unknown{_suggest(name, MODELS)}; "
+                         f"allowed: {', '.join(sorted(MODELS))}")
+
+
+def declare(name: str, options: dict):
+    """load_model with the options checked against the model's build()."""
+    check_model(name)
+    allowed = option_defaults(name)
+    for key in options:
+        if key not in allowed:
+            raise UsageError(f"--option {key}: model {name} has no such build option"
+                             f"{_suggest(key, allowed)}; allowed: "
+                             f"{', '.join(allowed) or 'none'}")
+    return load_model(name, **options)
+
+
+def check_range(flag: str, value: float, lo: float, hi: float | None = None) -> None:
+    ok = math.isfinite(value) and value > lo and (hi is None or value < hi)
+    if not ok:
+        span = f"({lo:g}, {hi:g})" if hi is not None else f"> {lo:g}"
+        raise UsageError(f"{flag} {value!r}: allowed {span}")
+
+
+# ---------------------------------------------------------------- list
+def cmd_list(args) -> int:
+    rows = {name: {"mechanism": next((m for m, lv in FIDELITY.items() if name in lv), "-"),
+                   "options": option_defaults(name)} for name in sorted(MODELS)}
+    if args.json:
+        print(json.dumps({"models": rows, "fidelity": FIDELITY,
+                          "levels": {n: vars(lv) for n, lv in LEVELS.items()}},
+                         indent=2, default=str))
+        return 0
+    wn = max(len(n) for n in rows) + 2
+    wm = max(len(r["mechanism"]) for r in rows.values()) + 2
+    print(f"{'model':<{wn}}{'mechanism':<{wm}}build options (default)")
+    for name, row in rows.items():
+        opts = ", ".join(f"{k}={v!r}" for k, v in row["options"].items()) or "-"
+        print(f"{name:<{wn}}{row['mechanism']:<{wm}}{opts}")
+    print("\nfidelity levels, lowest first (docs/fidelity.md):")
+    for mech, levels in FIDELITY.items():
+        print(f"  {mech}: {' < '.join(levels)}")
+        for name in levels:
+            lv = LEVELS[name]
+            print(f"    {name}: leaves out {'; '.join(lv.leaves_out) or 'nothing'}")
+            print(f"      represents {'; '.join(lv.represents)}; suffices: {lv.suffices}")
+    return 0
+
+
+# ---------------------------------------------------------------- build
+def _worst(res: dict) -> tuple[str, dict]:
+    name = max(res["errors"], key=lambda k: res["errors"][k]["max_rel_range"])
+    return name, res["errors"][name]
+
+
+def _table(head: list[tuple[str, str]], rows: list[list[str]]) -> str:
+    """Columns as wide as their widest cell (header included), two spaces
+    apart; head: (title, "<" or ">") per column."""
+    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, (h, _) in enumerate(head)]
+    def line(cells):
+        return "  ".join(f"{c:{a}{w}}" for c, (_, a), w in zip(cells, head, widths)).rstrip()
+    return "\n".join([line([h for h, _ in head]), *(line(r) for r in rows)])
+
+
+def summary(reports: dict[str, dict]) -> str:
+    """One row per FMU and solver (or importer run); name: the FMU's variant
+    (e.g. two_mass_force_fmi3_me)."""
+    head = [("model", "<"), ("solver", "<"), ("worst output", "<"), ("max abs err", ">"),
+            ("rel. to range", ">"), ("FMU s", ">"), ("scipy s", ">"), ("problems", ">")]
+    rows = []
+    for name, rep in reports.items():
+        problems = str(len(rep["validation_problems"]))
+        scipy_s = rep.get("reference_wall_seconds")
+        scipy_s = "" if scipy_s is None else f"{scipy_s:.3f}"
+        for solver, res in rep.get("solvers", {}).items():
+            if res.get("error") or not res.get("errors"):
+                rows.append([name, solver, "run failed (below)", "", "", "", scipy_s,
+                             problems])
+                continue
+            worst, e = _worst(res)
+            rows.append([name, solver, worst, f"{e['max_abs']:.3e}",
+                         f"{e['max_rel_range']:.3e}", f"{res['wall_seconds']:.3f}", scipy_s,
+                         problems])
+        if "solvers" not in rep:
+            rows.append([name, "-", "not verified", "", "", "", "", problems])
+    return _table(head, rows)
+
+
+def failures(reports: dict[str, dict], max_error: float) -> list[str]:
+    out = [f"{name}: {len(r['validation_problems'])} validation problems: "
+           f"{r['validation_problems'][0]}" for name, r in reports.items()
+           if r["validation_problems"]]
+    for name, r in reports.items():
+        for solver, res in r.get("solvers", {}).items():
+            if res.get("error") or not res.get("errors"):
+                out.append(f"{name} {solver}: the run failed: {res.get('error', 'no result')}")
+                continue
+            worst = max(e["max_rel_range"] for e in res["errors"].values())
+            if not worst <= max_error:
+                out.append(f"{name} {solver}: error {worst:.3g} of the range > "
+                           f"--max-error {max_error:g}")
+    return out
+
+
+def _verify_with_progress(fmu, model, bar: Progress, **kw) -> dict:
+    from loomfmu.verification.verify import verify
+    return verify(fmu, model, on_stage=lambda text: bar.stage(f"{model.name}: {text}"), **kw)
+
+
+def cmd_build(args) -> int:
+    check_range("--rtol", args.rtol, 0.0, 1.0)
+    check_range("--max-error", args.max_error, 0.0)
+    names = args.models or sorted(MODELS)
+    for name in names:
+        check_model(name)
+    options = parse_assignments(args.option, "--option")
+    models = {name: declare(name, options) for name in names}
+    from loomfmu.fmu.builder import build_fmu
+    from loomfmu.fmu.documentation import write_documentation
+    out_dir: Path = args.out_dir
+    reports: dict[str, dict] = {}
+    with Progress(total=len(models), desc="build") as bar:
+        for name, model in models.items():
+            bar.stage(f"{name}: generating C, compiling, validating")
+            result = build_fmu(model, out_dir=out_dir, fmi_version=args.fmi_version,
+                               interface=args.interface)
+            rep = {"fmu": str(result.path), "guid": result.guid,
+                   "fmi_version": result.fmi_version, "interface": result.interface,
+                   "build_seconds": result.build_seconds,
+                   "validation_problems": result.problems, "options": options}
+            verify = not args.no_verify and args.interface != "me"
+            if verify:
+                rep |= {"rtol": args.rtol, **_verify_with_progress(
+                    result.path, model, bar, rtol=args.rtol)}
+            elif not args.no_verify:
+                rep["verification"] = ("not run: model exchange only (the importer's solver "
+                                       "integrates); 'loomfmu verify FMU' runs it once "
+                                       "through FMPy's CVode; build --interface both to "
+                                       "verify the embedded solvers")
+            bar.stage(f"{name}: documentation (equations in MathML)")
+            write_documentation(result.path, model, verification=rep if verify else None,
+                                readable=True)
+            reports[result.path.stem] = rep
+            bar.advance(f"{name}: done")
+    report_path = out_dir / "report.json"
+    old = {}
+    if report_path.exists():
+        try:
+            old = json.loads(report_path.read_text())
+        except json.JSONDecodeError:
+            old = {}
+    report_path.write_text(json.dumps({**old, **reports}, indent=2, default=str))
+    print(summary(reports))
+    print(f"report: {report_path}")
+    bad = failures(reports, args.max_error)
+    for line in bad:
+        print(f"FAILED {line}", file=sys.stderr)
+    return 1 if bad else 0
+
+
+# ---------------------------------------------------------------- simulate
+#: most communication points a simulate run records (more: choose --step)
+MAX_POINTS = 1_000_000
+
+
+def _fmu_description(path: Path, hint: str = ""):
+    """The model description of the FMU file ``path``; a UsageError naming
+    the file where it is missing, not a zip or has no readable
+    modelDescription.xml."""
+    import fmpy
+    if not path.is_file() or not zipfile.is_zipfile(path):
+        raise UsageError(f"FMU {str(path)!r} does not exist or is not an FMU (zip)" + hint)
+    try:
+        return fmpy.read_model_description(str(path))
+    except Exception as exc:  # fmpy raises plain Exceptions for a bad description
+        raise UsageError(f"FMU {str(path)!r} has no readable modelDescription.xml: "
+                         f"{exc}") from None
+
+
+def _description_of(target: str, options: dict):
+    """The model description of an .fmu file, or of a model generated without
+    compiling (so that names and values are checked before a build)."""
+    import fmpy
+    if target.endswith(".fmu"):
+        md = _fmu_description(Path(target))
+        if options:
+            raise UsageError("--option applies to a MODEL, not to a built FMU")
+        return md, None
+    from loomfmu.export.fmi_xml import model_description
+    from loomfmu.export.dae import dae_form
+    model = declare(target, options)
+    xml = model_description(model, dae_form(model), "{00000000-0000-0000-0000-000000000000}",
+                            ["model.c"])
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "modelDescription.xml"
+        path.write_text(xml)
+        return fmpy.read_model_description(str(path)), model
+
+
+def _settable(md) -> set[str]:
+    return {v.name for v in md.modelVariables
+            if v.causality in ("parameter", "input")
+            or (v.initial in ("exact", "approx") and v.variability == "continuous")}
+
+
+def _unit(var) -> str:
+    unit = getattr(var, "unit", None) or (var.declaredType.unit if getattr(
+        var, "declaredType", None) is not None else None)
+    return unit or ""
+
+
+def _bound(var, which: str):
+    value = getattr(var, which, None)
+    if value is None and getattr(var, "declaredType", None) is not None:
+        value = getattr(var.declaredType, which, None)
+    return None if value is None else float(value)
+
+
+def check_start_values(md, start: dict) -> dict:
+    """Each --set NAME=VALUE against the model description: the name is a
+    parameter, input or state; the value a number of the variable's type
+    within its min/max; an Enumeration also takes its item names."""
+    variables = {v.name: v for v in md.modelVariables}
+    settable = _settable(md)
+    out = {}
+    for name, value in start.items():
+        if name not in settable:
+            raise UsageError(f"--set {name}: not a parameter, input or state of "
+                             f"{md.modelName}{_suggest(name, settable)}; see the FMU's "
+                             "documentation/index.html for the list")
+        var = variables[name]
+        if var.type == "Enumeration" and isinstance(value, str):
+            items = [item.name for item in var.declaredType.items]
+            if value not in items:
+                raise UsageError(f"--set {name}={value}: allowed: {', '.join(items)} "
+                                 f"or 1..{len(items)}")
+            value = items.index(value) + 1
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise UsageError(f"--set {name}={value!r}: allowed: a number")
+        if var.type in ("Integer", "Enumeration") and not float(value).is_integer():
+            raise UsageError(f"--set {name}={value!r}: allowed: an integer")
+        lo, hi = _bound(var, "min"), _bound(var, "max")
+        if var.type == "Enumeration" and hi is None:
+            lo, hi = 1.0, float(len(var.declaredType.items))
+        if not math.isfinite(value) or (lo is not None and value < lo) or \
+                (hi is not None and value > hi):
+            span = f"[{lo:g}, {hi:g}]" if lo is not None and hi is not None else \
+                (f">= {lo:g}" if lo is not None else f"<= {hi:g}" if hi is not None
+                 else "a finite number")
+            if var.type == "Enumeration":
+                span = (", ".join(item.name for item in var.declaredType.items)
+                        + f", or {lo:g}..{hi:g}")
+            unit = _unit(var)
+            raise UsageError(f"--set {name}={value!r}: allowed: {span}"
+                             + (f" {unit}" if unit else ""))
+        out[name] = int(value) if var.type in ("Integer", "Enumeration") else float(value)
+    return out
+
+
+def _plot_format_ok(path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig = plt.figure()
+    kinds = fig.canvas.get_supported_filetypes()
+    plt.close(fig)
+    if path.suffix.lstrip(".").lower() not in kinds:
+        raise UsageError(f"--plot {path}: allowed endings: {', '.join(sorted(kinds))}")
+
+
+def _solver_name(md, value) -> str:
+    var = next(v for v in md.modelVariables if v.name == "solver")
+    return [item.name for item in var.declaredType.items][int(value) - 1]
+
+
+def cmd_simulate(args) -> int:
+    import fmpy
+    options = parse_assignments(args.option, "--option")
+    check_range("--rtol", args.rtol, 0.0, 1.0)
+    for flag, value in (("--stop", args.stop), ("--step", args.step)):
+        if value is not None:
+            check_range(flag, value, 0.0)
+    if args.plot:
+        _plot_format_ok(args.plot)
+    md, model = _description_of(args.target, options)
+    variables = {v.name: v for v in md.modelVariables}
+    me_only = md.coSimulation is None
+    if me_only and args.solver is not None:
+        raise UsageError(f"--solver {args.solver}: {Path(args.target).name} is model exchange "
+                         "only: the importer (FMPy's CVode) integrates and the FMU's solver "
+                         "parameter is unused; drop --solver (--rtol sets CVode's tolerance)")
+    start = check_start_values(md, {**({} if me_only else {"solver": args.solver or "dopri5"}),
+                                    **parse_assignments(args.set, "--set")})
+    outputs = args.output or [v.name for v in md.modelVariables if v.causality == "output"]
+    for name in outputs:
+        if name not in variables:
+            raise UsageError(f"--output {name}: {md.modelName} has no such variable"
+                             f"{_suggest(name, variables)}")
+    experiment = md.defaultExperiment
+    stop = args.stop if args.stop is not None else float(experiment.stopTime)
+    step = args.step if args.step is not None else float(experiment.stepSize)
+    if step > stop:
+        raise UsageError(f"--step {step!r} s is longer than the run (--stop {stop!r} s); "
+                         f"allowed: a step <= {stop!r} s")
+    if stop / step > MAX_POINTS:
+        raise UsageError(f"--stop {stop:g} with --step {step:g} gives {stop / step:.3g} "
+                         f"points; allowed: at most {MAX_POINTS}: choose a larger --step")
+    solver = ("FMPy's CVode (model exchange: the importer integrates)" if me_only
+              else _solver_name(md, start["solver"]))
+    log: list[str] = []
+
+    def logger(*args):  # FMI 2: (component, instance, status, category, message); FMI 3
+        status, category, message = args[-3:]  # (environment, status, category, message)
+        log.append((status, f"{category.decode()}: {message.decode()}"))
+
+    with tempfile.TemporaryDirectory() as tmp:
+        if model is None:
+            fmu = Path(args.target)
+        else:
+            from loomfmu.fmu.builder import build_fmu
+            with Progress(total=1, desc="build") as bar:
+                bar.stage(f"{model.name}: generating C, compiling")
+                fmu = build_fmu(model, out_dir=tmp, validate=False).path
+                bar.advance(f"{model.name}: built")
+        from loomfmu.verification.verify import quiet_callbacks
+        try:
+            with quiet_callbacks():
+                from loomfmu.verification.fmpy_logger import simulate as fmpy_simulate
+                res = fmpy_simulate(
+                    str(fmu), validate=False, stop_time=stop,
+                    fmi_type="ModelExchange" if me_only else "CoSimulation",
+                    output_interval=step, relative_tolerance=args.rtol, start_values=start,
+                    output=outputs, logger=logger)
+        except Exception as exc:  # FMPy raises on fmi2Error/fmi2Discard
+            print(f"loomfmu simulate: the FMU refused: {exc}", file=sys.stderr)
+            for status, line in _up_to_first_failure(log):
+                print(f"  [{STATUS[status]}] {line}", file=sys.stderr)
+            return 1
+    if args.csv:
+        _write_csv(args.csv, res, outputs, variables)
+    if args.plot:
+        _write_plot(args.plot, res, outputs, variables, md.modelName)
+    t = res["time"]
+    print(f"{md.modelName}: {len(t)} points, t = {t[0]:g} .. {t[-1]:g} s, step {step:g} s, "
+          f"solver {solver}, rtol {args.rtol:g}")
+    print(f"{'variable':<16}{'final':>14}{'min':>14}{'max':>14}  unit")
+    for name in outputs:
+        y = res[name]
+        print(f"{name:<16}{y[-1]:>14.6g}{y.min():>14.6g}{y.max():>14.6g}  "
+              f"{_unit(variables[name])}")
+    for status, line in log:
+        if status != 0:
+            print(f"  log [{STATUS[status]}] {line}")
+    if args.csv:
+        print(f"written: {args.csv}")
+    if args.plot:
+        shown = min(len(outputs), PLOT_MAX)
+        more = (f" (the first {shown} of {len(outputs)} outputs; choose with --output)"
+                if len(outputs) > shown else "")
+        print(f"written: {args.plot}{more}")
+    refused = [line for status, line in log if status >= 2]
+    if refused:  # FMPy's CVode steps over a Discard of the derivatives: the run failed
+        print(f"loomfmu simulate: the FMU refused {len(refused)} call(s) of the importer; "
+              f"first: {refused[0]}", file=sys.stderr)
+        return 1
+    return 0
+
+
+STATUS = {0: "OK", 1: "Warning", 2: "Discard", 3: "Error", 4: "Fatal", 5: "Pending"}
+PLOT_MAX = 8
+
+
+def _up_to_first_failure(log: list) -> list:
+    """The FMU's log up to its first Discard/Error: what a master calls after
+    that (FMPy steps on) only says the call order was wrong."""
+    out = []
+    for status, line in log:
+        out.append((status, line))
+        if status >= 2:
+            break
+    return out[-10:]
+
+
+def _write_csv(path: Path, res, names: list[str], variables) -> None:
+    import numpy as np
+    path.parent.mkdir(parents=True, exist_ok=True)
+    header = ",".join(["time [s]"] + [f"{n} [{_unit(variables[n])}]" if _unit(variables[n]) else n for n in names])
+    data = np.column_stack([res["time"]] + [res[n] for n in names])
+    np.savetxt(path, data, delimiter=",", header=header, comments="", fmt="%.17g")
+
+
+def _write_plot(path: Path, res, names: list[str], variables, title: str) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    shown = names[:PLOT_MAX]
+    fig, axes = plt.subplots(len(shown), 1, sharex=True, squeeze=False,
+                             figsize=(8, 1.6 + 1.5 * len(shown)))
+    for ax, name in zip(axes[:, 0], shown):
+        ax.plot(res["time"], res[name], lw=1.2)
+        unit = _unit(variables[name])
+        ax.set_ylabel(f"{name}\n[{unit}]" if unit else name)
+        ax.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel("time [s]")
+    more = f" (first {len(shown)} of {len(names)})" if len(names) > len(shown) else ""
+    fig.suptitle(f"{title}{more}")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+# ---------------------------------------------------------------- verify
+def cmd_verify(args) -> int:
+    import fmpy
+    from loomfmu.declare.solvers import SOLVERS
+    check_range("--rtol", args.rtol, 0.0, 1.0)
+    check_range("--max-error", args.max_error, 0.0)
+    hint = (f"; {args.fmu} is a model: build it with 'loomfmu build {args.fmu}' and "
+            f"pass dist/{args.fmu}.fmu" if str(args.fmu) in MODELS else "")
+    md = _fmu_description(args.fmu, hint)
+    from loomfmu.verification.verify import ME_LABEL, fmu_interfaces
+    have = fmu_interfaces(md)
+    name = args.model or md.modelName
+    model = declare(name, parse_assignments(args.option, "--option"))
+    if "cs" not in have and args.solver:
+        raise UsageError(f"--solver {args.solver[0]}: {args.fmu.name} is model exchange only: "
+                         "it is verified once, integrated by FMPy's CVode (its solver "
+                         "parameter is unused); drop --solver")
+    if "me" not in have and args.model_exchange:
+        raise UsageError(f"--model-exchange: {args.fmu.name} has no model exchange interface")
+    solvers = tuple(args.solver or SOLVERS) if "cs" in have else ()
+    me = args.model_exchange or "cs" not in have
+    # the variant, e.g. two_mass_force_fmi3_me; a renamed file: the model's name
+    variant = args.fmu.stem if args.fmu.stem.startswith(md.modelName) else md.modelName
+    with Progress(total=1, desc="verify") as bar:
+        try:
+            runs = _verify_with_progress(args.fmu, model, bar, rtol=args.rtol,
+                                         solvers=solvers, model_exchange=me)
+        except (RuntimeError, OSError) as exc:  # no binary for this platform, a bad one
+            print(f"loomfmu verify: the FMU could not be run: {' '.join(str(exc).split())}",
+                  file=sys.stderr)
+            return 1
+        rep = {"rtol": args.rtol, "validation_problems": [],
+               "fmi_version": int(str(md.fmiVersion)[0]),
+               "interface": "both" if len(have) == 2 else have[0], **runs}
+        bar.advance(f"{variant}: done" + (f" ({ME_LABEL})" if me else ""))
+    if args.document:
+        from loomfmu.fmu.documentation import write_documentation
+        write_documentation(args.fmu, model, verification=rep, readable=True)
+        print(f"written: {args.fmu}!documentation/index.html")
+    print(summary({variant: rep}))
+    bad = failures({variant: rep}, args.max_error)
+    for line in bad:
+        print(f"FAILED {line}", file=sys.stderr)
+    return 1 if bad else 0

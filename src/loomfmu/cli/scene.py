@@ -1,0 +1,164 @@
+"""loomfmu scene {list, run, export, fidelity}: co-simulation scenes
+(docs/scenes.md; fidelity: docs/fidelity.md).
+
+Exit codes: 0 done; 1 the run failed (an FMU returned Error/Discard, the
+adaptive step fell below its minimum); 2 a usage error (one line).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from pathlib import Path
+
+from loomfmu.machines.fidelity import add_parser as add_fidelity_parser
+from loomfmu.machines.library import SCENES, load_scene
+from loomfmu.scene.master import MASTERS
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _parser(prog: str) -> argparse.ArgumentParser:
+    ap = _Parser(prog=prog, description="Co-simulation scenes: FMUs connected in Python, "
+                 "run on loomfmu's master or exported as SSP.")
+    sub = ap.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
+    sub.add_parser("list", help="the scenes, their components and connections")
+    r = sub.add_parser("run", help="run a scene on our master; print the final values")
+    r.add_argument("scene", help=f"one of {', '.join(sorted(SCENES))}")
+    r.add_argument("--master", choices=sorted(MASTERS), default="jacobi",
+                   help="master algorithm (default: jacobi)")
+    r.add_argument("--step", type=float, default=None,
+                   help="communication step in s (> 0; default: the scene's); with "
+                        "--adaptive the first step")
+    r.add_argument("--adaptive", action="store_true",
+                   help="control the step by the coupling error estimate (--rtol)")
+    r.add_argument("--rtol", type=float, default=1e-3,
+                   help="tolerance of the adaptive step (0 < rtol < 1; default 1e-3)")
+    r.add_argument("--extrapolation", type=int, choices=(0, 1, 2), default=0,
+                   help="order of the input extrapolation (0: hold; 1, 2: polynomial "
+                        "through the last 2-3 values, for FMUs that interpolate inputs; "
+                        "default 0)")
+    r.add_argument("--output-derivatives", action="store_true",
+                   help="with --extrapolation 1: take the slope from the sources' "
+                        "output derivatives instead of their last values")
+    r.add_argument("--order", default=None,
+                   help="gauss-seidel: the components in stepping order, comma-separated "
+                        "(default: the scene's)")
+    r.add_argument("--stop", type=float, default=None,
+                   help="stop time in s (> 0; default: the scene's)")
+    r.add_argument("--csv", type=Path, default=None, help="write the results as CSV")
+    r.add_argument("--fmu-dir", type=Path, default=None,
+                   help="folder to build the FMUs into and reuse (default: a temporary one)")
+    e = sub.add_parser("export", help="write the scene as an SSP file")
+    e.add_argument("scene", help=f"one of {', '.join(sorted(SCENES))}")
+    e.add_argument("--out", type=Path, default=None,
+                   help="the .ssp file (default: ./<scene>.ssp)")
+    e.add_argument("--fmu-dir", type=Path, default=None,
+                   help="folder to build the FMUs into and reuse (default: a temporary one)")
+    add_fidelity_parser(sub)
+    return ap
+
+
+def _list() -> int:
+    for name, (factory, text) in sorted(SCENES.items()):
+        s = factory()
+        print(f"{name}: {text}")
+        for c in s.components.values():
+            print(f"  component {c.name}: {c.source}")
+        for c in s.connections:
+            print(f"  connection {c}" + (f"  [{c.port}]" if c.port else ""))
+        for loop in s.loops():
+            print("  algebraic loop (iterated): " + "; ".join(map(str, loop)))
+    return 0
+
+
+def check_output(option: str, path: Path | None) -> None:
+    """ValueError (one line, exit 2) unless ``path`` can be written as a file:
+    its folder exists and it is not a folder itself (checked before the run,
+    not after it)."""
+    if path is None:
+        return
+    if path.is_dir():
+        raise ValueError(f"{option} {path}: a folder; allowed: a file name in an existing "
+                         "folder")
+    if not path.parent.is_dir():
+        raise ValueError(f"{option} {path}: folder {path.parent} does not exist; allowed: "
+                         "a file name in an existing folder")
+
+
+def _run(args, prog: str) -> int:
+    from loomfmu.scene.run import UNRESOLVED, UnresolvedCoupling, run, unresolved_message
+    from loomfmu.scene.system import FMUError
+    check_output("--csv", args.csv)
+    if args.fmu_dir is not None and args.fmu_dir.exists() and not args.fmu_dir.is_dir():
+        raise ValueError(f"--fmu-dir {args.fmu_dir}: not a folder; allowed: a folder (made "
+                         "if missing)")
+    s = load_scene(args.scene)
+    opts = {}
+    if args.order is not None:
+        if args.master != "gauss-seidel":
+            raise ValueError(f"--order {args.order}: applies to --master gauss-seidel only")
+        opts["order"] = [x.strip() for x in args.order.split(",")]
+    if args.output_derivatives:
+        opts["output_derivatives"] = True
+    try:
+        with warnings.catch_warnings():   # said below, as a line of the command
+            warnings.simplefilter("ignore", UnresolvedCoupling)
+            res = run(s, master=args.master, step=args.step, stop=args.stop,
+                      adaptive=args.adaptive, rtol=args.rtol, fmu_dir=args.fmu_dir,
+                      progress=True, extrapolation=args.extrapolation, master_options=opts)
+    except (FMUError, RuntimeError) as exc:
+        one_line = " ".join(str(exc).split())
+        print(f"{prog}: run failed: {one_line}", file=sys.stderr)
+        return 1
+    last = res.data[-1]
+    print(f"scene {s.name}, master {res.master}, extrapolation {args.extrapolation}: "
+          f"{res.accepted} steps accepted, {res.rejected} rejected, t = {last['time']:.6g} s"
+          + (f", {res.loop_iterations} loop iterations" if res.loop_iterations else ""))
+    for name in res.data.dtype.names[1:]:
+        comp, var = name.split(".", 1)
+        unit = s.components[comp].interface.variables[var].unit
+        print(f"  {name} = {last[name]:.9g}" + (f" {unit}" if unit else ""))
+    for note in res.notes:
+        print(f"  note: {note}")
+    change, name = res.largest_step_change()
+    if change > UNRESOLVED:
+        advice = "a smaller --rtol" if args.adaptive else "a smaller --step, or --adaptive"
+        print(f"{prog}: warning: " + unresolved_message(change, name).replace(
+            "a smaller step, or the adaptive step", advice), file=sys.stderr)
+    elif name:
+        print(f"  largest change within one step: {100 * change:.3g} % of {name}'s largest "
+              "magnitude (the coupling error grows with it: compare a run at half the "
+              "step" + (", or a smaller --rtol)" if args.adaptive else ", or use --adaptive)"))
+    for comp, lines in res.log.items():
+        if lines:
+            print(f"  {comp} logged {len(lines)} line(s), the last: {lines[-1]}")
+    if args.csv is not None:
+        print(f"written: {res.to_csv(args.csv)}")
+    return 0
+
+
+def main(argv=None, prog: str = "loomfmu scene") -> int:
+    args = _parser(prog).parse_args(argv)
+    try:
+        if args.cmd == "list":
+            return _list()
+        if args.cmd == "run":
+            return _run(args, f"{prog} run")
+        if args.cmd == "fidelity":
+            from loomfmu.machines.fidelity import main as fidelity
+            return fidelity(args)
+        from loomfmu.scene.ssp import export_ssp
+        out = args.out if args.out is not None else Path(f"{args.scene}.ssp")
+        print(f"written: {export_ssp(load_scene(args.scene), out, fmu_dir=args.fmu_dir)}")
+        return 0
+    except ValueError as exc:
+        print(f"{prog} {args.cmd}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

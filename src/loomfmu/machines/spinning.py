@@ -1,0 +1,76 @@
+"""The spinning position: the spindle drive with its layer cam feeding the
+spindle rotor (issue 13, seeds 001 and 003).
+
+    drive (models/drive.py)  --spindles -> drive-->  spindle (spindle_modal or spindle)
+           n_out [rpm]                                 n_rpm [rpm]
+
+The drive's speed follows the layer cam's speed law (12 000 -> 15 000 rpm
+over a layer of T_c + T_n = 15 s with the assumed machine values); the
+spindle's unbalance response (vibration of the blade's top, forces of the
+bolster and footstep bearings) follows the speed.  The coupling is one way
+(the spindle's load torque is not fed back: the drive model has no torque
+input), so no master can make it unstable; the communication step sets the
+error only (docs/scene_spinning.md).
+
+The spindle starts on its periodic unbalance solution at the drive's start
+speed (loomfmu.spindle.start.periodic_start), so it does not ring.
+"""
+from __future__ import annotations
+
+from loomfmu.declare.checks import check_choice, check_number
+from loomfmu.spindle.start import periodic_start
+from loomfmu.scene.declare import Scene, declare_model
+
+#: one layer cycle (s): T_c + T_n of loomfmu.drive.DriveParams
+LAYER_CYCLE = 15.0
+#: the spindle models a scene can use, cheapest first
+FIDELITIES = ("spindle_modal", "spindle")
+#: the drive's cam tables (build option ``cam`` of models/drive.py)
+CAMS = ("compensated", "uncompensated", "none")
+#: what the scene records
+RECORDED = ("drive.n_out", "drive.r", "spindle.x_top", "spindle.r_top", "spindle.r_footstep",
+            "spindle.F_upper", "spindle.F_lower")
+
+
+def start_speed(cam: str = "compensated") -> float:
+    """The drive's speed at t = 0 (rpm): its state n starts at the steady state
+    of the cam signal at the cam's start angle (models/drive.py)."""
+    return float(declare_model("drive", {"cam": cam}).var("n").start)
+
+
+def scene(*, cam: str = "compensated", fidelity: str = "spindle",
+          stop_time: float = LAYER_CYCLE, step: float = 1e-2,
+          drive_parameters: dict | None = None, n_const: float | None = None,
+          spindle_options: dict | None = None) -> Scene:
+    """The spinning-position scene.
+
+    cam: the drive's cam table, one of CAMS ("compensated": the cam inverts
+    the drive's lag and delay; "uncompensated": proportional to the speed
+    law; "none": constant speed n_min); fidelity: the spindle model, one of
+    FIDELITIES; stop_time, step (s): the defaults of a run (10 ms: the
+    amplitudes and forces are within 0.4 % with any master; the vibration's
+    phase needs extrapolation order 2, docs/scene_spinning.md);
+    drive_parameters: parameter values of the drive FMU; n_const: a constant
+    drive speed (rpm, 1000 ... 40000) instead of the cam's law (the cam
+    switched off, cam_on = 0, and n_min = n_const); spindle_options: build
+    options of the spindle model (e.g. ``{"n_modes": 8}`` for spindle_modal).
+    """
+    cam = check_choice("cam", cam, CAMS)
+    fidelity = check_choice("fidelity", fidelity, FIDELITIES)
+    params = dict(drive_parameters or {})
+    if n_const is not None:
+        n_const = check_number("n_const", n_const, lo=1000.0, hi=40000.0, unit="rpm")
+        params.update({"cam_on": 0.0, "n_min": n_const})
+        n0 = n_const
+    else:
+        n0 = start_speed(cam)
+    s = Scene("spinning", description="spinning position: the drive with its layer cam "
+              f"({cam}) feeding the spindle rotor ({fidelity})", stop_time=stop_time,
+              step=step)
+    s.add("drive", model="drive", options={"cam": cam}, parameters=params)
+    options = dict(spindle_options or {})
+    s.add("spindle", model=fidelity, options=options,
+          start=periodic_start(fidelity, n_rpm=n0, options=options))
+    s.connect("drive.spindles", "spindle.drive")
+    s.record(*RECORDED)
+    return s
