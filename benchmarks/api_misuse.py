@@ -346,7 +346,7 @@ def cases() -> list[Case]:
         return getattr(hinge, fn)(*a, **kw)
 
     def _presets(fn, *a, **kw):
-        from loomfmu.heald import presets
+        from loomfmu.mechanics import heald_presets as presets
         return getattr(presets, fn)(*a, **kw)
     add("phase_of([0], [0], 0.029, band=1.5)", "band",
         lambda fx: _hinge_mod("phase_of", [0.0], [0.0], 0.029, band=1.5))

@@ -20,9 +20,9 @@ from pathlib import Path
 
 import casadi as ca
 
-from loomfmu.fmu.builder import GENERATED_FLAGS
 from loomfmu.export.codegen import FUNCTIONS, casadi_functions, n_folded, real_table
 from loomfmu.export.dae import dae_form
+from loomfmu.fmu.builder import GENERATED_FLAGS
 from loomfmu.registry import MODELS, load_model
 
 REPEATS = 7

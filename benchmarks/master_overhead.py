@@ -47,7 +47,6 @@ import argparse
 import cProfile
 import json
 import pstats
-import statistics
 import sys
 import tempfile
 import time
@@ -60,8 +59,8 @@ from fmpy.fmi2 import FMU2Slave
 
 from loomfmu import build_fmu, load_model
 from loomfmu.bench import limit as L
-from loomfmu.scene.fmus import build_fmus
 from loomfmu.machines.library import SCENES, load_scene
+from loomfmu.scene.fmus import build_fmus
 from loomfmu.scene.run import run as run_scene
 
 FRACTIONS = (0.125, 0.25, 0.5, 1.0)
@@ -305,7 +304,7 @@ def profile_master(scene_name: str, master: str, fmus: dict, top: int = 12, **ru
     rows = sorted(stats.stats.items(), key=lambda kv: kv[1][2], reverse=True)[:top]
     total = sum(v[2] for v in stats.stats.values())
     out = []
-    for (file, line, fn), (cc, nc, tt, ct, _) in rows:
+    for (file, line, fn), (_cc, nc, tt, _ct, _) in rows:
         out.append(f"{tt / total * 100:5.1f} %  {nc:8d} calls  {Path(file).name}:{line} {fn}")
     return out
 
@@ -355,6 +354,7 @@ class _LoopModels:
     @staticmethod
     def loop_sqrt():
         import casadi as ca
+
         from loomfmu.declare.model import Model
         m = Model("loop_sqrt", description="test loop side b: a square root",
                   stop_time=1.0, step_size=1e-2, h_fixed=1e-3)

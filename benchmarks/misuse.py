@@ -44,8 +44,8 @@ from pathlib import Path
 from fmpy import read_model_description
 
 from loomfmu import build_fmu, load_model
-from loomfmu.fmu.builder import GENERATED_FLAGS, STRICT_FLAGS, fmi_headers_dir
 from loomfmu.declare.model import Model
+from loomfmu.fmu.builder import GENERATED_FLAGS, STRICT_FLAGS, fmi_headers_dir
 
 ROOT = Path(__file__).resolve().parents[1]
 DRIVER_SOURCE = ROOT / "tests" / "c" / "misuse.c"

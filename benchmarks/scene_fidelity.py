@@ -69,6 +69,7 @@ def chart(ev, path: Path) -> Path:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     from loomfmu.machines.fidelity import _short
     quantities = QUANTITIES[ev.scene]
     fig, axes = plt.subplots(1, len(quantities), figsize=(4.2 * len(quantities), 4.9),

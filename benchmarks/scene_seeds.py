@@ -1,7 +1,8 @@
 """The seed scenes (issue 13 items 3 and 4): what they show, and where the
 masters fail on them.
 
-    .venv/bin/python benchmarks/scene_seeds.py [--out-dir docs] [--quick] [--part all|spinning|loom|fidelity] [--charts-only]
+    .venv/bin/python benchmarks/scene_seeds.py [--out-dir docs] [--quick]
+        [--part all|spinning|loom|fidelity] [--charts-only]
 
 Spinning position (loomfmu.machines.spinning): the drive with its layer cam
 feeding the full FE spindle over the second layer cycle (the first carries
@@ -35,9 +36,9 @@ from pathlib import Path
 
 import numpy as np
 
+from loomfmu.machines import loom as loom_scene
+from loomfmu.machines import spinning
 from loomfmu.scene import run
-from loomfmu.scene import loom as loom_scene
-from loomfmu.scene import spinning
 from loomfmu.scene.fmus import build_fmus
 
 #: the reference run: Gauss-Seidel with quadratic input extrapolation at a fine step

@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
+from loomfmu.machines import two_mass as tm
 from loomfmu.progress import Progress
 from loomfmu.scene import run
-from loomfmu.scene import two_mass as tm
 from loomfmu.scene.fmus import build_fmus
 
 Z = ("force.x1_out", "force.v1_out", "disp.x2_out", "disp.v2_out")

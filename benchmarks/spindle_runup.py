@@ -52,8 +52,8 @@ import fmpy
 import numpy as np
 
 from loomfmu import build_fmu, load_model
-from loomfmu.fmu.builder import fmi_headers_dir
 from loomfmu.declare.solvers import SOLVERS
+from loomfmu.fmu.builder import fmi_headers_dir
 from loomfmu.progress import Progress
 
 RAMP, HOLD, DT, TOP_RPM, ECC = 1.0, 0.25, 2e-4, 16000.0, 5e-6

@@ -24,7 +24,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from loomfmu.sweep import fmu_blob, run_serial, run_study, studies
+from loomfmu.machines import studies
+from loomfmu.sweep import fmu_blob, run_serial, run_study
+
 
 def _figures(study, rows):
     names = [f.name for f in study.figures]

@@ -26,11 +26,16 @@ import casadi as ca
 
 from loomfmu.declare.checks import check_choice, check_int, check_number
 from loomfmu.declare.model import Model
-from loomfmu.mechanics.drive_params import DriveParams
-from loomfmu.mechanics.layer_cam import cam_profile_phi, f_rad as cam_ratio
 from loomfmu.mechanics.drive_law import MAX_HARMONICS
-from loomfmu.models.drive_derivation import (cam_quantities, drive_quantities,
-                                             history_quantities, law_quantities)
+from loomfmu.mechanics.drive_params import DriveParams
+from loomfmu.mechanics.layer_cam import cam_profile_phi
+from loomfmu.mechanics.layer_cam import f_rad as cam_ratio
+from loomfmu.models.drive_derivation import (
+    cam_quantities,
+    drive_quantities,
+    history_quantities,
+    law_quantities,
+)
 
 SEED = "seed 001"
 A = "assumption: the seed gives no numbers; "

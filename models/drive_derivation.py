@@ -16,9 +16,9 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from loomfmu.mechanics.drive_law import amplitude_phase, fourier, law_constants
 from loomfmu.mechanics.drive_params import DriveParams
 from loomfmu.mechanics.layer_cam import cam_from_fourier, inverse_gain
-from loomfmu.mechanics.drive_law import amplitude_phase, fourier, law_constants
 
 SEED = "seed 001"
 LAW = "speed law (5)-(8), at the assumed machine values (numbers)"

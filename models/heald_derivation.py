@@ -19,7 +19,15 @@ import casadi as ca
 
 from loomfmu.declare.model import Model
 from loomfmu.models.heald_common import (
-    SEED0, Bending, Motion, Section, Warp, defect, motion_law, shaft_angle)
+    SEED0,
+    Bending,
+    Motion,
+    Section,
+    Warp,
+    defect,
+    motion_law,
+    shaft_angle,
+)
 
 G_SEC = "1. slat and side-stay sections"
 G_DELTA = "2. influence coefficients (seed 000, (3))"

@@ -32,10 +32,30 @@ import casadi as ca
 
 from loomfmu.declare.model import Model
 from loomfmu.models.heald_common import (  # noqa: F401  (re-exported for tests)
-    BREAKPOINTS_DEG, DEFECTS, DEG, SEED0, WARP_TENSION, apply_preset, apply_values, box_inertia,
-    check_option, declare_hinge_outputs, declare_loads, declare_motion, declare_motion_outputs,
-    declare_ports, declare_section, declare_warp, declare_warp_outputs, defect, horizontal,
-    influence, motion_law, stiffness, vertical)
+    BREAKPOINTS_DEG,
+    DEFECTS,
+    DEG,
+    SEED0,
+    WARP_TENSION,
+    apply_preset,
+    apply_values,
+    box_inertia,
+    check_option,
+    declare_hinge_outputs,
+    declare_loads,
+    declare_motion,
+    declare_motion_outputs,
+    declare_ports,
+    declare_section,
+    declare_warp,
+    declare_warp_outputs,
+    defect,
+    horizontal,
+    influence,
+    motion_law,
+    stiffness,
+    vertical,
+)
 
 SEED = SEED0
 #: (one line per defect, marked "D1  ...": the FMU's documentation lists them)

@@ -15,9 +15,19 @@ import casadi as ca
 
 from loomfmu.declare.model import Model
 from loomfmu.models.heald_common import (
-    WARP_TENSION, apply_preset, check_option, declare_hinge_outputs, declare_loads,
-    declare_motion, declare_motion_outputs, declare_ports, declare_section, declare_warp,
-    declare_warp_outputs, vertical)
+    WARP_TENSION,
+    apply_preset,
+    check_option,
+    declare_hinge_outputs,
+    declare_loads,
+    declare_motion,
+    declare_motion_outputs,
+    declare_ports,
+    declare_section,
+    declare_warp,
+    declare_warp_outputs,
+    vertical,
+)
 
 
 def build(*, end_dwell: str = "corrected", inertia: str = "corrected",

@@ -12,8 +12,17 @@ import math
 
 from loomfmu.declare.model import Model
 from loomfmu.models.heald_common import (
-    WARP_TENSION, apply_preset, check_option, declare_hinge_outputs, declare_loads,
-    declare_motion, declare_motion_outputs, declare_ports, declare_warp, declare_warp_outputs)
+    WARP_TENSION,
+    apply_preset,
+    check_option,
+    declare_hinge_outputs,
+    declare_loads,
+    declare_motion,
+    declare_motion_outputs,
+    declare_ports,
+    declare_warp,
+    declare_warp_outputs,
+)
 
 
 def build(*, end_dwell: str = "corrected", preset: str | None = None,

@@ -35,11 +35,24 @@ import casadi as ca
 
 from loomfmu.declare.checks import check_choice, check_int
 from loomfmu.declare.model import Model
-from loomfmu.models.spindle_derivation import (force_quantities, modal_quantities,
-                                               rotor_quantities, unbalance_quantity)
-from loomfmu.mechanics.rotor import (Rotor, band_ldl_solve, circle_section, coil_spring_stiffness,
-                           film_eccentricities, film_layer_damping, film_layer_stiffness,
-                           isotropic, series_sum, spring_radii)
+from loomfmu.mechanics.rotor import (
+    Rotor,
+    band_ldl_solve,
+    circle_section,
+    coil_spring_stiffness,
+    film_eccentricities,
+    film_layer_damping,
+    film_layer_stiffness,
+    isotropic,
+    series_sum,
+    spring_radii,
+)
+from loomfmu.models.spindle_derivation import (
+    force_quantities,
+    modal_quantities,
+    rotor_quantities,
+    unbalance_quantity,
+)
 
 SEED = "seed 003"
 RPM = 2 * math.pi / 60

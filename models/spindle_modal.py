@@ -28,8 +28,7 @@ import scipy.linalg as sla
 
 from loomfmu.declare.checks import check_int, check_number
 from loomfmu.declare.model import Model
-from loomfmu.models.spindle import (RPM, declare_dynamics, declare_rotor, node_labels,
-                                    spindle_system)
+from loomfmu.models.spindle import RPM, declare_dynamics, declare_rotor, node_labels, spindle_system
 
 
 def planar_modes(model: Model, sp, basis_rpm: float):

@@ -2,10 +2,14 @@
 from __future__ import annotations
 
 import pytest
-from fmpy import extract, read_model_description
-from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
-from fmpy import calloc, free
+from fmpy import calloc, extract, free, read_model_description
+from fmpy.fmi2 import (
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+)
 
 from loomfmu import build_fmu, load_model
 from loomfmu.verification.fmpy_logger import restore_fmpy_proxy
@@ -105,3 +109,41 @@ def spindle_fmu(dist):
 @pytest.fixture(scope="session")
 def spindle_modal_fmu(dist):
     return build_fmu(load_model("spindle_modal"), out_dir=dist)
+
+
+# -- the slow marker ---------------------------------------------------------
+# Tests that build FMUs (gcc on generated C: seconds to minutes each) carry
+# @pytest.mark.slow, so that `pytest -m "not slow"` is a quick loop.  The
+# builder's compile step is watched: a test that is not marked slow and
+# builds an FMU (itself or through a fixture it uses) fails, naming the marker.
+
+_current_item = None
+
+
+def pytest_runtest_setup(item):
+    global _current_item
+    _current_item = item
+
+
+def pytest_runtest_teardown(item, nextitem):
+    global _current_item
+    _current_item = None
+
+
+def _watch_builds():
+    from loomfmu.fmu import builder
+
+    compile_objects = builder.compile_objects
+
+    def watched(*args, **kwargs):
+        item = _current_item
+        if item is not None and item.get_closest_marker("slow") is None:
+            pytest.fail(f"{item.nodeid} builds an FMU but is not marked slow: add "
+                        "@pytest.mark.slow (or pytestmark = pytest.mark.slow to its module)",
+                        pytrace=False)
+        return compile_objects(*args, **kwargs)
+
+    builder.compile_objects = watched
+
+
+_watch_builds()

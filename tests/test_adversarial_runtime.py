@@ -31,8 +31,8 @@ from fmpy import simulate_fmu
 from fmpy.fmi1 import FMICallException
 
 from loomfmu import build_fmu
-from loomfmu.export.codegen import casadi_functions
 from loomfmu.declare.model import Model
+from loomfmu.export.codegen import casadi_functions
 from loomfmu.export.dae import dae_form
 
 DOPRI5, RODAS4, RK4 = 1, 2, 3

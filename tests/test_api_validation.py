@@ -18,12 +18,18 @@ import numpy as np
 import pytest
 
 from loomfmu import load_model
-from loomfmu.declare.checks import (check_array, check_choice, check_int, check_mapping, check_names,
-                            check_number)
+from loomfmu.declare.checks import (
+    check_array,
+    check_choice,
+    check_int,
+    check_mapping,
+    check_names,
+    check_number,
+)
 from loomfmu.heald import hinge_load_kinetostatic
 from loomfmu.heald.hinge import KINETOSTATIC_PARAMETERS
-from loomfmu.verification.reference import reference
 from loomfmu.registry import MODELS, build_options
+from loomfmu.verification.reference import reference
 from loomfmu.verification.verify import simulate
 
 ROOT = Path(__file__).resolve().parents[1]

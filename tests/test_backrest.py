@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from loomfmu import build_fmu, load_model
-from loomfmu.mechanics.friction import BACKWARD, FORWARD
 from loomfmu.export.dae import dae_form
+from loomfmu.mechanics.friction import BACKWARD, FORWARD
 from loomfmu.verification.reference import _Dae, reference
 
 G = 9.81

@@ -130,8 +130,8 @@ def _run(path, comm, t_end, schedule, names, solver=1):
     """Step an FMU, setting inputs from ``schedule`` [(t, {input: value})] at
     the communication points; outputs after every step, the mode switches,
     the log and the status of the last step."""
-    from fmpy.fmi1 import FMICallException
     from conftest import Slave
+    from fmpy.fmi1 import FMICallException
     s = Slave(path)
     s.fmu.setDebugLogging(True, ["logEvents", "logStatusDiscard", "logStatusError"])
     s.start(solver=solver, solver_rtol=1e-10, solver_atol=1e-12)

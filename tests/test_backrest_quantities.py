@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from loomfmu import load_model
-from loomfmu.models import backrest as backrest_module
 from loomfmu.mechanics.friction import BACKWARD, FORWARD, STUCK
+from loomfmu.models import backrest as backrest_module
 
 G = 9.81
 

@@ -11,8 +11,8 @@ import subprocess
 import pytest
 
 from loomfmu import build_fmu, load_model
-from loomfmu.bench import main
 from loomfmu.bench import limit as L
+from loomfmu.bench import main
 from loomfmu.declare.solvers import SOLVERS
 
 MODEL = "loom_shaft"

@@ -438,6 +438,7 @@ def test_model_exchange_run_is_compared_at_its_communication_points_only():
     """FMPy's model exchange records an event time twice (before, after):
     those rows are left out, or the jump would count as the FMU's error."""
     import numpy as np
+
     from loomfmu.verification.verify import FmuRun, _output_points
     t = np.array([0.0, 0.001, 0.0015, 0.0015, 0.002, 0.003, 0.003, 0.004])
     y = np.arange(len(t), dtype=float)

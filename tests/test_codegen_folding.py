@@ -12,8 +12,15 @@ import pytest
 from fmpy import simulate_fmu
 
 from loomfmu import Model, build_fmu
-from loomfmu.export.codegen import (FUNCTIONS, casadi_functions, clock_states, declaration_source,
-                             event_time_only, model_guid, n_folded)
+from loomfmu.export.codegen import (
+    FUNCTIONS,
+    casadi_functions,
+    clock_states,
+    declaration_source,
+    event_time_only,
+    model_guid,
+    n_folded,
+)
 from loomfmu.export.dae import dae_form
 from loomfmu.registry import MODELS, load_model
 

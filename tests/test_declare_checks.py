@@ -14,8 +14,8 @@ import pytest
 
 from loomfmu import build_fmu
 from loomfmu.declare.checks import check_text
-from loomfmu.declare.solvers import SETTINGS, SOLVERS
 from loomfmu.declare.model import Model, reserved_names
+from loomfmu.declare.solvers import SETTINGS, SOLVERS
 from loomfmu.verification.verify import simulate
 
 #: texts that XML and C handle with escaping: they must still build

@@ -18,7 +18,6 @@ import pytest
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Model
-
 from test_fmi_variants import variant_builds  # FMUs shared by the variant tests
 
 MODELS = ("two_mass_force", "backrest", "drive")

@@ -118,10 +118,11 @@ def test_compensated_cam_removes_lag_and_delay_up_to_truncation(tmp_path):
     reproduces its m-term series of n0 after the transient; the uncompensated
     cam misses n0 by hundreds of rpm."""
     import dataclasses
+
     from loomfmu import load_model
     from loomfmu.drive import DriveParams, tracking_error
-    from loomfmu.mechanics.drive_law import law_constants
     from loomfmu.drive.tracking import cam_values
+    from loomfmu.mechanics.drive_law import law_constants
     model = load_model("drive", harmonics=48, m=12)
     fmu = build_fmu(model, out_dir=tmp_path, validate=False).path
     p = dataclasses.replace(DriveParams(), tau=0.25, T=1.0)

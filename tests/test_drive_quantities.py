@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from loomfmu import build_fmu, load_model
-from loomfmu.drive import DriveParams
-from loomfmu.mechanics.layer_cam import forward_gain, time_of_angle
-from loomfmu.mechanics.drive_law import fourier, law_constants, speed_law
-from loomfmu.models.drive_derivation import DEFECTS
 from loomfmu.declare.units import UNITS
+from loomfmu.drive import DriveParams
+from loomfmu.mechanics.drive_law import fourier, law_constants, speed_law
+from loomfmu.mechanics.layer_cam import forward_gain, time_of_angle
+from loomfmu.models.drive_derivation import DEFECTS
 from loomfmu.verification.verify import simulate
 
 

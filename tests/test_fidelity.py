@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from loomfmu.fidelity import LEVELS, SPINDLE_MODES_HZ, cut_frequency, level, undeclared
-from loomfmu.registry import FIDELITY
-from loomfmu.machines import fidelity as sf
 from loomfmu.cli.scene import main as scene_main
+from loomfmu.fidelity import LEVELS, SPINDLE_MODES_HZ, cut_frequency, level, undeclared
+from loomfmu.machines import fidelity as sf
+from loomfmu.registry import FIDELITY
 
 STOP = 0.5   # s: two picks of the loom at 240 picks/min
 

@@ -18,7 +18,6 @@ from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi3 import FMU3Model, FMU3Slave, fmi3Boolean, fmi3Float64
 from fmpy.validation import validate_fmu
-
 from test_fmi_variants import variant_builds  # FMUs shared by the variant tests
 
 #: events and stick/slip modes (backrest); inputs with direct feedthrough

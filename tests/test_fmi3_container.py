@@ -26,13 +26,18 @@ from fmpy import read_model_description, simulate_fmu
 from fmpy.container_fmu import Configuration
 from fmpy.container_fmu.cli import create_container_fmu
 from fmpy.container_fmu.config import Component, Connection
-from fmpy.model_description import (CoSimulation, DefaultExperiment, ModelDescription,
-                                    ModelVariable, Unknown)
+from fmpy.model_description import (
+    CoSimulation,
+    DefaultExperiment,
+    ModelDescription,
+    ModelVariable,
+    Unknown,
+)
 from fmpy.validation import validate_fmu
-
 from test_fmi_variants import variant_builds  # FMUs shared by the variant tests
-from loomfmu.scene import run
+
 from loomfmu.machines.two_mass import TIGHT, Params, cosim_map, scene
+from loomfmu.scene import run
 
 H = 1e-3      # the container's fixed step = our master's communication step
 STOP = 0.2

@@ -17,19 +17,23 @@ import zipfile
 from pathlib import Path
 
 import fmpy
-import numpy as np
 import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 from lxml import etree
 
 from loomfmu import build_fmu, load_model
-from loomfmu.fmu.builder import fmi_headers_dir, terminals_problems
 from loomfmu.export.codegen import model_guid, real_table
-from loomfmu.export.fmi_xml import (INDICATOR_PREFIX, fmi3_text, model_description, terminals_and_icons,
-                             variable_table)
-from loomfmu.fmu.documentation import DOC_MEMBER
 from loomfmu.export.dae import dae_form
+from loomfmu.export.fmi_xml import (
+    INDICATOR_PREFIX,
+    fmi3_text,
+    model_description,
+    terminals_and_icons,
+    variable_table,
+)
+from loomfmu.fmu.builder import fmi_headers_dir, terminals_problems
+from loomfmu.fmu.documentation import DOC_MEMBER
 
 #: modes, events, implicit (backrest); a delay (drive); events, explicit,
 #: ports of two kinds (heald_frame_rigid); direct feedthrough (two_mass_force)

@@ -210,8 +210,8 @@ def test_print_defects_are_listed_one_item_each(name, keys):
 
 # ------------------------------------------------------------- variants
 def _variant_page(name: str, fmi_version: int, interface: str, verification=None) -> str:
-    from loomfmu.export.fmi_xml import model_description
     from loomfmu.export.dae import dae_form
+    from loomfmu.export.fmi_xml import model_description
     model = load_model(name)
     xml = model_description(model, dae_form(model), "{00000000-0000-0000-0000-000000000000}",
                             [], fmi_version=fmi_version, interface=interface)

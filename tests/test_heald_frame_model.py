@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from loomfmu import load_model
-from loomfmu.models.heald_frame import DEG, influence, motion_law, stiffness
 from loomfmu.export.dae import explicit_ode
+from loomfmu.models.heald_frame import DEG, influence, motion_law, stiffness
 
 
 def test_symbolic_inverse_of_delta_equals_the_seed_closed_form():

@@ -15,11 +15,11 @@ import pytest
 from fmpy.validation import validate_fmu
 
 from loomfmu import build_fmu, load_model
-from loomfmu.heald.tension_input import lockstep
 from loomfmu.declare.ports import PORT_KINDS
-from loomfmu.verification.reference import reference
-from loomfmu.registry import build_options
 from loomfmu.declare.units import same_quantity
+from loomfmu.heald.tension_input import lockstep
+from loomfmu.registry import build_options
+from loomfmu.verification.reference import reference
 from loomfmu.verification.verify import simulate
 
 LEVELS = ["heald_frame", "heald_frame_planar", "heald_frame_rigid"]

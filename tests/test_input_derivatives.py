@@ -19,8 +19,8 @@ from fmpy import read_model_description
 from fmpy.fmi1 import FMICallException
 
 from loomfmu import build_fmu, load_model
-from loomfmu.declare.solvers import SOLVERS
 from loomfmu.declare.model import Model
+from loomfmu.declare.solvers import SOLVERS
 from loomfmu.verification.reference import reference
 
 TAU = 0.1  # delay of the delayed integrator

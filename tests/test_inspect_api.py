@@ -18,7 +18,8 @@ import sympy
 
 import loomfmu
 from loomfmu import Model, load_model
-from loomfmu.inspection import core as inspection, readable
+from loomfmu.inspection import core as inspection
+from loomfmu.inspection import readable
 
 
 def test_docstring_example_runs():

@@ -16,10 +16,10 @@ import math
 
 import casadi as ca
 import pytest
+from test_early_return import Run, _driver  # the runtime driver of a built FMU
 
 from loomfmu import load_model
 from loomfmu.declare.model import Model
-from test_early_return import Run, _driver  # the runtime driver of a built FMU
 
 T1 = 0.4372
 T_END = 1.0

@@ -23,17 +23,21 @@ import time
 import fmpy
 import numpy as np
 import pytest
-from fmpy import extract, read_model_description
+from fmpy import calloc, extract, free, read_model_description
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import (FMU2Model, FMU2Slave, fmi2CallbackAllocateMemoryTYPE,
-                       fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
-                       fmi2CallbackLoggerTYPE, fmi2EventInfo)
-
-from fmpy import calloc, free
-
-from loomfmu import build_fmu, load_model
+from fmpy.fmi2 import (
+    FMU2Model,
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+    fmi2EventInfo,
+)
 from test_fmi_variants import variant_builds  # FMUs shared by the variant tests
 from test_validity import T_STAR, _spring  # the spring x = cos(2 t), fails at T_STAR
+
+from loomfmu import build_fmu, load_model
 
 OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
 
@@ -230,7 +234,7 @@ def test_fmpy_with_output_points_further_apart_than_tau_is_refused(fmus):
     than tau = 0.5 s, the run fails (CVode gives up after the discards)
     instead of returning extrapolated values, and the log says why."""
     log = []
-    with pytest.raises(Exception):
+    with pytest.raises(Exception):  # noqa: B017 (FMPy raises a bare Exception on Error)
         _simulate(fmus["drive"].path, "ModelExchange", 3.0, 1.0, 1e-7,
                   logger=lambda env, i, st, c, m: log.append((st, m.decode())))
     assert any(st == DISCARD and "history ends at t = 0 " in m for st, m in log)
@@ -671,6 +675,7 @@ def matrix(frac: float, names: list[str]) -> None:
     """Every model as FMI 2.0 "both": CVode (ME) against our CS run over
     `frac` of the default stop time; prints one line per model."""
     import tempfile
+
     from loomfmu.registry import MODELS
     out = tempfile.mkdtemp()
     for name in names or list(MODELS):

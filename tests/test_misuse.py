@@ -112,6 +112,7 @@ def test_model_exchange_misuse_under_the_sanitizers(tmp_path):
     one error line, no crash, no leak, no undefined behaviour."""
     import os
     import zipfile
+
     from loomfmu import build_fmu
     from loomfmu.fmu.builder import fmi_headers_dir
     fmu = build_fmu(load_model("backrest"), out_dir=tmp_path, interface="both",

@@ -121,7 +121,7 @@ def _compare(model, *, ops=None, lst=None) -> tuple[int, int, list[str]]:
     ok = np.zeros(rows, dtype=int)
     bad: list[str] = []
     shrink = 1.0
-    for attempt in range(MAX_TRIES):
+    for _attempt in range(MAX_TRIES):
         pts = _points(model, names, rng, shrink)
         for p in pts:
             want = f(p).full().ravel()
@@ -207,7 +207,7 @@ def _compare_quantities(model, written) -> tuple[int, int, list[str]]:
     ok = np.zeros(every.numel(), dtype=int)
     bad: list[str] = []
     shrink = 1.0
-    for attempt in range(MAX_TRIES):
+    for _attempt in range(MAX_TRIES):
         pts = _points(model, names, rng, shrink)
         want = np.hstack([np.array(f(p).full()) for p in pts])  # entries x points
         env = {table[n]: pts[:, j] for j, n in enumerate(names)}
@@ -396,7 +396,7 @@ def test_shared_subexpressions_are_named_once():
     model = load_model("heald_frame")
     lst = readable.listing(model)
     assert lst.shared, "the heald frame's equations share subexpressions"
-    for sym, definition in lst.shared:
+    for _sym, definition in lst.shared:
         assert sympy.count_ops(definition) >= 3
     used = [e for pair in lst.equations for e in pair] + [e for _, e in lst.outputs]
     used += [d for _, d in lst.shared]
@@ -434,8 +434,9 @@ def test_long_lines_are_broken_into_named_parts():
 
 from html.parser import HTMLParser  # noqa: E402
 
-from loomfmu.inspection import document as inspect_doc, report as inspect_report  # noqa: E402
 from loomfmu.export.dae import dae_form  # noqa: E402
+from loomfmu.inspection import document as inspect_doc  # noqa: E402
+from loomfmu.inspection import report as inspect_report  # noqa: E402
 
 
 class _Tags(HTMLParser):

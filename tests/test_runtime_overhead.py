@@ -20,8 +20,8 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from loomfmu.fmu.builder import build_fmu
 from loomfmu.declare.model import Model
+from loomfmu.fmu.builder import build_fmu
 
 OMEGA = 2 * math.pi  # rad/s: one turn per second
 A = 0.3  # indicator "cross": sin(th) - A

@@ -12,9 +12,9 @@ import zipfile
 import numpy as np
 import pytest
 
-from loomfmu.scene import Scene, run
-from loomfmu.machines import two_mass as tm
 from loomfmu.cli.scene import main
+from loomfmu.machines import two_mass as tm
+from loomfmu.scene import Scene, run
 from loomfmu.scene.fmus import build_fmus
 from loomfmu.scene.run import MIN_JUDGED_STEPS, Result, UnresolvedCoupling
 from loomfmu.scene.ssp import ssd_text, validate_ssd

@@ -6,7 +6,6 @@ the first steps, rejected steps and the stability limits)."""
 from __future__ import annotations
 
 import math
-import shutil
 import zipfile
 
 import numpy as np
@@ -14,10 +13,9 @@ import pytest
 from scipy.optimize import brentq
 
 from loomfmu.declare.model import Model
-from loomfmu.scene import Scene, run
 from loomfmu.machines import two_mass as tm
-from loomfmu.scene.extrapolation import (History, shift, shift_rows, taylor, taylor_many,
-                                         value)
+from loomfmu.scene import Scene, run
+from loomfmu.scene.extrapolation import History, shift, shift_rows, taylor, taylor_many, value
 from loomfmu.scene.fmus import build_fmus
 from loomfmu.scene.system import FMUError
 

@@ -12,14 +12,15 @@ import re
 import numpy as np
 import pytest
 
-from loomfmu.scene import Scene, run
+from loomfmu.cli.scene import main
 from loomfmu.machines import loom as loom_scene
 from loomfmu.machines import spinning
-from loomfmu.cli.scene import main
+from loomfmu.machines.library import SCENES, load_scene
+from loomfmu.scene import Scene, run
 from loomfmu.scene.fmus import build_fmus
 from loomfmu.scene.libcosim import run_ssp
-from loomfmu.machines.library import SCENES, load_scene
 from loomfmu.scene.ssp import export_ssp
+
 
 @pytest.fixture(scope="module")
 def fmu_dir(tmp_path_factory):

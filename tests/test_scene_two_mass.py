@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from loomfmu.scene import run
 from loomfmu.machines import two_mass as tm
+from loomfmu.scene import run
 from loomfmu.scene.fmus import build_fmus
 
 #: these tests run the masters at and past their stability limits on purpose:

@@ -9,10 +9,23 @@ import numpy as np
 import pytest
 import scipy.integrate as si
 
-from loomfmu.mechanics.rotor import (Rotor, band_ldl_solve, equivalent_support, film_damping,
-                           film_integral_C, film_integral_K, spring_radii)
-from loomfmu.spindle.analysis import (RPM, direct_compliance, dynamic_compliance,
-                                    undamped_frequencies, unbalance_response, whirl_modes)
+from loomfmu.mechanics.rotor import (
+    Rotor,
+    band_ldl_solve,
+    equivalent_support,
+    film_damping,
+    film_integral_C,
+    film_integral_K,
+    spring_radii,
+)
+from loomfmu.spindle.analysis import (
+    RPM,
+    direct_compliance,
+    dynamic_compliance,
+    unbalance_response,
+    undamped_frequencies,
+    whirl_modes,
+)
 from loomfmu.spindle.study import Spindle
 
 E, RHO, G, KAPPA = 2.1e11, 7800.0, 8.1e10, 0.9

@@ -8,9 +8,9 @@ import pytest
 from fmpy.validation import validate_fmu
 
 from loomfmu import load_model
-from loomfmu.verification.reference import reference
 from loomfmu.spindle.analysis import RPM, unbalance_response
 from loomfmu.spindle.study import Spindle
+from loomfmu.verification.reference import reference
 from loomfmu.verification.verify import compare, simulate
 
 OUTPUTS = ["x_top", "y_top", "r_top", "x_footstep", "r_footstep", "F_upper_x",

@@ -15,10 +15,10 @@ from scipy.integrate import quad
 
 from loomfmu import load_model
 from loomfmu.declare.model import Model
+from loomfmu.declare.units import UNITS
+from loomfmu.export.dae import explicit_ode
 from loomfmu.models.spindle import RPM, declare_rotor, spindle_system
 from loomfmu.models.spindle_derivation import DEFECTS
-from loomfmu.export.dae import explicit_ode
-from loomfmu.declare.units import UNITS
 
 SEED_RNG = 20261123
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from loomfmu.spindle.study import Spindle
 from loomfmu.spindle.start import periodic_start
+from loomfmu.spindle.study import Spindle
 from loomfmu.verification.verify import simulate
 
 ECC = 5e-6

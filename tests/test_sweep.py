@@ -21,10 +21,21 @@ import pytest
 from loomfmu import build_fmu, load_model
 from loomfmu.cli.dispatch import main as cli_main
 from loomfmu.declare.solvers import SOLVERS
-from loomfmu.sweep import (Derived, Figure, Study, case_key, fmu_blob, grid, latin_hypercube,
-                           lists, parse_figure, run_serial, run_study)
-from loomfmu.sweep import store
 from loomfmu.machines import studies
+from loomfmu.sweep import (
+    Derived,
+    Figure,
+    Study,
+    case_key,
+    fmu_blob,
+    grid,
+    latin_hypercube,
+    lists,
+    parse_figure,
+    run_serial,
+    run_study,
+    store,
+)
 
 FIGS = ["max_N_rem", "min_N_rem", "final_h"]
 

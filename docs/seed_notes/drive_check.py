@@ -1,8 +1,9 @@
 # Numerical check of drive_spec.md formulas (reference values).
 import numpy as np
-from scipy.special import lambertw
 from scipy.integrate import quad, solve_ivp
 from scipy.optimize import brentq
+from scipy.special import lambertw
+
 DB, DN = 0.020, 0.042            # m
 nmin, nmax = 12000/60, 15000/60  # rev/s
 Tc, Tn = 10.0, 5.0               # s  layer, interlayer

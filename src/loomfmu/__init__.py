@@ -11,8 +11,8 @@ The front door::
 ``loomfmu.inspect`` (see :mod:`loomfmu.inspection.core`) is loaded on first use,
 so that ``import loomfmu`` does not import SymPy.
 """
-from loomfmu.fmu.builder import BuildResult, build_fmu
 from loomfmu.declare.model import Model
+from loomfmu.fmu.builder import BuildResult, build_fmu
 from loomfmu.registry import MODELS, load_model
 
 __all__ = ["Model", "BuildResult", "build_fmu", "load_model", "MODELS", "inspect"]

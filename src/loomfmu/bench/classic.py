@@ -21,12 +21,11 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
-
 from fmpy import read_model_description
 
 from loomfmu.fmu.builder import build_fmu
-from loomfmu.verification.reference import reference
 from loomfmu.registry import load_model
+from loomfmu.verification.reference import reference
 from loomfmu.verification.verify import compare, simulate
 
 FMU_RTOLS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)

@@ -8,10 +8,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from loomfmu.progress import Progress
 from loomfmu.bench import classic, failures, limit, report
 from loomfmu.bench.scenes import BENCH, load_scene_model
 from loomfmu.bench.sweep import Plan, prepare, work_precision
+from loomfmu.progress import Progress
 
 #: most local dask workers (as loomfmu.sweep.run.MAX_WORKERS; not imported
 #: from there so the serial run needs no dask)

@@ -23,8 +23,16 @@ import time
 from pathlib import Path
 
 from loomfmu.bench.scenes import BENCH, load_scene_model
-from loomfmu.bench.sweep import (CASADI_PLUGINS, FMU_ADAPTIVE, SCIPY_METHODS, Case, Plan,
-                           method_sweep, methods, prepare)
+from loomfmu.bench.sweep import (
+    CASADI_PLUGINS,
+    FMU_ADAPTIVE,
+    SCIPY_METHODS,
+    Case,
+    Plan,
+    method_sweep,
+    methods,
+    prepare,
+)
 from loomfmu.declare.checks import check_int
 from loomfmu.sweep.connect import MAX_CONNECT_TIMEOUT, check_scheduler
 from loomfmu.sweep.run import MAX_WORKERS, _need_distributed, open_client

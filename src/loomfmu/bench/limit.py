@@ -28,9 +28,9 @@ import time
 import zipfile
 from pathlib import Path
 
-from loomfmu.fmu.builder import GENERATED_FLAGS, STRICT_FLAGS, build_fmu, fmi_headers_dir
 from loomfmu.declare.checks import check_int, check_name_list
 from loomfmu.declare.solvers import SOLVERS
+from loomfmu.fmu.builder import GENERATED_FLAGS, STRICT_FLAGS, build_fmu, fmi_headers_dir
 from loomfmu.registry import MODELS, load_model
 
 DRIVER = Path(__file__).with_name("limit_driver.c")

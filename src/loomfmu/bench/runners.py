@@ -43,11 +43,11 @@ import fmpy
 import numpy as np
 from fmpy import read_model_description
 
-from loomfmu.verification import fmpy_logger
-from loomfmu.fmu.builder import build_fmu
-from loomfmu.declare.solvers import SOLVERS
 from loomfmu.declare.model import Model
+from loomfmu.declare.solvers import SOLVERS
 from loomfmu.export.dae import dae_form
+from loomfmu.fmu.builder import build_fmu
+from loomfmu.verification import fmpy_logger
 from loomfmu.verification.reference import reference
 from loomfmu.verification.verify import simulate
 

@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from loomfmu.declare.solvers import ADAPTIVE_SOLVERS
-from loomfmu.declare.model import Model
 from loomfmu.bench.runners import CasadiModel, Fmu, Run, errors, scipy_run, timed
 from loomfmu.bench.scenes import Scene
+from loomfmu.declare.model import Model
+from loomfmu.declare.solvers import ADAPTIVE_SOLVERS
 
 SCIPY_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
 CASADI_PLUGINS = ("cvodes", "idas")

@@ -247,8 +247,8 @@ def _description_of(target: str, options: dict):
         if options:
             raise UsageError("--option applies to a MODEL, not to a built FMU")
         return md, None
-    from loomfmu.export.fmi_xml import model_description
     from loomfmu.export.dae import dae_form
+    from loomfmu.export.fmi_xml import model_description
     model = declare(target, options)
     xml = model_description(model, dae_form(model), "{00000000-0000-0000-0000-000000000000}",
                             ["model.c"])
@@ -335,7 +335,6 @@ def _solver_name(md, value) -> str:
 
 
 def cmd_simulate(args) -> int:
-    import fmpy
     options = parse_assignments(args.option, "--option")
     check_range("--rtol", args.rtol, 0.0, 1.0)
     for flag, value in (("--stop", args.stop), ("--step", args.step)):
@@ -473,7 +472,6 @@ def _write_plot(path: Path, res, names: list[str], variables, title: str) -> Non
 
 # ---------------------------------------------------------------- verify
 def cmd_verify(args) -> int:
-    import fmpy
     from loomfmu.declare.solvers import SOLVERS
     check_range("--rtol", args.rtol, 0.0, 1.0)
     check_range("--max-error", args.max_error, 0.0)

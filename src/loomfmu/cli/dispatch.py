@@ -22,9 +22,9 @@ import os
 import sys
 from pathlib import Path
 
-from loomfmu.fmu.builder import BuildError
 from loomfmu.cli.commands import UsageError, cmd_build, cmd_list, cmd_simulate, cmd_verify
 from loomfmu.declare.solvers import SOLVERS
+from loomfmu.fmu.builder import BuildError
 from loomfmu.registry import MODELS
 
 #: analyses whose own parser takes over after the subcommand: module, help

@@ -27,7 +27,13 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from loomfmu.declare.checks import check_choice, check_number, check_optional_number, check_text, is_real
+from loomfmu.declare.checks import (
+    check_choice,
+    check_number,
+    check_optional_number,
+    check_text,
+    is_real,
+)
 from loomfmu.declare.solvers import SETTINGS, SOLVER_INDEX
 from loomfmu.declare.units import check_unit
 

@@ -19,13 +19,47 @@ Speeds are rev/s inside, rpm only at the edges (:data:`RPM`).
 May import: every layer below the mechanism packages; not another
 mechanism's package.
 """
-from loomfmu.mechanics.layer_cam import (U_z, cam_angle, cam_coefficients, cam_from_fourier, cam_profile_phi,
-                  cam_radius, cam_radius_ideal, drive_response_coefficients, f_rad,
-                  fmu_cam_parameters, forward_gain, inverse_gain, pressure_angle,
-                  profile_error, profile_radius, simulate_drive_steady, time_of_angle,
-                  ideal_radius_at_reversals, tracking_error)
-from loomfmu.mechanics.drive_law import (LawConstants, amplitude_phase, fourier, invert_increasing, law_constants,
-                  revolutions, series, speed_law, speed_slope, trig_eval)
+from loomfmu.mechanics.drive_law import (
+                  LawConstants,
+                  amplitude_phase,
+                  fourier,
+                  invert_increasing,
+                  law_constants,
+                  revolutions,
+                  series,
+                  speed_law,
+                  speed_slope,
+                  trig_eval,
+)
 from loomfmu.mechanics.drive_params import RPM, DriveParams
+from loomfmu.mechanics.layer_cam import (
+                  U_z,
+                  cam_angle,
+                  cam_coefficients,
+                  cam_from_fourier,
+                  cam_profile_phi,
+                  cam_radius,
+                  cam_radius_ideal,
+                  drive_response_coefficients,
+                  f_rad,
+                  fmu_cam_parameters,
+                  forward_gain,
+                  ideal_radius_at_reversals,
+                  inverse_gain,
+                  pressure_angle,
+                  profile_error,
+                  profile_radius,
+                  simulate_drive_steady,
+                  time_of_angle,
+                  tracking_error,
+)
 
-__all__ = [n for n in dir() if not n.startswith("_")]
+__all__ = [
+    "DriveParams", "LawConstants", "RPM", "U_z", "amplitude_phase", "cam_angle",
+    "cam_coefficients", "cam_from_fourier", "cam_profile_phi", "cam_radius",
+    "cam_radius_ideal", "drive_response_coefficients", "f_rad", "fmu_cam_parameters",
+    "forward_gain", "fourier", "ideal_radius_at_reversals", "inverse_gain",
+    "invert_increasing", "law_constants", "pressure_angle", "profile_error", "profile_radius",
+    "revolutions", "series", "simulate_drive_steady", "speed_law", "speed_slope",
+    "time_of_angle", "tracking_error", "trig_eval",
+]

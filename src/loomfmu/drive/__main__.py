@@ -24,8 +24,8 @@ def main(argv=None, prog: str = "loomfmu drive") -> int:
                    help="output file (default: ./docs/drive_tracking.md)")
     args = ap.parse_args(argv)
     if args.cmd == "tracking":
-        from loomfmu.progress import Progress
         from loomfmu.drive.tracking import write_tracking
+        from loomfmu.progress import Progress
         with Progress(total=1, desc="drive tracking") as bar:
             bar.stage("simulating the drive FMU: both cams for 9 (tau, T), then the "
                       "assumed drive's cams on 9 other drives")

@@ -9,13 +9,29 @@ from pathlib import Path
 
 import numpy as np
 
-from loomfmu.mechanics.layer_cam import (cam_coefficients, cam_profile_phi, cam_radius, cam_radius_ideal, f_rad,
-                  ideal_radius_at_reversals, inverse_gain, pressure_angle, profile_error,
-                  simulate_drive_steady)
-from loomfmu.mechanics.drive_law import amplitude_phase, fourier, law_constants, series, speed_law, speed_slope
 from loomfmu.declare.checks import check_bool, check_int
-from loomfmu.mechanics.drive_law import MAX_HARMONICS
+from loomfmu.mechanics.drive_law import (
+    MAX_HARMONICS,
+    amplitude_phase,
+    fourier,
+    law_constants,
+    series,
+    speed_law,
+    speed_slope,
+)
 from loomfmu.mechanics.drive_params import RPM, DriveParams, check_params
+from loomfmu.mechanics.layer_cam import (
+    cam_coefficients,
+    cam_profile_phi,
+    cam_radius,
+    cam_radius_ideal,
+    f_rad,
+    ideal_radius_at_reversals,
+    inverse_gain,
+    pressure_angle,
+    profile_error,
+    simulate_drive_steady,
+)
 
 #: harmonics of the reference cam
 M_REF = 40

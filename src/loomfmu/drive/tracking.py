@@ -17,15 +17,13 @@ import dataclasses
 import tempfile
 from pathlib import Path
 
-import numpy as np
-
-from loomfmu.fmu.builder import build_fmu
 from loomfmu.declare.checks import check_array, check_bool, check_int, check_number
-from loomfmu.registry import load_model
-from loomfmu.verification.verify import simulate
-from loomfmu.mechanics.layer_cam import cam_profile_phi, fmu_cam_parameters, tracking_error
+from loomfmu.fmu.builder import build_fmu
 from loomfmu.mechanics.drive_law import MAX_HARMONICS, law_constants
 from loomfmu.mechanics.drive_params import DriveParams, check_params
+from loomfmu.mechanics.layer_cam import cam_profile_phi, fmu_cam_parameters, tracking_error
+from loomfmu.registry import load_model
+from loomfmu.verification.verify import simulate
 
 M_HARMONICS = 40    # harmonics of n0 the cam reproduces
 TAUS = (0.25, 0.5, 1.0)

@@ -37,6 +37,7 @@ from loomfmu.declare.solvers import MAX_STEPS_DEFAULT, SETTINGS, SOLVERS
 from loomfmu.export.dae import DaeForm
 from loomfmu.export.runtime_files import LOG_CATEGORIES, RUNTIME_SYMBOLS
 
+
 def setting_starts(model: Model) -> dict[str, float]:
     h_max = model.h_max if math.isfinite(model.h_max) else model.stop_time
     return {"solver_rtol": 1e-6, "solver_atol": 1e-9, "solver_h_max": h_max,

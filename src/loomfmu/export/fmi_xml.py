@@ -31,14 +31,13 @@ import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 
-from loomfmu.declare.solvers import SOLVER_INDEX
-from loomfmu.declare.solvers import SOLVER_DESCRIPTIONS, SOLVERS
-from loomfmu.export.codegen import real_table
 from loomfmu.declare.model import Model
-from loomfmu.export.fmi_structure import Structure, model_structure
-from loomfmu.export.dae import DaeForm
-from loomfmu.export.runtime_files import LOG_CATEGORIES
+from loomfmu.declare.solvers import SOLVER_DESCRIPTIONS, SOLVER_INDEX, SOLVERS
 from loomfmu.declare.units import UNITS
+from loomfmu.export.codegen import real_table
+from loomfmu.export.dae import DaeForm
+from loomfmu.export.fmi_structure import Structure, model_structure
+from loomfmu.export.runtime_files import LOG_CATEGORIES
 
 __all__ = ["FMI_VERSIONS", "INTERFACES", "SOLVER_INDEX", "ModelVar", "check_variant",
            "model_description", "terminals_and_icons", "tool_info", "variable_table"]

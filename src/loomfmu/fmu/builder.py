@@ -15,13 +15,13 @@ import fmpy
 from fmpy.validation import validate_fmu
 
 from loomfmu.declare.checks import check_bool
-from loomfmu.export.codegen import generate_sources
-from loomfmu.fmu.compile_cache import BuildError, CompileStats, compile_objects, run
 from loomfmu.declare.model import Model
-from loomfmu.export.fmi_xml import check_variant, model_description, terminals_and_icons
-from loomfmu.fmu.documentation import write_documentation
+from loomfmu.export.codegen import generate_sources
 from loomfmu.export.dae import dae_form
+from loomfmu.export.fmi_xml import check_variant, model_description, terminals_and_icons
 from loomfmu.export.runtime_files import RUNTIME_DIR, runtime_headers, runtime_sources
+from loomfmu.fmu.compile_cache import BuildError, CompileStats, compile_objects, run
+from loomfmu.fmu.documentation import write_documentation
 
 #: Flags for code we write (the runtime and the generated declaration).
 STRICT_FLAGS = ("-std=c99", "-O2", "-fPIC", "-fvisibility=hidden", "-Wall", "-Wextra",

@@ -27,8 +27,8 @@ from pathlib import Path
 
 import casadi as ca
 
-from loomfmu.declare.solvers import ADAPTIVE_SOLVERS, SETTINGS, SOLVER_DESCRIPTIONS, SOLVERS
 from loomfmu.declare.model import Model
+from loomfmu.declare.solvers import ADAPTIVE_SOLVERS, SETTINGS, SOLVER_DESCRIPTIONS, SOLVERS
 from loomfmu.export.fmi_xml import fmi3_text
 from loomfmu.registry import MODELS
 
@@ -169,8 +169,8 @@ def html_for(model: Model, verification: dict | None = None, *,
 
 def _generated_xml(model: Model) -> str:
     from loomfmu.export.codegen import model_guid
-    from loomfmu.export.fmi_xml import model_description
     from loomfmu.export.dae import dae_form
+    from loomfmu.export.fmi_xml import model_description
     dae = dae_form(model)
     return model_description(model, dae, model_guid(model, dae), [])
 
@@ -612,7 +612,8 @@ def _model_exchange(model: Model, md: ET.Element, *, both: bool) -> str:
             "stop_time=..., output_interval=...)</code> with <code>output_interval</code> "
             f"well below tau (e.g. {_fmt(tau_min / 10)} s) and <code>stop_time</code> below "
             f"50 × tau = {_fmt(50 * tau_min)} s (longer runs: in pieces, or with an "
-            "importer whose largest step can be limited). An input set in event mode, or a mode re-chosen at an event, jumps the "
+            "importer whose largest step can be limited). An input set in event mode, or a "
+            "mode re-chosen at an event, jumps the "
             "history; the delayed value jumps tau later, announced as the next time event "
             "(<code>nextEventTimeDefined</code>).")
     head = ("<p>Model exchange: the importer's own solver integrates the states from their "

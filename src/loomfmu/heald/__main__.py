@@ -103,8 +103,8 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
 
 def _tension_input(Progress) -> str:
     from loomfmu.fmu.builder import build_fmu
-    from loomfmu.registry import load_model
     from loomfmu.heald import tension_input as ti
+    from loomfmu.registry import load_model
     with tempfile.TemporaryDirectory() as tmp, \
             Progress(total=4, desc="heald tension-input") as bar:
         bar.stage("building heald_frame (geometry and input tension), heald_frame_rigid (input)")

@@ -14,14 +14,20 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from loomfmu.models.heald_common import G_STD, stiffness  # noqa: F401
-from loomfmu.declare.checks import check_choice, check_int, check_mapping, check_number, check_optional_number
+from loomfmu.declare.checks import (
+    check_choice,
+    check_int,
+    check_mapping,
+    check_number,
+    check_optional_number,
+)
 from loomfmu.declare.model import Model
 from loomfmu.export.dae import explicit_ode
-from loomfmu.verification.reference import check_model, reference, settable
-from loomfmu.registry import load_model
 from loomfmu.heald import hinge
 from loomfmu.mechanics import heald_presets as presets
+from loomfmu.models.heald_common import G_STD, stiffness  # noqa: F401
+from loomfmu.registry import load_model
+from loomfmu.verification.reference import check_model, reference, settable
 
 G = G_STD
 #: Seed 002, table 3: loom width (m), max hinge load F (N), peak acceleration (g).

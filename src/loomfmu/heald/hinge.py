@@ -46,9 +46,14 @@ import math
 
 import numpy as np
 
+from loomfmu.declare.checks import (
+    check_array,
+    check_choice,
+    check_mapping,
+    check_number,
+    check_order,
+)
 from loomfmu.models.heald_common import G_STD
-
-from loomfmu.declare.checks import check_array, check_choice, check_mapping, check_number, check_order
 
 #: The eight phases of one frame cycle (two main-shaft revolutions), seed 002.
 PHASES = ("bottom dwell", "rise to crossing", "crossing", "rise to top dwell",

@@ -13,8 +13,8 @@ import casadi as ca
 import numpy as np
 import sympy
 
-from loomfmu.inspection import readable
 from loomfmu.declare.model import Model, Quantity, Variable
+from loomfmu.inspection import readable
 
 __all__ = ["Inspection", "inspect", "evaluate"]
 

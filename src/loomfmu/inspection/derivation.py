@@ -19,8 +19,8 @@ import numpy as np
 import sympy
 
 from loomfmu.inspection import readable
-from loomfmu.inspection.document import Code, Def, Equations, Math, Para, Picture, Section, Table
 from loomfmu.inspection.core import evaluate
+from loomfmu.inspection.document import Code, Def, Equations, Math, Para, Picture, Section, Table
 
 #: a matrix quantity with both dimensions up to this prints entry by entry
 SMALL = 8

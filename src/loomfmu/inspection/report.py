@@ -23,12 +23,24 @@ from pathlib import Path
 import casadi as ca
 import sympy
 
-from loomfmu.inspection import readable
 from loomfmu.export.codegen import generate_sources
-from loomfmu.inspection.derivation import derivation
-from loomfmu.inspection.document import (RENDERERS, Code, Equations, Math, Pre, Section, Table,
-                          _html_blocks, _scoped_css, render_html, render_md, render_tex)
 from loomfmu.export.dae import DaeForm, dae_form
+from loomfmu.inspection import readable
+from loomfmu.inspection.derivation import derivation
+from loomfmu.inspection.document import (
+    RENDERERS,
+    Code,
+    Equations,
+    Math,
+    Pre,
+    Section,
+    Table,
+    _html_blocks,
+    _scoped_css,
+    render_html,
+    render_md,
+    render_tex,
+)
 from loomfmu.registry import MODELS, load_model
 
 __all__ = ["FORMATS", "document", "report", "write_reports", "html_fragment", "main",

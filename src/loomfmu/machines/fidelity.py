@@ -359,6 +359,7 @@ def evaluate(scene: str, outputs, *, stop_time: float | None = None,
     scene_options: options of the scene factory (SCENE_OPTIONS, e.g. the
     loom's tension or omega), checked by the factory."""
     import tempfile
+
     from loomfmu.scene.fmus import build_fmus
     from loomfmu.scene.run import run
     if not isinstance(scene, str) or scene not in SCENES:

@@ -18,8 +18,8 @@ speed (loomfmu.spindle.start.periodic_start), so it does not ring.
 from __future__ import annotations
 
 from loomfmu.declare.checks import check_choice, check_number
-from loomfmu.spindle.start import periodic_start
 from loomfmu.scene.declare import Scene, declare_model
+from loomfmu.spindle.start import periodic_start
 
 #: one layer cycle (s): T_c + T_n of loomfmu.drive.DriveParams
 LAYER_CYCLE = 15.0

@@ -31,16 +31,16 @@ import numpy as np
 # imported here, not in the functions: a worker's warm-up imports this module
 # and with it everything its cases need (see loomfmu.sweep.run)
 from loomfmu.declare.checks import check_array, check_choice
-from loomfmu.mechanics.layer_cam import tracking_error
-from loomfmu.mechanics.drive_law import law_constants
-from loomfmu.mechanics.drive_params import DriveParams
 from loomfmu.drive.tracking import M_HARMONICS, cam_values
 from loomfmu.heald.hinge import KINETOSTATIC_PARAMETERS, hinge_load_kinetostatic
+from loomfmu.mechanics.drive_law import law_constants
+from loomfmu.mechanics.drive_params import DriveParams
 from loomfmu.mechanics.heald_presets import MAKERS, preset_names, preset_values
+from loomfmu.mechanics.layer_cam import tracking_error
 from loomfmu.registry import load_model
+from loomfmu.spindle.start import periodic_start
 from loomfmu.spindle.study import WORK_RPM, Spindle, amplitude_table
 from loomfmu.spindle.trends import STUDIES as ROTOR_STUDIES
-from loomfmu.spindle.start import periodic_start
 from loomfmu.sweep.figures import Derived, Figure
 from loomfmu.sweep.space import grid
 from loomfmu.sweep.study import Study

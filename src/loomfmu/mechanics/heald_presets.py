@@ -13,7 +13,8 @@ What a preset sets, and from where:
 | ``m_RR`` | frame mass by maker and loom width | seed 002, table 1 |
 | ``m_heald`` | heald weight / g | seed 002, table 2, row "heald weight" |
 | ``n_n`` | threads drawn into one frame | seed 002, table 2, row "threads per frame" |
-| ``T_max`` | F_T / (sin a1 + sin a2) at the open shed | seed 002, table 2 note (F_T: vertical warp force per thread by yarn) and seed 000's shed geometry |
+| ``T_max`` | F_T / (sin a1 + sin a2) at the open shed | seed 002, table 2 note (F_T: vertical |
+|  |  | warp force per thread by yarn) and seed 000's shed geometry |
 | ``T_min`` | 0.3/0.8 of T_max | assumption: seed 000's ratio T_min/T_max |
 | ``l`` | nominal loom width | assumption: seed 000 takes l = 1.8 m for the 180 cm loom |
 
@@ -36,7 +37,6 @@ and Grob.  Table 1 has no 420 cm row, so 420 cm has no preset.
 from __future__ import annotations
 
 import math
-
 
 from loomfmu.declare.checks import check_choice, check_int, check_number
 

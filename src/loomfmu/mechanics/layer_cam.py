@@ -19,9 +19,25 @@ from __future__ import annotations
 
 import numpy as np
 
-from loomfmu.declare.checks import check_array, check_bool, check_int, check_number, check_optional_number
-from loomfmu.mechanics.drive_law import (MAX_HARMONICS, check_coefficients, check_times, fourier, invert_increasing,
-                  law_constants, revolutions, speed_law, speed_slope, trig_eval)
+from loomfmu.declare.checks import (
+    check_array,
+    check_bool,
+    check_int,
+    check_number,
+    check_optional_number,
+)
+from loomfmu.mechanics.drive_law import (
+    MAX_HARMONICS,
+    check_coefficients,
+    check_times,
+    fourier,
+    invert_increasing,
+    law_constants,
+    revolutions,
+    speed_law,
+    speed_slope,
+    trig_eval,
+)
 from loomfmu.mechanics.drive_params import RPM, DriveParams, check_params
 
 #: default number of phi samples for the profile FFT

@@ -17,7 +17,6 @@ from fmpy import read_model_description
 
 from loomfmu.scene.declare import Component, Scene, declare_model
 
-
 #: files whose text goes into every FMU (the runtime) or makes its code
 _GENERATOR = ("export/codegen.py", "export/fmi_xml.py", "export/fmi_structure.py",
               "fmu/builder.py", "export/dae.py")

@@ -153,8 +153,8 @@ def interface_of_fmu(path: str | os.PathLike) -> Interface:
 def interface_of_model(model) -> Interface:
     """The interface of a declared model (loomfmu.declare.model.Model): its model
     description, generated without compiling, and its declared ports."""
-    from loomfmu.export.fmi_xml import model_description
     from loomfmu.export.dae import dae_form
+    from loomfmu.export.fmi_xml import model_description
     xml = model_description(model, dae_form(model), "{00000000-0000-0000-0000-000000000000}",
                             ["model.c"])
     with tempfile.TemporaryDirectory() as tmp:

@@ -27,17 +27,24 @@ import shutil
 from pathlib import Path
 
 import numpy as np
-
 from fmpy import calloc, extract, free, read_model_description
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2Integer, fmi2Real,
-                       fmi2True, fmi2ValueReference)
+from fmpy.fmi2 import (
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+    fmi2Integer,
+    fmi2Real,
+    fmi2True,
+    fmi2ValueReference,
+)
+
+from loomfmu.scene.declare import Connection, Scene, _self_loop, feedthrough_blocks
 
 #: FMU log lines kept per instance (the latest), shown when a call fails
 LOG_LINES = 200
-
-from loomfmu.scene.declare import Connection, Scene, _self_loop, feedthrough_blocks
 
 
 class FMUError(RuntimeError):
@@ -353,7 +360,7 @@ class System:
         self._watched = list(refs)
         names: dict[str, list[int]] = {}
         src_pos, rec_pos = [], []
-        for i, c in enumerate(self.connections):
+        for c in self.connections:
             vrs = names.setdefault(c.src, [])
             src_pos.append((c.src, len(vrs)))
             vrs.append(self.instances[c.src].vr[c.src_var])

@@ -11,7 +11,6 @@ from loomfmu.progress import Progress
 from loomfmu.spindle.study import DOCS, WORK_RPM, Spindle, write_calibration
 from loomfmu.spindle.trends import STUDIES, write_charts, write_trends
 
-
 #: a critical speed within this fraction of the working speed is flagged
 CRITICAL_MARGIN = 0.1
 

@@ -21,8 +21,12 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from loomfmu.declare.checks import check_bool, check_int, check_mapping, check_number
-from loomfmu.spindle.analysis import (RPM, campbell, direct_compliance, dynamic_compliance,
-                             orbit_radius, unbalance_response, whirl_modes)
+from loomfmu.spindle.analysis import (
+    RPM,
+    orbit_radius,
+    unbalance_response,
+    whirl_modes,
+)
 
 #: default output folders, relative to the working directory (``--out`` moves them)
 DOCS = Path("docs")

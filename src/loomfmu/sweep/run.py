@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import os
 import logging
+import os
 import tempfile
 import time
 from pathlib import Path

@@ -16,7 +16,7 @@ import json
 import math
 from typing import Callable
 
-from loomfmu.declare.checks import check_choice, check_number, check_names
+from loomfmu.declare.checks import check_choice, check_names, check_number
 from loomfmu.declare.solvers import SOLVERS
 from loomfmu.registry import MODELS
 from loomfmu.sweep.figures import Derived, Figure

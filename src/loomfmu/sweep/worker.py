@@ -26,8 +26,8 @@ from typing import Callable
 import fmpy
 import numpy as np
 
-from loomfmu.verification import fmpy_logger
 from loomfmu.declare.solvers import SOLVERS
+from loomfmu.verification import fmpy_logger
 
 #: FMI status codes -> the status a row records
 FMI_STATUS = {2: "discard", 3: "error", 4: "fatal"}

@@ -30,10 +30,14 @@ from typing import Callable
 
 import fmpy
 from fmpy import calloc, free
-from fmpy.fmi2 import (FMU2Model, FMU2Slave, fmi2CallbackAllocateMemoryTYPE,
-                       fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
-                       fmi2CallbackLoggerTYPE)
-
+from fmpy.fmi2 import (
+    FMU2Model,
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+)
 
 #: FMI 2.0 (2.1.5): the message is a format string, '%%' prints '%', and '##'
 #: prints '#' ('#' marks variable references); one pass, left to right

@@ -38,8 +38,13 @@ import casadi as ca
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from loomfmu.declare.checks import (check_array, check_choice, check_mapping, check_names, check_number,
-                     check_optional_number)
+from loomfmu.declare.checks import (
+    check_array,
+    check_choice,
+    check_mapping,
+    check_number,
+    check_optional_number,
+)
 from loomfmu.declare.model import Model
 from loomfmu.export.dae import DaeForm, dae_form
 

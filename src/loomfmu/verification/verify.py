@@ -17,13 +17,20 @@ from pathlib import Path
 import fmpy
 import numpy as np
 
-from loomfmu.declare.checks import (check_bool, check_choice, check_int, check_mapping, check_name_list,
-                     check_number, check_optional_number, check_text)
-from loomfmu.verification import fmpy_logger
-from loomfmu.declare.solvers import SOLVERS
+from loomfmu.declare.checks import (
+    check_bool,
+    check_choice,
+    check_int,
+    check_mapping,
+    check_name_list,
+    check_number,
+    check_optional_number,
+    check_text,
+)
 from loomfmu.declare.model import Model
+from loomfmu.declare.solvers import SOLVERS
+from loomfmu.verification import fmpy_logger
 from loomfmu.verification.reference import MAX_OUTPUTS, RTOL_MIN, Reference, check_model, reference
-
 
 #: The row label of a model-exchange run: FMPy's own solver integrates, once.
 ME_LABEL = "CVode (FMPy, model exchange)"

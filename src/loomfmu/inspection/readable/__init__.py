@@ -30,12 +30,28 @@ The front door::
 :func:`to_sympy` converts any SX expression (e.g. an event indicator).
 """
 from loomfmu.inspection.readable.convert import OPS, symbols, to_sympy, to_sympy_matrix
-from loomfmu.inspection.readable.listing import Listing, delays, equations, events, listing, mode_rules, outputs
+from loomfmu.inspection.readable.listing import (
+                             Listing,
+                             delays,
+                             equations,
+                             events,
+                             listing,
+                             mode_rules,
+                             outputs,
+)
 from loomfmu.inspection.readable.names import Shared, Var, latex_name
 from loomfmu.inspection.readable.printing import latex, mathml, mathml_body, mathml_line, to_latex
-from loomfmu.inspection.readable.quantity_forms import (ENTRY_VOCABULARY, QuantitySymbol, entry_symbol, entry_symbols,
-                             quantities, quantities_written, quantity, symbol_mathml,
-                             written_with_quantities)
+from loomfmu.inspection.readable.quantity_forms import (
+                             ENTRY_VOCABULARY,
+                             QuantitySymbol,
+                             entry_symbol,
+                             entry_symbols,
+                             quantities,
+                             quantities_written,
+                             quantity,
+                             symbol_mathml,
+                             written_with_quantities,
+)
 
 __all__ = ["OPS", "ENTRY_VOCABULARY", "Var", "Shared", "Listing", "QuantitySymbol",
            "latex_name", "to_sympy", "to_sympy_matrix", "symbols", "equations", "outputs",

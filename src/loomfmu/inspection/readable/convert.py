@@ -16,6 +16,7 @@ from sympy.core.parameters import distribute
 
 from loomfmu.inspection.readable.names import Var
 
+
 def _constant(v: float) -> sympy.Expr:
     """Rationals (denominator up to 100 000) and their multiples of pi or 1/pi
     that round to this very double print as such; other constants as floats

@@ -12,6 +12,7 @@ from sympy.core.parameters import distribute
 from loomfmu.inspection.readable.convert import symbols, to_sympy
 from loomfmu.inspection.readable.names import Shared, Var
 
+
 def _unknowns(model) -> set[Var]:
     return {Var(f"der({v.name})") for v in model.of_kind("state")} | \
         {Var(v.name) for v in model.of_kind("algebraic")}

@@ -12,6 +12,7 @@ from sympy.printing.mathml import MathMLPresentationPrinter
 from loomfmu.inspection.readable.convert import _indicator_cond
 from loomfmu.inspection.readable.listing import Listing, listing
 
+
 def _lines(lst: Listing) -> list[sympy.Eq]:
     pairs = lst.shared + lst.equations + lst.outputs + lst.events + lst.modes + lst.delays
     return [sympy.Eq(a, b, evaluate=False) for a, b in pairs]

@@ -377,7 +377,7 @@ def entry_symbols(written) -> list[tuple[QuantitySymbol, object]]:
     in order, with the (written) expression it stands for: the scalar
     quantities and the entries of the small matrices."""
     out = []
-    for q, sym, shown in written:
+    for _q, sym, shown in written:
         if not isinstance(shown, sympy.MatrixBase):
             out.append((sym, shown))
         elif max(shown.shape) <= ENTRY_VOCABULARY:
