@@ -2,7 +2,7 @@
 delays and touching event indicators, against closed forms and the scipy
 reference; its independence of the communication step (backrest switches),
 the solvers' errors on a closed-form delay equation, and the wall time of
-calls that used to run away; write docs/runtime_checks.json.
+calls that used to run away; write docs/results/runtime_checks.json.
 
     python benchmarks/runtime_checks.py
 
@@ -282,7 +282,7 @@ def main() -> int:
         out["dde_errors"] = dde_errors(tmp / "dde")
         out["runaway"] = runaway(tmp / "r")
     text = json.dumps(out, indent=2)
-    (ROOT / "docs" / "runtime_checks.json").write_text(text + "\n")
+    (ROOT / "docs" / "results" / "runtime_checks.json").write_text(text + "\n")
     print(text)
     return 0
 

@@ -43,7 +43,7 @@ def relative_links(page: Path) -> list[str]:
     return [t for t in targets if t and not re.match(r"^[a-z][a-z0-9+.-]*:", t, re.I)]
 
 
-LINKED_PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+LINKED_PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 
 
 @pytest.mark.parametrize("page", LINKED_PAGES, ids=lambda p: str(p.relative_to(ROOT)))
@@ -61,7 +61,7 @@ def test_link_finder_sees_links_and_skips_code(tmp_path):
 
 @pytest.mark.parametrize("name", sorted(MODELS))
 def test_generated_model_docs_are_current(name):
-    path = ROOT / "docs" / "models" / f"{name}.md"
+    path = ROOT / "docs" / "reference" / "models" / f"{name}.md"
     assert path.read_text() == model_markdown(load_model(name)), (
         f"{path} is stale: run python -m loomfmu.docs")
 
