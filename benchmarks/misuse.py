@@ -3,9 +3,9 @@ the FMUs, and write docs/results/reliability.json.
 
     .venv/bin/python benchmarks/misuse.py                 # every model
     .venv/bin/python benchmarks/misuse.py backrest drive  # some
-    .venv/bin/python benchmarks/misuse.py --baseline d695db7 backrest drive
+    .venv/bin/python benchmarks/misuse.py --baseline COMMIT backrest drive
                                       # the same cases against the facade and
-                                      # serializer before this work (printed)
+                                      # serializer of COMMIT (printed)
 
 For each model the FMU is built, its sources (``sources/`` of the .fmu) are
 compiled together with the driver ``tests/c/misuse.c`` into one program with

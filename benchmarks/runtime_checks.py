@@ -153,7 +153,7 @@ def touch(tmp, solver):
 
 
 def backrest_comm_step(path):
-    """Mode switches and outputs against the communication step (issue 12):
+    """Mode switches and outputs against the communication step:
     the default scene, one run per (rtol, comm), compared with comm = 1 ms."""
     out = {}
     for rtol in (1e-3, 1e-4, 1e-6, 1e-8):

@@ -1,4 +1,4 @@
-"""Which levels each seed scene needs (issue 15, item 3): the selector of
+"""Which levels each seed scene needs: the selector of
 loomfmu.scene.fidelity on the loom and spinning scenes, per quantity, at
 1 % and 0.1 % of each output's range.
 

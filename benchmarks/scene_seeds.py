@@ -1,4 +1,4 @@
-"""The seed scenes (issue 13 items 3 and 4): what they show, and where the
+"""The seed scenes: what they show, and where the
 masters fail on them.
 
     .venv/bin/python benchmarks/scene_seeds.py [--out-dir docs] [--quick] [--part all|spinning|loom|fidelity] [--charts-only]

@@ -1,4 +1,4 @@
-"""The drive's derivation as named quantities (issue 14): the speed law's
+"""The drive's derivation as named quantities: the speed law's
 Fourier series (8) and the cam design (3), (4) that make the default cam
 table (numbers at the assumed machine values of loomfmu.drive, computed at
 build time), the cam series r(phi) and the drive's delay equation (9) as

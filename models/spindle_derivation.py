@@ -1,4 +1,4 @@
-"""The spindle's derivation as named quantities (issue 14): one beam
+"""The spindle's derivation as named quantities: one beam
 element's matrices, the disks, the supports and the squeeze-film damper, the
 assembled matrices of (12), the unbalance forces (13), the modal reduction
 (spindle_modal) and the support forces.  Kept with ``Model.quantity`` for the

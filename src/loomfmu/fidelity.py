@@ -1,4 +1,4 @@
-"""Fidelity levels declared as such (issue 15, item 1).
+"""Fidelity levels declared as such.
 
 For every model of :data:`loomfmu.registry.FIDELITY` a :class:`Level` says
 what the model leaves out, what it still represents, a cost hint (with the

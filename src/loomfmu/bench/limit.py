@@ -26,6 +26,7 @@ import subprocess
 import tempfile
 import time
 import zipfile
+from importlib import metadata
 from pathlib import Path
 
 from ..builder import GENERATED_FLAGS, STRICT_FLAGS, build_fmu, fmi_headers_dir
@@ -342,7 +343,7 @@ def page_md(result: dict, cmd: str) -> str:
     lines = ["# The C-level benchmark: how far each run is from its limit", "",
              DEFINITION, "",
              f"**Table** (from `{cmd}`"
-             + (f" at commit {result['commit']}" if result.get("commit") else "")
+             + f" at loomfmu {metadata.version('loomfmu')}"
              + f", {result['wall_seconds'] / 60:.1f} min on this "
              f"machine, {result['cpus']} cores shared with other work: medians of "
              f"{result['repeats']} C runs and {result['fmpy_repeats']} FMPy runs, per-call "

@@ -1,5 +1,5 @@
 """The spinning position: the spindle drive with its layer cam feeding the
-spindle rotor (issue 13, seeds 001 and 003).
+spindle rotor (seeds 001 and 003).
 
     drive (models/drive.py)  --spindles -> drive-->  spindle (spindle_modal or spindle)
            n_out [rpm]                                 n_rpm [rpm]
