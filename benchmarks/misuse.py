@@ -25,7 +25,7 @@ while a state that is valid but different is accepted and continues as that
 state, "accepted-and-changed").
 
 tests/test_misuse.py runs the same driver on two models with a sample of
-the corruptions; this script gives the full counts quoted in the README.
+the corruptions; this script gives the full counts quoted in docs/results.md.
 """
 from __future__ import annotations
 

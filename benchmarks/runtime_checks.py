@@ -9,7 +9,7 @@ calls that used to run away; write docs/results/runtime_checks.json.
 The tests (tests/test_drive_fmu.py, tests/test_backrest.py,
 tests/test_events.py, tests/test_comm_step.py, tests/test_delay_convergence.py,
 tests/test_runaway.py) assert bounds on the same quantities; this script
-prints the measured values quoted in the README.
+prints the measured values quoted in docs/guides/drive.md.
 """
 from __future__ import annotations
 
