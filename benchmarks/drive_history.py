@@ -2,7 +2,7 @@
 against the scipy method-of-steps reference (rtol 1e-11), 10 s, on the scene
 of tests/test_drive_fmu.py (3 harmonics, 8th near 190 Hz). The delayed
 values come from the history sampled on each solver's dense output, so the
-result measures that dense output. Quoted in docs/drive.md.
+result measures that dense output. Quoted in docs/guides/drive.md.
 
     python benchmarks/drive_history.py      # ~1 min
 """

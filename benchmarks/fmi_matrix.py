@@ -4,7 +4,7 @@ FMPy, and compare each variant's outputs with the FMI 2.0 co-simulation run.
     python benchmarks/fmi_matrix.py [MODEL ...] [--variants 2:cs 2:me 3:cs 3:me]
                                     [--stop T] [--rtol 1e-8] [--out-dir DIR]
                                     [--json FILE] [--markdown FILE]
-    python benchmarks/fmi_matrix.py --table-from docs/fmi_variants.json
+    python benchmarks/fmi_matrix.py --table-from docs/results/fmi_variants.json
 
 For each model and variant (FMI version : interface) it builds the FMU
 (loomfmu.build_fmu), counts ``fmpy.validate_fmu`` problems, and simulates it
@@ -20,7 +20,7 @@ return value).  A model-exchange run of a model with delays that the FMU
 refuses is retried at 1/2, 1/4, 1/8 of the stop time, and the note says so: FMPy 0.3.32's CVode
 takes steps up to (stop - start)/50 and completes a step only at output
 points, and a delay needs the importer's steps between completed steps no
-longer than tau (docs/runtime.md, Model exchange).
+longer than tau (docs/guides/runtime.md, Model exchange).
 
 Agreement: every output of each variant at the output times it shares with
 the reference run (FMI 2.0 co-simulation; of the rows at an event time, the

@@ -12,7 +12,7 @@ side in the run (``lf_rhs``, inclusive) and
 
     ratio = instructions / (accepted steps x stages x lf_rhs instructions)
 
-the limit of docs/limit.md with the run's average right-hand side (without
+the limit of docs/guides/limit.md with the run's average right-hand side (without
 the drive's history samples, so its ratio here is not the benchmark's).
 
 Needs valgrind (``apt install valgrind``; not a Python dependency).

@@ -1,11 +1,11 @@
 """Misuse, bad values and corrupted FMU states against sanitizer builds of
-the FMUs, and write docs/reliability.json.
+the FMUs, and write docs/results/reliability.json.
 
     .venv/bin/python benchmarks/misuse.py                 # every model
     .venv/bin/python benchmarks/misuse.py backrest drive  # some
-    .venv/bin/python benchmarks/misuse.py --baseline d695db7 backrest drive
+    .venv/bin/python benchmarks/misuse.py --baseline COMMIT backrest drive
                                       # the same cases against the facade and
-                                      # serializer before this work (printed)
+                                      # serializer of COMMIT (printed)
 
 For each model the FMU is built, its sources (``sources/`` of the .fmu) are
 compiled together with the driver ``tests/c/misuse.c`` into one program with
@@ -25,7 +25,7 @@ while a state that is valid but different is accepted and continues as that
 state, "accepted-and-changed").
 
 tests/test_misuse.py runs the same driver on two models with a sample of
-the corruptions; this script gives the full counts quoted in the README.
+the corruptions; this script gives the full counts quoted in docs/results.md.
 """
 from __future__ import annotations
 
@@ -227,7 +227,7 @@ def main(argv: list[str] | None = None) -> int:
                    help="random one-byte corruptions per model and mode (default 2000)")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--out", default=None,
-                   help="JSON report (default docs/reliability.json; none with --baseline)")
+                   help="JSON report (default docs/results/reliability.json; none with --baseline)")
     p.add_argument("--work", default=None, help="build folder (default: a temporary one)")
     p.add_argument("--baseline", default=None, metavar="REV",
                    help="count with the FMI facade and state serializer of git revision REV "
@@ -279,7 +279,7 @@ def main(argv: list[str] | None = None) -> int:
         "models": per_model,
         "not_measured": failed,
     }
-    out = args.out or (None if args.baseline else str(ROOT / "docs" / "reliability.json"))
+    out = args.out or (None if args.baseline else str(ROOT / "docs" / "results" / "reliability.json"))
     t = report["total"]
     for key, block in t.items():
         print(f"total {key}: {block}")

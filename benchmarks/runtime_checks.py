@@ -2,14 +2,14 @@
 delays and touching event indicators, against closed forms and the scipy
 reference; its independence of the communication step (backrest switches),
 the solvers' errors on a closed-form delay equation, and the wall time of
-calls that used to run away; write docs/runtime_checks.json.
+calls that used to run away; write docs/results/runtime_checks.json.
 
     python benchmarks/runtime_checks.py
 
 The tests (tests/test_drive_fmu.py, tests/test_backrest.py,
 tests/test_events.py, tests/test_comm_step.py, tests/test_delay_convergence.py,
 tests/test_runaway.py) assert bounds on the same quantities; this script
-prints the measured values quoted in the README.
+prints the measured values quoted in docs/guides/drive.md.
 """
 from __future__ import annotations
 
@@ -158,7 +158,7 @@ def touch(tmp, solver):
 
 
 def backrest_comm_step(path):
-    """Mode switches and outputs against the communication step (issue 12):
+    """Mode switches and outputs against the communication step:
     the default scene, one run per (rtol, comm), compared with comm = 1 ms."""
     out = {}
     for rtol in (1e-3, 1e-4, 1e-6, 1e-8):
@@ -287,7 +287,7 @@ def main() -> int:
         out["dde_errors"] = dde_errors(tmp / "dde")
         out["runaway"] = runaway(tmp / "r")
     text = json.dumps(out, indent=2)
-    (ROOT / "docs" / "runtime_checks.json").write_text(text + "\n")
+    (ROOT / "docs" / "results" / "runtime_checks.json").write_text(text + "\n")
     print(text)
     return 0
 

@@ -1,15 +1,15 @@
-"""Which levels each seed scene needs (issue 15, item 3): the selector of
+"""Which levels each seed scene needs: the selector of
 loomfmu.machines.fidelity on the loom and spinning scenes, per quantity, at
 1 % and 0.1 % of each output's range.
 
-    .venv/bin/python benchmarks/scene_fidelity.py [--out-dir docs/fidelity]
+    .venv/bin/python benchmarks/scene_fidelity.py [--out-dir docs/results/fidelity]
         [--part all|loom|spinning] [--loom-stop 5] [--spinning-stop 15]
         [--fmu-dir DIR] [--repeats 2]
 
 Writes <out-dir>/<scene>.json (every combination's CPU seconds and error
 per output, the facts of the runs, the answers), <out-dir>/<scene>.png
 (cost-error chart over all the scene's outputs at 1 %) and
-<out-dir>/answers.md (the table of docs/fidelity.md).
+<out-dir>/answers.md (the table of docs/guides/fidelity.md).
 """
 from __future__ import annotations
 
@@ -115,7 +115,7 @@ def table(answers: list, facts: dict) -> str:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out-dir", type=Path, default=Path("docs/fidelity"))
+    ap.add_argument("--out-dir", type=Path, default=Path("docs/results/fidelity"))
     ap.add_argument("--part", choices=("all", "loom", "spinning"), default="all")
     ap.add_argument("--loom-stop", type=float, default=5.0)
     ap.add_argument("--spinning-stop", type=float, default=15.0)

@@ -1,4 +1,4 @@
-"""The seed scenes (issue 13 items 3 and 4): what they show, and where the
+"""The seed scenes: what they show, and where the
 masters fail on them.
 
     .venv/bin/python benchmarks/scene_seeds.py [--out-dir docs] [--quick]
@@ -7,12 +7,12 @@ masters fail on them.
 Spinning position (loomfmu.machines.spinning): the drive with its layer cam
 feeding the full FE spindle over the second layer cycle (the first carries
 the drive's start transient), cam compensated and uncompensated:
-docs/scenes/spinning_layer.png.  Loom (loomfmu.machines.loom): the backrest's
+docs/results/scenes/spinning_layer.png.  Loom (loomfmu.machines.loom): the backrest's
 stick-slip under shedding and the frames' out-of-plane motion with the
 returned tension against the prescribed (geometry) tension:
-docs/scenes/loom_shedding.png.
+docs/results/scenes/loom_shedding.png.
 
-Stability and error (docs/scenes/<scene>_stability.png): each scene run by
+Stability and error (docs/results/scenes/<scene>_stability.png): each scene run by
 Jacobi and Gauss-Seidel (input extrapolation order 0-2) and by libcosim's
 fixed-step engine on the exported SSP, over a sweep of communication steps;
 the error is the largest difference from a fine-step run of the same scene
@@ -22,7 +22,7 @@ run; the growth is the largest magnitude of the run over the reference's.
 A run fails when an FMU refuses a step (Error/Discard), a value is not
 finite, or it grows past GROWTH_FAIL.  CPU seconds (time.process_time: the
 FMUs run in this process) per simulated second are kept for the verdict.
-Figures and verdict: docs/scenes/<scene>_study.json.
+Figures and verdict: docs/results/scenes/<scene>_study.json.
 """
 from __future__ import annotations
 
@@ -486,7 +486,7 @@ def main(argv=None) -> int:
     ap.add_argument("--fmu-dir", type=Path, default=None, help="FMU cache (default: a "
                     "temporary folder)")
     args = ap.parse_args(argv)
-    out = args.out_dir / "scenes"
+    out = args.out_dir / "results" / "scenes"
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp_:

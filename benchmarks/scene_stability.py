@@ -2,8 +2,8 @@
 communication step, for input extrapolation of order 0, 1 and 2: theory (the
 exact co-simulation maps of loomfmu.machines.two_mass) as lines, runs of our
 master and of libcosim on the exported SSP as points.  Writes
-docs/scenes/two_mass_stability.png, its json and the verdict table between
-the markers in docs/scenes.md.
+docs/results/scenes/two_mass_stability.png, its json and the verdict table between
+the markers in docs/guides/scenes.md.
 
     .venv/bin/python benchmarks/scene_stability.py [--out-dir docs] [--quick]
 """
@@ -247,7 +247,7 @@ def radius_at_limit(p, scene, fmus, tmp, me, th) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out-dir", type=Path, default=Path("docs"),
-                    help="folder of scenes.md and scenes/ (default: ./docs)")
+                    help="docs folder: guides/scenes.md, results/scenes/ (default: ./docs)")
     ap.add_argument("--quick", action="store_true", help="fewer measured steps (a smoke run)")
     args = ap.parse_args(argv)
     p = tm.Params.declared()
@@ -266,17 +266,17 @@ def main(argv=None) -> int:
         radius_at_limit(p, scene, fmus, Path(tmp), me, th)
         bar.advance("limits done")
         ad = adaptive(p, scene, fmus, bar)
-    png = args.out_dir / "scenes" / "two_mass_stability.png"
+    png = args.out_dir / "results" / "scenes" / "two_mass_stability.png"
     chart(png, hs_theory, th, me)
     table = verdict(th, me, hs_theory, ad)
-    (args.out_dir / "scenes" / "two_mass_stability.json").write_text(json.dumps(
+    (args.out_dir / "results" / "scenes" / "two_mass_stability.json").write_text(json.dumps(
         {"theory_limits": {a: th[a]["limit"] for a in CURVES}, "measured": me,
          "theory_error_1e-2": {a: h_for_error(th[a]["h"], th[a]["error"], 1e-2)
                                for a in CURVES},
          "theory_error_1e-3": {a: h_for_error(th[a]["h"], th[a]["error"], 1e-3)
                                for a in CURVES},
          "adaptive": ad}, indent=1, default=float) + "\n")
-    md = args.out_dir / "scenes.md"
+    md = args.out_dir / "guides" / "scenes.md"
     text = md.read_text() if md.is_file() else f"{BEGIN}\n{END}\n"
     if BEGIN not in text or END not in text:
         print(f"{md}: markers {BEGIN} ... {END} missing", file=sys.stderr)

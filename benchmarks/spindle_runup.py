@@ -2,7 +2,7 @@
 the full FE FMU against the modal FMUs, and the real-time factor of each.
 
     python benchmarks/spindle_runup.py [--modes 1 2 3 4 5 6] [--solver rodas4]
-        [--out docs/spindle_runup.json]
+        [--out docs/results/spindle_runup.json]
 
 Scene: n_rpm ramps linearly from 0 to 16 000 rpm in ``RAMP`` seconds and is
 held for ``HOLD`` seconds, set at every communication step (``DT``) as the
@@ -12,7 +12,7 @@ radial displacement of the top of the blade).  Real-time factor: wall time /
 simulated time (below 1: faster than real time), median of ``--repeats``.
 
     python benchmarks/spindle_runup.py --interp [--interp-steps 1 5 25 125]
-        [--model spindle] [--out docs/spindle_runup_interp.json]
+        [--model spindle] [--out docs/results/spindle_runup_interp.json]
 
 Input derivatives (FMI 2.0 fmi2SetRealInputDerivatives): the same ramp given
 at each communication point by its value and slope, so that the FMU
@@ -24,7 +24,7 @@ solver's tolerance); error: max over the common communication points of
 
     python benchmarks/spindle_runup.py --counters [--model spindle]
         [--solvers rodas4 ros34pw2] [--repeats 3]
-        [--out docs/spindle_runup_counters.json]
+        [--out docs/results/spindle_runup_counters.json]
 
 The same scene at ``DT`` driven without Python: the FMU's own sources plus
 benchmarks/spindle_runup_driver.c, compiled with gcc into one program that
@@ -182,7 +182,7 @@ def main_interp(args) -> int:
                 [[r["inputs"], f"{r['comm_step_s']:.4g}", str(r["comm_steps"]),
                   f"{r['wall_s']:.3f}", f"{r['speedup_vs_staircase']:.2f}",
                   f"{r['error']:.2e}"] for r in rows]))
-    write_json(args.out or ROOT / "docs" / "spindle_runup_interp.json", result)
+    write_json(args.out or ROOT / "docs" / "results" / "spindle_runup_interp.json", result)
     return 0
 
 
@@ -293,7 +293,7 @@ def main_counters(args) -> int:
     if cost:
         print(f"{rows[-1].get('eliminated', 0)} states eliminated by the Schur path; cost per call "
               "(us, end state): " + ", ".join(f"{k} {v:.2f}" for k, v in cost.items()))
-    write_json(args.out or ROOT / "docs" / "spindle_runup_counters.json", result)
+    write_json(args.out or ROOT / "docs" / "results" / "spindle_runup_counters.json", result)
     return 0
 
 
@@ -309,11 +309,11 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=3,
                     help="timed runs per row, the median kept (default 3)")
     ap.add_argument("--out", type=Path, default=None,
-                    help="the JSON file to write (default: docs/spindle_runup.json, with "
-                         "--interp docs/spindle_runup_interp.json, with --counters "
-                         "docs/spindle_runup_counters.json, in this repository)")
+                    help="the JSON file to write (default: docs/results/spindle_runup.json, with "
+                         "--interp docs/results/spindle_runup_interp.json, with --counters "
+                         "docs/results/spindle_runup_counters.json, in this repository)")
     ap.add_argument("--interp", action="store_true", help="input derivatives against the "
-                    "staircase (writes docs/spindle_runup_interp.json)")
+                    "staircase (writes docs/results/spindle_runup_interp.json)")
     ap.add_argument("--interp-steps", type=int, nargs="*", default=[1, 5, 25, 125],
                     help="communication steps of the interpolated runs, in units of DT "
                          "(default 1 5 25 125)")
@@ -325,7 +325,7 @@ def main(argv=None) -> int:
     ap.add_argument("--n-modes", type=int, default=4,
                     help="modes of spindle_modal with --model spindle_modal (default 4)")
     ap.add_argument("--counters", action="store_true", help="C driver without Python: "
-                    "solver counters and CPU time (writes docs/spindle_runup_counters.json)")
+                    "solver counters and CPU time (writes docs/results/spindle_runup_counters.json)")
     solvers = [s for s in ("rodas4", "ros34pw2") if s in SOLVERS]
     ap.add_argument("--solvers", nargs="*", default=solvers, choices=SOLVERS,
                     help=f"--counters: the solvers (default {' '.join(solvers)})")
@@ -373,7 +373,7 @@ def main(argv=None) -> int:
     print(f"first critical passed at about {result['critical_rpm']:.0f} rpm (peak of r_top "
           f"below 4800 rpm); fewest modes within 1 % from there on: "
           f"{result['fewest_modes_within_1pct']}")
-    write_json(args.out or ROOT / "docs" / "spindle_runup.json", result)
+    write_json(args.out or ROOT / "docs" / "results" / "spindle_runup.json", result)
     return 0
 
 

@@ -3,7 +3,7 @@ serial loop reusing one instance (fmi2Reset), and on dask LocalClusters of
 1 and 2 worker processes; per-case overhead and bit-for-bit equality.
 
     python benchmarks/sweep_scaling.py [--study design-map|drive-grid|hinge ...]
-        [--out docs/sweep/scaling.json]
+        [--out docs/results/sweep/scaling.json]
 
 The plain loop is fmpy.simulate_fmu per case (a fresh instance each time,
 the extracted FMU given), what a script without loomfmu.sweep would do.
@@ -104,7 +104,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--study", action="append", choices=sorted(studies.STUDIES),
                     default=None, help="studies to measure (default: design-map, drive-grid)")
-    ap.add_argument("--out", type=Path, default=Path("docs/sweep/scaling.json"))
+    ap.add_argument("--out", type=Path, default=Path("docs/results/sweep/scaling.json"))
     args = ap.parse_args(argv)
     results = []
     for name in args.study or ["design-map", "drive-grid"]:

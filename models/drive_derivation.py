@@ -1,4 +1,4 @@
-"""The drive's derivation as named quantities (issue 14): the speed law's
+"""The drive's derivation as named quantities: the speed law's
 Fourier series (8) and the cam design (3), (4) that make the default cam
 table (numbers at the assumed machine values of loomfmu.drive, computed at
 build time), the cam series r(phi) and the drive's delay equation (9) as
@@ -7,7 +7,7 @@ breakpoints.  Kept with ``Model.quantity`` for the derivation reports
 (``loomfmu inspect drive``) and ``loomfmu.inspect``; the generated code never
 uses them (tests/test_drive_quantities.py: they are what the equations use).
 
-The print defects of seed 001 that touch this model (docs/seed_notes/
+The print defects of seed 001 that touch this model (docs/guides/seed_notes/
 drive_spec.md, D6-D13) are written once, here, next to the quantity they
 affect.
 """
@@ -86,7 +86,7 @@ def law_quantities(m, cam: str, harmonics_m: int) -> None:
     Q("Delta", c.Delta * rpm, unit="rpm", description="n_max - n_min - n1 ln(n_max/n_min), "
       "which the winding (2) with (5) makes g1 K_n^2 T_c and g2 K_n^2 T_n (" +
       defect_note("D3") + ")", symbol=r"\Delta", source="derived: integrating seed 001 "
-      "(2) with (5) (docs/seed_notes/drive_spec.md)", group=LAW)
+      "(2) with (5) (docs/guides/seed_notes/drive_spec.md)", group=LAW)
     Q("g1", c.g1, unit="m2", description="winding constant of the layer (slow stroke, d: "
       "D_N -> D_B), Delta/(K_n^2 T_c), from the stroke's duration T_c (" +
       defect_note("D4") + "; D12: the seed's n_c t_c replaced by the actual duration)",
@@ -172,7 +172,7 @@ def history_quantities(m, *, u, tau, K, max_delay: float) -> None:
     Q("history_span", max_delay, unit="s", description="the history kept: u over [t - "
       "max_delay, t] (values and time derivatives from the solver's dense output, cubic "
       "Hermite between samples); a tau above it is refused at initialization (build option "
-      "max_delay)", symbol=r"\tau_{\max}", source="derived: loomfmu runtime (docs/runtime.md"
+      "max_delay)", symbol=r"\tau_{\max}", source="derived: loomfmu runtime (docs/guides/runtime.md"
       ", Delays)", group=HISTORY)
     Q("u_before_start", u, unit="V", description="the history before t = 0: constant at "
       "the signal's start value u(0), so the drive starts in the steady state n(0) = K u(0)",

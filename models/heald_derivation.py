@@ -1,4 +1,4 @@
-"""The heald frame's derivation as named quantities (issue 14, item 2).
+"""The heald frame's derivation as named quantities.
 
 :func:`declare_quantities` keeps, with :meth:`loomfmu.declare.model.Model.quantity`,
 the intermediate quantities of seed 000's derivation in its order: slat

@@ -12,10 +12,10 @@ y points up like h; x points to the long (back) side of the shed.
 
 Print defects of the seed, corrected (listed at the end of this docstring
 from heald_common.DEFECTS, the one source of the docstring, the derivation
-report and docs/heald_frame.md's table): D1 the motion-law coefficient, D2
+report and docs/guides/heald_frame.md's table): D1 the motion-law coefficient, D2
 the end dwell, D3 the inertia term of (2), D4 the side stay's reduced mass.
 
-Additions (issue 3): the hinge load N_rem of seed 002 from the frame's
+Additions: the hinge load N_rem of seed 002 from the frame's
 actual accelerations (see models/heald_common.py), presets of seed 002's
 tables 1-2 (``build(preset="STB-180 Elitex")``), and the build option
 ``h_B_law="variable"``: the side stays' cantilever length follows the frame,

@@ -5,7 +5,7 @@ models/heald_frame.py; no horizontal coordinates.  In the spatial model the
 horizontal and vertical coordinates are coupled only through the common
 warp tension, which both receive as a given function of the frame position,
 so this model's vertical outputs and hinge load equal the spatial model's
-(the horizontal displacement is what it leaves out; docs/heald_fidelity.md).
+(the horizontal displacement is what it leaves out; docs/guides/heald_fidelity.md).
 """
 from __future__ import annotations
 

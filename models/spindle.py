@@ -11,10 +11,10 @@ element up to the whorl, ``n_cone`` stepped elements for the blade's cone up
 to its top.  Bobbin (tube + yarn, ``fill`` 0 empty .. 1 full) and whorl are
 rigid disks.  The housing of the lower support (the centre tube on the coil
 spring) has its own x, y DOF.  The D1201 geometry is not in the seed: every
-dimension is an assumption (docs/spindle.md), the unknown support
-and bobbin values are calibrated (``python -m loomfmu.mechanics.rotor calibrate``).
+dimension is an assumption (docs/guides/spindle.md), the unknown support
+and bobbin values are calibrated (``loomfmu rotor calibrate``).
 
-Print defects (docs/spindle.md, S1-S5): the rotary-inertia matrix's
+Print defects (docs/guides/spindle.md, S1-S5): the rotary-inertia matrix's
 (4,2) entry is -l^2 (printed l^2); (2), (3) read K_xy = K_yx = 0; (5) has
 r_i^4 (printed r_i^3, unit Pa s; ``damper="printed"`` keeps it); (20) gives
 q, not q'.  Printed form, corrected form and reason of each are written
@@ -58,10 +58,10 @@ SEED = "seed 003"
 RPM = 2 * math.pi / 60
 ASSUME_GEOM = ("assumption: D1201 geometry is not in the seed; typical ring-spinning "
                "spindle of the D12 family (7.8 mm blade at the bolster)")
-CALIB = "calibrated: python -m loomfmu.mechanics.rotor calibrate (seed 003, natural frequencies)"
+CALIB = "calibrated: loomfmu rotor calibrate (seed 003, natural frequencies)"
 
-#: Calibrated values (written by ``python -m loomfmu.mechanics.rotor calibrate``; see
-#: docs/spindle_calibration.md).  Keys are parameter names.
+#: Calibrated values (written by ``loomfmu rotor calibrate``; see
+#: docs/results/spindle_calibration.md).  Keys are parameter names.
 CALIBRATED = {
     "E_t": 3.949e9,
     "k_u": 1.299e7,

@@ -1,4 +1,4 @@
-"""The spindle's derivation as named quantities (issue 14): one beam
+"""The spindle's derivation as named quantities: one beam
 element's matrices, the disks, the supports and the squeeze-film damper, the
 assembled matrices of (12), the unbalance forces (13), the modal reduction
 (spindle_modal) and the support forces.  Kept with ``Model.quantity`` for the
@@ -6,7 +6,7 @@ derivation reports (``loomfmu inspect spindle``) and ``loomfmu.inspect``;
 the generated code never uses them, and every one is the very expression the
 equations are built from (tests/test_spindle_quantities.py).
 
-The print defects of seed 003 (docs/spindle.md, S1-S5) are written once,
+The print defects of seed 003 (docs/guides/spindle.md, S1-S5) are written once,
 here, and shown next to the quantity they affect: S1 on the rotary-inertia
 and gyroscopic element matrices (with the printed matrix as a quantity), S2
 on the film coefficients, S3 on the layers' damping (both forms kept), S5 on

@@ -16,7 +16,7 @@ one side and an input on the other.
 Both subsystems are linear with constant coefficients, so with inputs held
 constant over a communication step they integrate exactly by a matrix
 exponential; the co-simulated trajectory is then a linear map per step
-(derivation and stability: docs/scenes.md, loomfmu.machines.two_mass).
+(derivation and stability: docs/guides/scenes.md, loomfmu.machines.two_mass).
 """
 from __future__ import annotations
 

@@ -189,7 +189,7 @@ def test_zero_delay_keeps_no_history_on_long_fast_runs(tmp_path):
     """tau = 0 reads the value now and stores nothing.  An 8 s run with a
     fast cam (8th harmonic near 190 Hz) at rtol 1e-6 runs through (refined
     history samples filled the 65536-sample ring in about 2 s when they
-    were kept; docs/drive.md says 30 s, measured by
+    were kept; docs/guides/drive.md says 30 s, measured by
     benchmarks/runtime_checks.py), and at
     rtol 1e-9 both adaptive solvers match the reference (tau = 0: the
     delayed value is g(t, x) now) over the first 5 s."""

@@ -2,8 +2,8 @@
 
 Oracles: the winding ODE (2) itself, the Lambert-W closed form, scipy quad in
 the time domain, solve_ivp on the delayed lag, and the reference numbers of
-docs/seed_notes/drive_spec.md section 4, which come from the independent script
-docs/seed_notes/drive_check.py.
+docs/guides/seed_notes/drive_spec.md section 4, which come from the independent script
+docs/guides/seed_notes/drive_check.py.
 """
 from __future__ import annotations
 

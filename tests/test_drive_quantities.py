@@ -94,7 +94,7 @@ def test_speed_law_series_is_8_within_its_truncation(model):
     k = np.arange(1, len(a) + 1)
     series = mean + np.cos(np.outer(t, k) * w) @ a + np.sin(np.outer(t, k) * w) @ b
     err = np.max(np.abs(series - 60 * speed_law(t, p)))
-    assert 1.0 < err < 30.0  # docs/drive.md: 23 rpm at m = 40 (the corners of n0)
+    assert 1.0 < err < 30.0  # docs/guides/drive.md: 23 rpm at m = 40 (the corners of n0)
     C, psi = quantity(model, "C_k").ravel(), quantity(model, "psi_k").ravel()
     polar = mean + np.sin(np.outer(t, k) * w + psi) @ C
     assert np.max(np.abs(polar - series)) < 1e-9 * mean
@@ -116,7 +116,7 @@ def test_compensation_inverts_the_drive_and_the_cam_table_is_r_of_t(model):
     k = np.arange(1, m + 1)
     r_t = R0[0] + np.cos(np.outer(t, k) * w) @ ar + np.sin(np.outer(t, k) * w) @ br
     r_phi = quantity(model, "r_cam", states=np.vstack([np.zeros_like(phi), phi])).ravel()
-    assert np.max(np.abs(r_t - r_phi)) < 1e-6  # docs/drive.md: table error 7.6e-8 m
+    assert np.max(np.abs(r_t - r_phi)) < 1e-6  # docs/guides/drive.md: table error 7.6e-8 m
     A, B = quantity(model, "A_j").ravel(), quantity(model, "B_j").ravel()
     j = np.arange(1, len(B) + 1)
     table = A[0] + np.cos(np.outer(phi, j)) @ A[1:] + np.sin(np.outer(phi, j)) @ B

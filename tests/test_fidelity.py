@@ -19,7 +19,7 @@ STOP = 0.5   # s: two picks of the loom at 240 picks/min
 @pytest.fixture(scope="module")
 def loom_eval(tmp_path_factory):
     """The loom with the seed's tension model (each frame's tension from its
-    own shed, docs/heald_fidelity.md's case), two runs per combination."""
+    own shed, docs/guides/heald_fidelity.md's case), two runs per combination."""
     outs = ["frame_a.N_rem", "frame_a.x2_out", "back.S2a", "back.M1f_out"]
     return sf.evaluate("loom", outs, stop_time=STOP, fmu_dir=tmp_path_factory.mktemp("fid"),
                        progress=False, repeats=2, scene_options={"tension": "prescribed"})
@@ -55,7 +55,7 @@ def test_the_selector_picks_the_full_models_when_no_reduced_level_is_within_tol(
 
 
 def test_the_selector_picks_the_rigid_frame_for_hinge_loads_at_one_percent(loom_eval):
-    # documented case (docs/heald_fidelity.md): the rigid frame's kinetostatic
+    # documented case (docs/guides/heald_fidelity.md): the rigid frame's kinetostatic
     # hinge load is within 0.9 % of the spatial model's range
     sel = loom_eval.select(0.01, ["frame_a.N_rem"])
     rigid = [r for r in sel.rows if r.levels["frames"] == "heald_frame_rigid"]

@@ -604,11 +604,11 @@ def test_tex_report_compiles(name, tmp_path):
     assert _pdflatex(broken, tmp_path).returncode != 0
 
 
-# -- loomfmu inspect --all and the reports kept in docs/inspect --------------------
+# -- loomfmu inspect --all and the reports kept in docs/reference/inspect --------------------
 
 from pathlib import Path  # noqa: E402
 
-DOCS = Path(__file__).resolve().parents[1] / "docs" / "inspect"
+DOCS = Path(__file__).resolve().parents[1] / "docs" / "reference" / "inspect"
 #: models whose reports are quick to rebuild (the others take up to a minute of
 #: CPU each: regenerate all with `loomfmu inspect --all`)
 QUICK = ["heald_frame_rigid", "loom_shaft", "two_mass_force"]
@@ -648,7 +648,7 @@ def test_inspect_all_out_must_be_a_directory(tmp_path, capsys):
 
 @pytest.mark.parametrize("name", QUICK)
 def test_reports_in_docs_are_current(name, tmp_path):
-    """docs/inspect holds every model's report; the quick ones are rebuilt
+    """docs/reference/inspect holds every model's report; the quick ones are rebuilt
     here and must be identical (regenerate: loomfmu inspect --all)."""
     assert {f"{n}.{fmt}" for n in MODELS for fmt in inspect_report.ALL_FORMATS} <= \
         {p.name for p in DOCS.iterdir()}, "run: loomfmu inspect --all"

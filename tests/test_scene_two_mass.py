@@ -1,5 +1,5 @@
 """The two-mass benchmark (force-displacement coupling) against its exact
-co-simulation map (loomfmu.machines.two_mass, derivation in docs/scenes.md):
+co-simulation map (loomfmu.machines.two_mass, derivation in docs/guides/scenes.md):
 our masters reproduce the map's trajectory, lose stability where its
 spectral radius crosses 1, the adaptive run is the product of the maps of
 its accepted steps (rejected steps leave no trace), and libcosim runs the

@@ -204,7 +204,7 @@ def test_forward_whirl_stiffens_and_backward_softens_with_speed(spindle):
 
 def test_model_defaults_reproduce_the_seeds_six_frequencies(spindle):
     """The calibrated defaults give the seed's natural frequencies at 16 000 rpm
-    (section V(一)1) within 5 % (docs/spindle_calibration.md: within 3 %)."""
+    (section V(一)1) within 5 % (docs/results/spindle_calibration.md: within 3 %)."""
     from loomfmu.spindle.study import SEED_FREQS
     for fill, case in ((0.0, "empty"), (1.0, "full")):
         got = spindle.forward_freqs_rpm(spindle.values(fill=fill))

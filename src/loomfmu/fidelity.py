@@ -1,4 +1,4 @@
-"""Fidelity levels declared as such (issue 15, item 1).
+"""Fidelity levels declared as such.
 
 For every model of :data:`loomfmu.registry.FIDELITY` a :class:`Level` says
 what the model leaves out, what it still represents, a cost hint (with the
@@ -45,7 +45,7 @@ class Level:
 
 
 #: the heald frame's undamped natural frequencies (Hz), model heald_frame,
-#: from its M and C with mu = 0 (docs/heald_claims.md, row "all natural
+#: from its M and C with mu = 0 (docs/guides/heald_claims.md, row "all natural
 #: frequencies"): x (horizontal, out of the frame's plane) and y (vertical)
 HEALD_MODES_HZ = {"x": (10.1, 47.2, 48.3), "y": (70.0, 162.9, 175.0)}
 
@@ -55,9 +55,9 @@ HEALD_MODES_HZ = {"x": (10.1, 47.2, 48.3), "y": (70.0, 162.9, 175.0)}
 SPINDLE_MODES_HZ = (30.5, 411.0, 746.9, 1572.5, 2284.0, 3763.3, 5058.1, 6050.4, 7804.8,
                     10167.5, 18690.1, 20513.7)
 
-_HEALD = ("docs/heald_fidelity.md", "docs/heald_claims.md")
-_SPINDLE = ("docs/scene_spinning.md (benchmarks/scene_seeds.py --part fidelity)",
-            "docs/spindle.md")
+_HEALD = ("docs/guides/heald_fidelity.md", "docs/guides/heald_claims.md")
+_SPINDLE = ("docs/guides/scene_spinning.md (benchmarks/scene_seeds.py --part fidelity)",
+            "docs/guides/spindle.md")
 
 LEVELS: dict[str, Level] = {lv.model: lv for lv in (
     Level("heald_frame_rigid", "heald frame",
@@ -66,11 +66,11 @@ LEVELS: dict[str, Level] = {lv.model: lv for lv in (
           represents=("the frame's lift h(phi) and its derivatives",
                       "the kinetostatic hinge load N_rem (seed 002)",
                       "the warp elongation dl and tension T at the frame"),
-          cost="0.75 x the spatial model's wall time per FMPy run (docs/heald_fidelity.md)",
+          cost="0.75 x the spatial model's wall time per FMPy run (docs/guides/heald_fidelity.md)",
           suffices="hinge loads N_rem at 1 % with the seed's tension model: 0.9 % of the "
-                   "spatial model's range alone (k_z 1 ... 1.1, docs/heald_fidelity.md), "
+                   "spatial model's range alone (k_z 1 ... 1.1, docs/guides/heald_fidelity.md), "
                    "0.65 % in the loom scene with tension='prescribed'; not with the "
-                   "tension returned by the backrest (1.06 %, docs/fidelity.md)",
+                   "tension returned by the backrest (1.06 %, docs/guides/fidelity.md)",
           cut_hz=HEALD_MODES_HZ["x"][0], sources=_HEALD),
     Level("heald_frame_planar", "heald frame",
           leaves_out=("horizontal (out-of-plane) slat bending x2: no clearance to the "
@@ -79,9 +79,9 @@ LEVELS: dict[str, Level] = {lv.model: lv for lv in (
           represents=("vertical slat bending y2 and the y modes (70.0 ... 175.0 Hz)",
                       "hinge load N_rem with the slats' elastic part",
                       "warp elongation and tension"),
-          cost="0.91 x the spatial model's wall time (docs/heald_fidelity.md)",
+          cost="0.91 x the spatial model's wall time (docs/guides/heald_fidelity.md)",
           suffices="N_rem and y2 within 2e-9 of range for k_z 1 ... 5; x2 exactly zero "
-                   "for the symmetric frame k_z = 1 (docs/heald_fidelity.md)",
+                   "for the symmetric frame k_z = 1 (docs/guides/heald_fidelity.md)",
           cut_hz=HEALD_MODES_HZ["x"][0], sources=_HEALD),
     Level("heald_frame", "heald frame",
           leaves_out=("the side stays' own bending (their section is assumed)",),
@@ -95,10 +95,10 @@ LEVELS: dict[str, Level] = {lv.model: lv for lv in (
           represents=("the lever's and roller's motion while slipping", "warp tensions "
                       "S1, S2", "the friction torque's magnitude in sliding"),
           cost="no events; cheaper when the pivots reverse often "
-               "(docs/backrest.md, 'Regularized vs event-driven')",
+               "(docs/guides/backrest.md, 'Regularized vs event-driven')",
           suffices="warp tension in a scene where the pivots slide throughout (fast loom, "
-                   "docs/scene_loom.md: the stick share falls with loom speed)",
-          leaves_out_stick=True, sources=("docs/backrest.md",)),
+                   "docs/guides/scene_loom.md: the stick share falls with loom speed)",
+          leaves_out_stick=True, sources=("docs/guides/backrest.md",)),
     Level("backrest", "backrest",
           leaves_out=("pivot friction other than Coulomb (no Stribeck, no viscous)",),
           represents=("stick/slip in both pivots as events (modes inside the FMU)",),
@@ -114,21 +114,21 @@ LEVELS: dict[str, Level] = {lv.model: lv for lv in (
                       "dropped modes to the unbalance (mode-acceleration method, "
                       "R = K^-1 - B (B^T K B)^-1 B^T)"),
           cost="4 modes 0.20, 8 modes 0.49, 12 modes 1.14 CPU s per simulated s against "
-               "3.36 for the full FE (docs/scene_spinning.md); static_correction adds "
+               "3.36 for the full FE (docs/guides/scene_spinning.md); static_correction adds "
                "no state: 4 modes 3.08 vs 3.11 CPU s/s without, full FE 34.9, in "
                "3-revolution fmpy runs incl. start-up "
                "(tests/test_spindle_static_correction.py)",
           suffices="the orbit of the blade's top at constant speed: 0.0 % with 4 modes; "
-                   "bearing forces need 12 (within 3 %) (docs/scene_spinning.md), or 4 "
+                   "bearing forces need 12 (within 3 %) (docs/guides/scene_spinning.md), or 4 "
                    "with static_correction=True: bolster -0.75 %, footstep -1.03 %, top "
                    "+0.01 % of the full FE amplitude at 16 000 rpm "
                    "(tests/test_spindle_static_correction.py)",
           sources=_SPINDLE),
     Level("spindle", "spindle rotor",
           leaves_out=("the cone and blade above the FE mesh's resolution (n_low, n_cone "
-                      "converged: docs/spindle.md)",),
+                      "converged: docs/guides/spindle.md)",),
           represents=("the full FE rotor of seed 003 with its film bearings",),
-          cost="3.36 CPU s per simulated s in the spinning scene (docs/scene_spinning.md)",
+          cost="3.36 CPU s per simulated s in the spinning scene (docs/guides/scene_spinning.md)",
           suffices="the highest level: the reference", sources=_SPINDLE),
     Level("drive", "spindle drive",
           leaves_out=("load torque of the spindles (no torque input: the coupling is one "

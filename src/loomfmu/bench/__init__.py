@@ -6,10 +6,10 @@
     loomfmu bench limit [--models heald_frame drive ...] [--solvers dopri5 rodas4]
 
 ``charts``: work-precision and failure charts for every model in
-:data:`loomfmu.bench.scenes.BENCH` (docs/bench/); ``speed`` and
-``friction``: the first two benchmarks (docs/speed.json, docs/friction.json);
+:data:`loomfmu.bench.scenes.BENCH` (docs/results/bench/); ``speed`` and
+``friction``: the first two benchmarks (docs/results/speed.json, docs/results/friction.json);
 ``limit``: each model at C level against its method's limit
-(docs/limit.json, docs/limit.md). ``loomfmu bench COMMAND --help``: a
+(docs/results/limit.json, docs/guides/limit.md). ``loomfmu bench COMMAND --help``: a
 command's options and their defaults.
 
 May import: every layer but the command line; the benchmark scripts in

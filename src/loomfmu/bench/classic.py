@@ -1,7 +1,7 @@
 """The first two benchmarks: ``speed`` (heald frame, FMU vs scipy at equal
 error) and ``friction`` (regularized vs event-driven backrest).
 
-    loomfmu bench speed [--model heald_frame] [--repeats 5] [--out docs/speed.json]
+    loomfmu bench speed [--model heald_frame] [--repeats 5] [--out docs/results/speed.json]
 
 ``speed``: the FMU through FMPy against scipy's ``solve_ivp`` with a Python
 right-hand side, compared at equal achieved accuracy.  Each method is run

@@ -148,27 +148,27 @@ def _parser(prog: str) -> tuple[argparse.ArgumentParser, dict]:
                         "instead of a local cluster (default: none, a local cluster)")
     c.add_argument("--readme", type=Path, default=None,
                    help="page whose marked bench section to rewrite (default: ./docs/speed.md "
-                        "when --out is docs/bench, full runs only)")
-    c.add_argument("--out", type=Path, default=Path("docs/bench"),
+                        "when --out is docs/results/bench, full runs only)")
+    c.add_argument("--out", type=Path, default=Path("docs/results/bench"),
                    help="output folder (default ./docs/bench)")
     s = _command(sub, "speed", "time at a target error of one model's FMU against scipy "
-                 "-> docs/speed.json")
+                 "-> docs/results/speed.json")
     s.add_argument("--model", default="heald_frame", help="the model (default heald_frame)")
     s.add_argument("--repeats", type=int, default=5,
                    help="timed runs per point, the median kept (>= 1; default 5)")
     s.add_argument("--scales", type=float, nargs="+", default=[1.0, 10.0],
                    help="scene lengths as multiples of the model's default experiment "
                         "(default 1 10)")
-    s.add_argument("--out", type=Path, default=Path("docs/speed.json"),
+    s.add_argument("--out", type=Path, default=Path("docs/results/speed.json"),
                    help="the JSON file (default ./docs/speed.json)")
     f = _command(sub, "friction", "backrest: regularized against event-driven friction, "
-                 "error and cost as eps shrinks -> docs/friction.json")
+                 "error and cost as eps shrinks -> docs/results/friction.json")
     f.add_argument("--repeats", type=int, default=5,
                    help="timed runs per point, the median kept (>= 1; default 5)")
-    f.add_argument("--out", type=Path, default=Path("docs/friction.json"),
+    f.add_argument("--out", type=Path, default=Path("docs/results/friction.json"),
                    help="the JSON file (default ./docs/friction.json)")
     lim = _command(sub, "limit", "each model's verification run at C level against its "
-                   "method's limit, FMPy beside it -> docs/limit.json, limit.md")
+                   "method's limit, FMPy beside it -> docs/results/limit.json, limit.md")
     lim.add_argument("--models", nargs="+", default=None, metavar="MODEL",
                      help="the models to run (default: every model of the registry)")
     lim.add_argument("--solvers", nargs="+", default=None, metavar="SOLVER",
@@ -218,9 +218,9 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
             return 2
     out = args.out
     readme = args.readme
-    if readme is None and not args.quick and out == Path("docs/bench") and \
-            Path("docs/speed.md").exists():
-        readme = Path("docs/speed.md")
+    if readme is None and not args.quick and out == Path("docs/results/bench") and \
+            Path("docs/guides/speed.md").exists():
+        readme = Path("docs/guides/speed.md")
     charts(args.models, quick=args.quick, out=out, readme=readme,
            failures_on=not args.no_failures, cmd="loomfmu bench charts" + (
                " --dask" if args.dask else ""),
@@ -242,10 +242,10 @@ def _main_limit(ap, args) -> int:
                            ("--fmpy-repeats", args.fmpy_repeats, 0)):
         if not lo <= value <= 64:
             ap.error(f"{opt} {value}: allowed {lo} ... 64")
-    out = args.out or Path("docs/limit.json")
+    out = args.out or Path("docs/results/limit.json")
     page = args.page
     if page is None and args.out is None:
-        page = Path("docs/limit.md")
+        page = Path("docs/guides/limit.md")
     cmd = "loomfmu bench limit" + (f" --models {' '.join(models)}" if args.models else "") + (
         f" --solvers {' '.join(solvers)}" if args.solvers else "")
 

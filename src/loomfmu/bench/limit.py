@@ -3,7 +3,7 @@ the limit of its method, with FMPy's time of the same run beside it.
 
     loomfmu bench limit [--models heald_frame drive ...] [--solvers dopri5 rodas4]
         [--repeats 5] [--best-of 5] [--fmpy-repeats 5]
-        [--out docs/limit.json] [--page docs/limit.md]
+        [--out docs/results/limit.json] [--page docs/guides/limit.md]
 
 For every model (:data:`loomfmu.registry.MODELS`) the FMU is built, its own
 ``sources/`` and ``limit_driver.c`` (next to this file) are compiled with gcc
@@ -15,7 +15,7 @@ Python and reads the solver's counters from the instance.  The limit
 steps it took: accepted steps x new stages per step x the best time of one
 right-hand side (+ one Jacobian per step for rodas4; + one history sample
 per step for a model that keeps a delay history).  Definitions and the
-table: docs/limit.md (written by the command).
+table: docs/guides/limit.md (written by the command).
 """
 from __future__ import annotations
 
@@ -26,6 +26,7 @@ import subprocess
 import tempfile
 import time
 import zipfile
+from importlib import metadata
 from pathlib import Path
 
 from loomfmu.declare.checks import check_int, check_name_list
@@ -342,7 +343,7 @@ def page_md(result: dict, cmd: str) -> str:
     lines = ["# The C-level benchmark: how far each run is from its limit", "",
              DEFINITION, "",
              f"**Table** (from `{cmd}`"
-             + (f" at commit {result['commit']}" if result.get("commit") else "")
+             + f" at loomfmu {metadata.version('loomfmu')}"
              + f", {result['wall_seconds'] / 60:.1f} min on this "
              f"machine, {result['cpus']} cores shared with other work: medians of "
              f"{result['repeats']} C runs and {result['fmpy_repeats']} FMPy runs, per-call "
@@ -350,12 +351,12 @@ def page_md(result: dict, cmd: str) -> str:
              "Summary: C run ÷ limit per solver, and the fastest run:", "", summary_md(rows),
              "", "Every run:", "", table_md(rows),
              f"{len(rows) - len(over)} of {len(rows)} runs are within 2× of their limit.",
-             "", f"Every number is in `docs/limit.json`. Regenerate: `{cmd}`.", ""]
+             "", f"Every number is in `docs/results/limit.json`. Regenerate: `{cmd}`.", ""]
     return "\n".join(lines)
 
 
 def write(result: dict, json_path: Path | None, page: Path | None, cmd: str) -> None:
-    """docs/limit.json and docs/limit.md (either may be None: not written)."""
+    """docs/results/limit.json and docs/guides/limit.md (either may be None: not written)."""
     if json_path is not None:
         json_path.parent.mkdir(parents=True, exist_ok=True)
         json_path.write_text(json.dumps({"command": cmd, **result}, indent=1, default=str))

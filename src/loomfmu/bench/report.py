@@ -1,4 +1,4 @@
-"""Charts, the CSV of every point, the speed table and docs/bench/summary.md.
+"""Charts, the CSV of every point, the speed table and docs/results/bench/summary.md.
 
 The speed table compares methods at one achieved error (:data:`TARGET`, the
 max-over-grid norm), never at equal tolerance: each method's time at that
@@ -128,7 +128,7 @@ def speed_table_md(table) -> str:
 
 
 READING = """\
-How to read the charts (`docs/bench/<model>_wp.png`): each line is one method swept
+How to read the charts (`docs/results/bench/<model>_wp.png`): each line is one method swept
 over its tolerances (rk4: over its fixed step); x is the achieved error, the
 worst key output's |y − y_ref| divided by that output's range in the
 reference — left panel the max over the communication grid, right panel at
@@ -167,15 +167,15 @@ def summary_md(table, verdicts: dict, infos: dict, cmd: str, wall: float) -> str
              "|---|---|---|---|"]
     lines += [f"| {m} | {', '.join(i['outputs'])} | {i['t_end']:g} s | {i['ref']} |"
               for m, i in infos.items()]
-    lines += ["", "**Where methods fail** (charts `docs/bench/<model>_<study>.png`):", ""]
+    lines += ["", "**Where methods fail** (charts `docs/results/bench/<model>_<study>.png`):", ""]
     lines += [f"* {v}" for v in verdicts.values()]
-    lines += ["", f"Every point is in `docs/bench/points.csv`. Regenerate: `{cmd}` "
+    lines += ["", f"Every point is in `docs/results/bench/points.csv`. Regenerate: `{cmd}` "
               "(`--quick` for a coarse sweep)."]
     return "\n".join(lines) + "\n"
 
 
 def update_readme(readme: Path, section: str) -> bool:
-    """Replace the text between the bench markers in a page (docs/speed.md), if present."""
+    """Replace the text between the bench markers in a page (docs/guides/speed.md), if present."""
     text = readme.read_text()
     pat = re.compile(r"(<!-- bench:start -->\n).*?(<!-- bench:end -->)", re.S)
     if not pat.search(text):

@@ -98,7 +98,7 @@ def cmd_list(args) -> int:
     for name, row in rows.items():
         opts = ", ".join(f"{k}={v!r}" for k, v in row["options"].items()) or "-"
         print(f"{name:<{wn}}{row['mechanism']:<{wm}}{opts}")
-    print("\nfidelity levels, lowest first (docs/fidelity.md):")
+    print("\nfidelity levels, lowest first (docs/guides/fidelity.md):")
     for mech, levels in FIDELITY.items():
         print(f"  {mech}: {' < '.join(levels)}")
         for name in levels:

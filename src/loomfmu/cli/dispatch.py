@@ -5,8 +5,8 @@
                                       (--fmi-version 2|3 --interface cs|me|both)
     loomfmu simulate MODEL|FMU        one run, printed, --csv / --plot
     loomfmu verify FMU                compare an FMU with its scipy reference
-    loomfmu docs                      docs/models/<model>.md from the declarations
-    loomfmu inspect MODEL | --all     derivation and equations, readable (docs/inspect)
+    loomfmu docs                      docs/reference/models/<model>.md from the declarations
+    loomfmu inspect MODEL | --all     derivation and equations, readable (docs/reference/inspect)
     loomfmu scene list|run|export     co-simulation scenes and SSP files
     loomfmu heald|drive|rotor|bench   the analyses (each has --help)
 
@@ -33,7 +33,7 @@ ANALYSES = {
     "drive": ("loomfmu.drive.__main__", "spindle drive: table | charts | tracking"),
     "rotor": ("loomfmu.spindle.__main__", "spindle rotor: calibrate | trends | charts | all | critical"),
     "bench": ("loomfmu.bench.cli", "benchmarks: charts | speed | friction | limit"),
-    "docs": ("loomfmu.inspection.model_pages", "docs/models/<model>.md from the declarations"),
+    "docs": ("loomfmu.inspection.model_pages", "docs/reference/models/<model>.md from the declarations"),
     "inspect": ("loomfmu.inspection.report",
                 "a model's derivation and equations as HTML (MathML), Markdown or LaTeX"),
     "scene": ("loomfmu.cli.scene", "co-simulation scenes: list | run | export | fidelity"),

@@ -1,5 +1,5 @@
 """loomfmu scene {list, run, export, fidelity}: co-simulation scenes
-(docs/scenes.md; fidelity: docs/fidelity.md).
+(docs/guides/scenes.md; fidelity: docs/guides/fidelity.md).
 
 Exit codes: 0 done; 1 the run failed (an FMU returned Error/Discard, the
 adaptive step fell below its minimum); 2 a usage error (one line).

@@ -12,15 +12,15 @@ from loomfmu.drive import report
 def main(argv=None, prog: str = "loomfmu drive") -> int:
     ap = argparse.ArgumentParser(prog=prog, description="Spindle-drive analyses.")
     sub = ap.add_subparsers(dest="cmd", required=True)
-    t = sub.add_parser("table", help="law constants, Fourier coefficients, cam -> docs/drive_law.md")
-    t.add_argument("--out", type=Path, default=Path("docs/drive_law.md"),
+    t = sub.add_parser("table", help="law constants, Fourier coefficients, cam -> docs/guides/drive_law.md")
+    t.add_argument("--out", type=Path, default=Path("docs/guides/drive_law.md"),
                    help="output file (default: ./docs/drive_law.md)")
-    c = sub.add_parser("charts", help="speed law, cam profile, error vs m -> docs/drive/*.png")
-    c.add_argument("--out-dir", type=Path, default=Path("docs/drive"),
+    c = sub.add_parser("charts", help="speed law, cam profile, error vs m -> docs/results/drive/*.png")
+    c.add_argument("--out-dir", type=Path, default=Path("docs/results/drive"),
                    help="output folder (default: ./docs/drive)")
     k = sub.add_parser("tracking", help="drive FMU with compensated / uncompensated cam "
-                       "-> docs/drive_tracking.md")
-    k.add_argument("--out", type=Path, default=Path("docs/drive_tracking.md"),
+                       "-> docs/guides/drive_tracking.md")
+    k.add_argument("--out", type=Path, default=Path("docs/guides/drive_tracking.md"),
                    help="output file (default: ./docs/drive_tracking.md)")
     args = ap.parse_args(argv)
     if args.cmd == "tracking":

@@ -1,7 +1,7 @@
 """Numbers and charts of the speed law and the cam (seed 001).
 
-``loomfmu drive table``  -> docs/drive_law.md
-``loomfmu drive charts`` -> docs/drive/*.png
+``loomfmu drive table``  -> docs/guides/drive_law.md
+``loomfmu drive charts`` -> docs/results/drive/*.png
 """
 from __future__ import annotations
 
@@ -65,7 +65,7 @@ def _md_table(header, rows) -> list[str]:
 
 
 def law_markdown(p: DriveParams | None = None) -> str:
-    """The text of docs/drive_law.md."""
+    """The text of docs/guides/drive_law.md."""
     p = DriveParams() if p is None else check_params(p)
     c = law_constants(p)
     t = _grid(p)

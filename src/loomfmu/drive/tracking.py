@@ -2,7 +2,7 @@
 by the uncompensated cam, tracking error of the spindle speed against the
 optimal law n0(t) after the transient, for several delays and time constants.
 
-    loomfmu drive tracking [--out docs/drive_tracking.md]
+    loomfmu drive tracking [--out docs/guides/drive_tracking.md]
 
 Each (tau, T) gets its own cam table (the compensated cam inverts the drive
 it is made for), set as FMU parameters at run time: one FMU, no rebuild.

@@ -5,7 +5,7 @@ are solved for the unknowns w = [der(x); z].  When F is linear in w (mass
 matrices, linear algebraic relations) the solution w = -A^{-1} F(0) is formed
 symbolically; a model whose equations are nonlinear in w is rejected here with
 a message that names the offending equations (the Newton path for nonlinear
-algebraic loops lives in the runtime; see the README's roadmap).
+algebraic loops lives in the runtime; see docs/guides/runtime.md).
 
 The result, :class:`OdeForm`, is shared by the C code generator and the scipy
 reference, so both integrate the very same expressions.

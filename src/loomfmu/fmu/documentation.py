@@ -569,7 +569,7 @@ def _integration(model: Model, md: ET.Element) -> tuple[str, str]:
 
 
 def _model_exchange(model: Model, md: ET.Element, *, both: bool) -> str:
-    """What a model-exchange importer must do (docs/runtime.md, Model exchange)."""
+    """What a model-exchange importer must do (docs/guides/runtime.md, Model exchange)."""
     f = lambda name: f"<code>{_e(_fn(md, name))}</code>"  # noqa: E731
     settings = ", ".join(f"<code>{_e(n)}</code>" for n in ("solver", *(s.name for s in SETTINGS)))
     items = [

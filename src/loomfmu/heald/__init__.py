@@ -10,13 +10,10 @@
   ``warp_tension="input"``): lockstep with the geometry tension, the
   defaults shared with the backrest, frames in opposition;
 
-    loomfmu heald claims     # docs/heald_claims.md
-    loomfmu heald fidelity   # docs/heald_fidelity.md
+    loomfmu heald claims     # docs/guides/heald_claims.md
+    loomfmu heald fidelity   # docs/guides/heald_fidelity.md
     loomfmu heald design --gap 0.004
-    loomfmu heald tension-input   # docs/heald_tension_input.md
-
-May import: every layer below the mechanism packages; not another
-mechanism's package.
+    loomfmu heald tension-input   # docs/guides/heald_tension_input.md
 """
 from loomfmu.heald.hinge import PHASES, hinge_load_kinetostatic, hinge_load_phases
 from loomfmu.mechanics.heald_presets import MAKERS, WIDTHS_CM, YARNS, preset_names, preset_values

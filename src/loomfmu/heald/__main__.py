@@ -15,11 +15,11 @@ from loomfmu.heald import claims as cl
 def main(argv=None, prog: str = "loomfmu heald") -> int:
     ap = argparse.ArgumentParser(prog=prog, description="Heald-frame analyses.")
     sub = ap.add_subparsers(dest="cmd", required=True)
-    c = sub.add_parser("claims", help="check the seeds' claims -> docs/heald_claims.md")
-    c.add_argument("--out", type=Path, default=Path("docs/heald_claims.md"),
+    c = sub.add_parser("claims", help="check the seeds' claims -> docs/guides/heald_claims.md")
+    c.add_argument("--out", type=Path, default=Path("docs/guides/heald_claims.md"),
                    help="output file (default: ./docs/heald_claims.md)")
-    f = sub.add_parser("fidelity", help="rigid/planar vs spatial -> docs/heald_fidelity.md")
-    f.add_argument("--out", type=Path, default=Path("docs/heald_fidelity.md"),
+    f = sub.add_parser("fidelity", help="rigid/planar vs spatial -> docs/guides/heald_fidelity.md")
+    f.add_argument("--out", type=Path, default=Path("docs/guides/heald_fidelity.md"),
                    help="output file (default: ./docs/heald_fidelity.md)")
     d = sub.add_parser("design", help="slat width b1 for a given gap to the next frame",
                        description="The smallest slat width b1 whose largest horizontal "
@@ -43,8 +43,8 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
     d.add_argument("--json", action="store_true", help="print the result as JSON")
     w = sub.add_parser("tension-input", help="the warp tension as an input: lockstep with "
                        "the geometry tension, shared defaults, the frame in opposition -> "
-                       "docs/heald_tension_input.md")
-    w.add_argument("--out", type=Path, default=Path("docs/heald_tension_input.md"),
+                       "docs/guides/heald_tension_input.md")
+    w.add_argument("--out", type=Path, default=Path("docs/guides/heald_tension_input.md"),
                    help="output file (default: ./docs/heald_tension_input.md)")
     args = ap.parse_args(argv)
     from loomfmu.progress import Progress

@@ -1,8 +1,8 @@
 """Seed 000/002 claims, natural frequencies, fidelity comparison and the
 slat-section design function of the heald frame.
 
-    loomfmu heald claims    -> docs/heald_claims.md
-    loomfmu heald fidelity  -> docs/heald_fidelity.md
+    loomfmu heald claims    -> docs/guides/heald_claims.md
+    loomfmu heald fidelity  -> docs/guides/heald_fidelity.md
     loomfmu heald design --gap 0.004
 """
 from __future__ import annotations

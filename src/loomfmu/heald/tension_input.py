@@ -1,5 +1,5 @@
 """The heald frame with the warp tension as an input (build option
-``warp_tension="input"``): the figures of docs/heald_tension_input.md.
+``warp_tension="input"``): the figures of docs/guides/heald_tension_input.md.
 
 * :func:`lockstep`: the geometry-tension FMU and the input-tension FMU run
   side by side, the input FMU's tension set at each communication point to
@@ -11,7 +11,7 @@
 * :func:`opposition`: the second frame of a plain weave is the same FMU
   started one revolution later (phi = 2 pi), and phi = pi is not it.
 
-    loomfmu heald tension-input        # docs/heald_tension_input.md
+    loomfmu heald tension-input        # docs/guides/heald_tension_input.md
 """
 from __future__ import annotations
 
@@ -134,7 +134,7 @@ def opposition(rigid_input_fmu) -> dict[str, float]:
 
 
 def markdown(errors, dflt, opp) -> str:
-    """docs/heald_tension_input.md."""
+    """docs/guides/heald_tension_input.md."""
     rows = "\n".join(f"| {dt:g} | " + " | ".join(f"{e[n]:.2e}" for n in SLATS) + " |"
                      for dt, e in errors.items())
     return f"""# Heald frame with the warp tension as an input

@@ -1,6 +1,6 @@
 """Write the documented variable tables from the declarations.
 
-    loomfmu docs [--out docs/models]
+    loomfmu docs [--out docs/reference/models]
 
 One Markdown file per model: parameters (value, unit, range, source),
 states, inputs, outputs, ports and event indicators -- generated, never
@@ -78,7 +78,7 @@ def _fidelity_section(name: str) -> list[str]:
     chain = next((lv for lv in FIDELITY.values() if name in lv), [name])
     out = ["## Fidelity level", "",
            f"Mechanism: {level.mechanism}; levels, lowest first: "
-           + " < ".join(f"`{n}`" for n in chain) + " ([docs/fidelity.md](../fidelity.md)).",
+           + " < ".join(f"`{n}`" for n in chain) + " ([docs/guides/fidelity.md](../../guides/fidelity.md)).",
            "", "Leaves out:", ""]
     out += [f"* {_cell(x)}" for x in level.leaves_out]
     out += ["", "Still represents:", ""]
@@ -89,7 +89,7 @@ def _fidelity_section(name: str) -> list[str]:
 
 def main(argv=None, prog: str = "loomfmu docs") -> int:
     ap = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=Path("docs/models"),
+    ap.add_argument("--out", type=Path, default=Path("docs/reference/models"),
                     help="output folder (default: ./docs/models)")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)

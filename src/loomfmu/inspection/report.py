@@ -326,7 +326,7 @@ def report(model, fmt: str = "html") -> str:
 
 
 #: where ``loomfmu inspect --all`` writes (the reports kept in the repository)
-ALL_OUT = Path("docs/inspect")
+ALL_OUT = Path("docs/reference/inspect")
 #: the formats ``--all`` writes unless --format says otherwise
 ALL_FORMATS = ("html", "md")
 

@@ -1,4 +1,4 @@
-"""Fidelity chosen per scene, measured (issue 15, item 2).
+"""Fidelity chosen per scene, measured.
 
 ``loomfmu scene fidelity SCENE --outputs comp.var,... --tol 0.01``: the
 scene is run with every combination of its components' levels (each a

@@ -1,6 +1,6 @@
 """The loom: a main shaft driving two heald frames in opposition (plain
 weave) whose shed stretches the warp, and the backrest (whip roll) taking
-up the warp and returning its tension to the frames (issue 13; seeds 000,
+up the warp and returning its tension to the frames (seeds 000,
 002, 004).
 
     shaft (loom_shaft) --frames -> shaft--> frame_a, frame_b (heald_frame*)
@@ -25,7 +25,7 @@ elongation (the tension is not returned).  Both frames stretch their ends
 by the same dl (dl is even in H), so the sheet's upper branch sees that
 elongation.
 
-The models' defaults agree (issue 13 found them apart): each frame carries
+The models' defaults agree: each frame carries
 n_n = 1000 ends and the backrest's sheet is both frames' ends, its S0 and
 c2 from the heald frame's tension law (models/backrest.py); the shaft turns
 at the backrest's loom speed, 240 picks/min (8 pi rad/s); the backrest's

@@ -1,5 +1,5 @@
 """The spinning position: the spindle drive with its layer cam feeding the
-spindle rotor (issue 13, seeds 001 and 003).
+spindle rotor (seeds 001 and 003).
 
     drive (models/drive.py)  --spindles -> drive-->  spindle (spindle_modal or spindle)
            n_out [rpm]                                 n_rpm [rpm]
@@ -10,7 +10,7 @@ spindle's unbalance response (vibration of the blade's top, forces of the
 bolster and footstep bearings) follows the speed.  The coupling is one way
 (the spindle's load torque is not fed back: the drive model has no torque
 input), so no master can make it unstable; the communication step sets the
-error only (docs/scene_spinning.md).
+error only (docs/guides/scene_spinning.md).
 
 The spindle starts on its periodic unbalance solution at the drive's start
 speed (loomfmu.spindle.start.periodic_start), so it does not ring.
@@ -49,7 +49,7 @@ def scene(*, cam: str = "compensated", fidelity: str = "spindle",
     law; "none": constant speed n_min); fidelity: the spindle model, one of
     FIDELITIES; stop_time, step (s): the defaults of a run (10 ms: the
     amplitudes and forces are within 0.4 % with any master; the vibration's
-    phase needs extrapolation order 2, docs/scene_spinning.md);
+    phase needs extrapolation order 2, docs/guides/scene_spinning.md);
     drive_parameters: parameter values of the drive FMU; n_const: a constant
     drive speed (rpm, 1000 ... 40000) instead of the cam's law (the cam
     switched off, cam_on = 0, and n_min = n_const); spindle_options: build

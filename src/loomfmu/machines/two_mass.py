@@ -5,7 +5,7 @@ Two masses on wall springs, coupled by a spring-damper, split into two FMUs
 x2, v2; output F, with direct feedthrough), "disp" holds mass 2 (input F;
 outputs x2, v2).  With each input held constant over a communication step H
 and each FMU integrating exactly, one step of a master is a linear map of
-z = (x1, v1, x2, v2) (derivation: docs/scenes.md):
+z = (x1, v1, x2, v2) (derivation: docs/guides/scenes.md):
 
     subsystem i:  z_i' = A_i z_i + B_i u_i,   over a step with u_i held:
                   z_i(t + H) = Phi_i z_i(t) + Gam_i u_i,

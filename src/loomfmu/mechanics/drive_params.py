@@ -1,7 +1,7 @@
 """Machine values of the spindle drive with pure delay (seed 001).
 
 The seed gives symbols only, no numbers: every default below is an
-assumption, taken from ``docs/seed_notes/drive_spec.md`` section 4 (with the range
+assumption, taken from ``docs/guides/seed_notes/drive_spec.md`` section 4 (with the range
 given there and its reason).  Internal units are SI with the spindle speed in
 rev/s; rpm appear only at the edges (:data:`RPM`).
 """

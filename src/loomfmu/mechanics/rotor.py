@@ -6,7 +6,7 @@ Coordinates.  The spin axis is z.  Every node carries four DOF, in the
 order ``(x, y, ax, ay)``: the translations and the slopes ax = dx/dz,
 ay = dy/dz.  With slopes (not rotation angles) both bending planes use the
 same element matrices, and the gyroscopic coupling of a disk spinning at
-+Omega about z reads (derivation in docs/spindle.md)::
++Omega about z reads (derivation in docs/guides/spindle.md)::
 
     x-plane, slope row:  Id ax'' + Ip Omega ay' = Q_ax
     y-plane, slope row:  Id ay'' - Ip Omega ax' = Q_ay
@@ -382,7 +382,7 @@ def film_layer_damping(eta, radii, l, c, delta0, form: str = "corrected") -> lis
     """The layers' film damping C^(i) of (5), one per turn:
     9.36 eta r_i^p l / (c^3 sum_{j<n} r_j) int_0^{pi/2} sin t cos t
     (1 - eps_i0 cos t)^-1.28 dt with p = 4 (form="corrected") or p = 3
-    (form="printed", unit Pa s; docs/spindle.md, defect S3)."""
+    (form="printed", unit Pa s; docs/guides/spindle.md, defect S3)."""
     if form not in ("corrected", "printed"):
         raise ValueError(f"form = {form!r}; allowed: 'corrected', 'printed'")
     eta, l = _num("eta", eta), _num("l", l)
@@ -409,7 +409,7 @@ def film_damping(eta, radii, l, c, delta0, form: str = "corrected"):
     form="printed": C^(i) = 9.36 eta r_i^3 l / (c^3 sum r) -- unit Pa s, not
     N s/m.  form="corrected" (default): r_i^4 in place of r_i^3, i.e. the
     long-damper term eta r^3 l / c^3 times the layer's share r_i / sum r,
-    as the share enters (4) (docs/spindle.md, defect S3).
+    as the share enters (4) (docs/guides/spindle.md, defect S3).
     """
     return series_sum(film_layer_damping(eta, radii, l, c, delta0, form))
 

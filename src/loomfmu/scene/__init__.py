@@ -1,6 +1,6 @@
 """Co-simulation scenes: FMUs declared and connected in Python, run on our
 master (Jacobi or Gauss-Seidel, fixed or adaptive communication steps) or
-exported as an SSP file for other engines.  See docs/scenes.md.
+exported as an SSP file for other engines.  See docs/guides/scenes.md.
 
 May import: declare, registry, export, verification, fmu.  A generic
 layer: it never imports a mechanism's content; the seeds' scenes live in

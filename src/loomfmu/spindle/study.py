@@ -1,8 +1,8 @@
 """Spindle studies (seed 003): calibration to the seed's natural frequencies,
 the amplitude-vs-speed table, section V's parameter trends, charts.
 
-    loomfmu rotor calibrate   # fit, write docs/spindle_calibration.md
-    loomfmu rotor trends      # write docs/spindle_trends.md + charts
+    loomfmu rotor calibrate   # fit, write docs/results/spindle_calibration.md
+    loomfmu rotor trends      # write docs/results/spindle_trends.md + charts
     loomfmu rotor charts      # Campbell, unbalance response, compliance
     loomfmu rotor all
 
@@ -29,7 +29,7 @@ from loomfmu.spindle.analysis import (
 )
 
 #: default output folders, relative to the working directory (``--out`` moves them)
-DOCS = Path("docs")
+DOCS = Path("docs/results")
 CHARTS = DOCS / "spindle"
 WORK_RPM = 16000.0
 #: seed 003, section V(一)1: first three natural frequencies (rpm) at 16 000 rpm
@@ -47,7 +47,7 @@ CAL_BOUNDS = {"E_t": (1.5e8, 5e10), "k_u": (1e4, 1e9), "k_f": (1e4, 1e9), "a_s":
               "m_b": (0.01, 0.1), "Id_b": (1e-5, 2e-3), "m_y": (0.02, 0.3),
               "Id_y": (1e-5, 4e-3), "m_p": (0.005, 0.3), "L_s": (0.05, 0.12)}
 #: the assumed values the search starts from and is pulled toward (typical
-#: D12-family spindle; docs/spindle.md); independent of the model's
+#: D12-family spindle; docs/guides/spindle.md); independent of the model's
 #: current (calibrated) defaults, so the command is repeatable
 PRIOR = {"E_t": 3.0e9, "k_u": 1.0e6, "k_f": 1.0e6, "a_s": 3.5e-4, "m_b": 0.030,
          "Id_b": 1.3e-4, "m_y": 0.075, "Id_y": 2.1e-4, "m_p": 0.030, "L_s": 0.072}

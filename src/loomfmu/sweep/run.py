@@ -1,6 +1,6 @@
 """Running a study: on dask.distributed, or as a plain serial loop.
 
-    result = run_study(study, out="docs/sweep/x.csv", workers=2)   # LocalCluster
+    result = run_study(study, out="docs/results/sweep/x.csv", workers=2)   # LocalCluster
     result = run_study(study, out=..., scheduler="tcp://host:8786") # any cluster
     rows = run_serial(study)                                       # the baseline
 
