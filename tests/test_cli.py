@@ -124,7 +124,7 @@ def test_cli_guide_command_table_names_every_subcommand():
     """The table of commands in docs/guides/cli.md lists each analysis'
     subcommands (its rows `loomfmu NAME a\\|b ...`, together), as the parser
     has them."""
-    from loomfmu.cli.main import ANALYSES
+    from loomfmu.cli.dispatch import ANALYSES
     readme = (Path(__file__).resolve().parents[1] / "docs" / "guides" / "cli.md").read_text()
     for name, (_, helptext) in ANALYSES.items():
         if " | " not in helptext:

@@ -182,12 +182,11 @@ def test_readme_model_example_builds_and_simulates(tmp_path, capsys):
 def test_readme_scene_example_runs(tmp_path, capsys):
     """The README's scene builds both two-mass FMUs, runs on Gauss-Seidel and
     prints both positions, close to the exact monolithic solution."""
-    import numpy as np
     from scipy.integrate import solve_ivp
     out = _run_example("A scene", tmp_path, capsys)
     m = re.search(r"x1\(2 s\) = (-?[\d.]+) m, x2\(2 s\) = (-?[\d.]+) m", out)
     assert m, out
-    from loomfmu.scene.two_mass import Params
+    from loomfmu.machines.two_mass import Params
     p = Params.declared()
 
     def rhs(t, z):
