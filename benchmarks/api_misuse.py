@@ -23,6 +23,7 @@ The test tests/test_api_validation.py runs the same table and asserts
 from __future__ import annotations
 
 import argparse
+import importlib
 import math
 import multiprocessing as mp
 import re
@@ -273,7 +274,7 @@ def cases() -> list[Case]:
         add(f"reference(input_steps={steps!r}, t_end=0.05)", arg,
             lambda fx, s=steps: _ref(fx, input_steps=s, t_end=0.05))
     add("reference('heald_frame')", "model",
-        lambda fx: __import__("loomfmu.verification.reference").reference.reference("heald_frame"))
+        lambda fx: importlib.import_module("loomfmu.verification.reference").reference("heald_frame"))
 
     # -- simulate, compare, verify -----------------------------------------------------
     for v in ("euler", "DOPRI5", 1):

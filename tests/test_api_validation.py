@@ -17,6 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.slow  # its fixture builds the heald frame FMU
+
 from loomfmu import load_model
 from loomfmu.declare.checks import (
     check_array,
