@@ -49,6 +49,8 @@ def run(fmu: Path) -> np.ndarray:
 
 def state_size(fmu: Path) -> int:
     """Bytes of the serialized FMU state right after initialization."""
+    from ctypes import byref, c_size_t
+
     from fmpy import extract, read_model_description
     md = read_model_description(str(fmu))
     unzipdir = extract(str(fmu))
@@ -67,8 +69,8 @@ def state_size(fmu: Path) -> int:
             inst.enterInitializationMode(startTime=start)
             inst.exitInitializationMode()
             state = inst.getFMUState()
-            size = inst.serializedFMUStateSize(state) if hasattr(
-                inst, "serializedFMUStateSize") else len(inst.serializeFMUState(state))
+            size = c_size_t()
+            inst.fmi3SerializedFMUStateSize(inst.component, state, byref(size))
             inst.freeFMUState(state)
         else:
             from fmpy.fmi2 import FMU2Model, FMU2Slave
@@ -83,11 +85,12 @@ def state_size(fmu: Path) -> int:
             inst.enterInitializationMode()
             inst.exitInitializationMode()
             state = inst.getFMUstate()
-            size = int(inst.serializedFMUstateSize(state))
+            size = c_size_t()
+            inst.fmi2SerializedFMUstateSize(inst.component, state, byref(size))
             inst.freeFMUstate(state)
         inst.terminate()
         inst.freeInstance()
-        return int(size)
+        return int(size.value)
     finally:
         import shutil
         shutil.rmtree(unzipdir, ignore_errors=True)
