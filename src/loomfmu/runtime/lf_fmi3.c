@@ -161,6 +161,8 @@ LfInstance *lf_fmi3_new(const char *fn, F3Interface kind, fmi3String name, fmi3S
     return c;
 }
 
+void lf_fmi3_free_states(LfInstance *inst) { lf_blobs_free(inst, &ENV3(inst)->states); }
+
 /* Frees the instance and every FMU state it made.  A pointer that is not a
  * live instance (NULL, freed already) is ignored. */
 void fmi3FreeInstance(fmi3Instance c) {

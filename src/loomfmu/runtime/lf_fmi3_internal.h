@@ -112,7 +112,7 @@ fmi3Status lf_fmi3_me_update_discrete_states(LfInstance *inst, fmi3Boolean *need
  * getters of values computed at that point check it first. */
 LfStatus lf_fmi3_me_delays_known(LfInstance *inst, const char *fn);
 
-/* lf_fmi3_state.c */
+/* lf_fmi3.c: frees the FMU states the instance made */
 void lf_fmi3_free_states(LfInstance *inst);
 
 #define CHECK3(fn, mask)                                                             \

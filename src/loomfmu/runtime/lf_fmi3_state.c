@@ -2,6 +2,10 @@
  * on the version-independent operations of lf_facade_ops.h (blobs of the
  * runtime's state format in the instance's list).
  *
+ * The states an instance made are freed with it (lf_fmi3.c's
+ * lf_fmi3_free_states, as in FMI 2.0), so that this file only calls down
+ * into the facade's checks and the operations.
+ *
  * The facade's mode (event, step or continuous-time mode) is not part of a
  * state: fmi3SetFMUState restores the model's values and the solver, and a
  * running instance stays in its mode. */
@@ -15,8 +19,6 @@
 #define STATE_STATES (F3_INSTANTIATED | F3_INIT | F3_RUNNING | F3_TERMINATED)
 #define RESTORE_STATES (STATE_STATES | F3_ERROR)
 #define LIST(c) (&ENV3((LfInstance *)(c))->states)
-
-void lf_fmi3_free_states(LfInstance *inst) { lf_blobs_free(inst, LIST(inst)); }
 
 static fmi3Status status(LfStatus st) { return st == LF_OK ? fmi3OK : fmi3Error; }
 
