@@ -26,11 +26,8 @@ MAX_LINES = 600
 
 #: Files that may call each other (each a unit of one concern, documented
 #: as such in docs/runtime.md and in the files' headers).
-UNITS: tuple[frozenset[str], ...] = (
-    # the step loop and event handling: a step's events are located and
-    # crossed inside the loop, and crossing one redoes part of the step
-    frozenset({"lf_step.c", "lf_events.c"}),
-)
+#: None today: the runtime's files are layered (docs/runtime.md).
+UNITS: tuple[frozenset[str], ...] = ()
 
 # a global definition at file scope (the runtime's style: column 0, not
 # static), as runtime_files.RUNTIME_SYMBOLS reads them
@@ -124,20 +121,20 @@ def _direct_references(text: str) -> set[str]:
     return used
 
 
-def _inline_bodies(text: str) -> str:
-    """The static inline functions of a header (their bodies refer to
-    symbols on behalf of every file that includes the header)."""
-    out = []
-    for m in re.finditer(r"^static\s+inline\b", text, re.M):
-        i = text.find("{", m.end())
+def _inline_functions(text: str) -> dict[str, str]:
+    """The static inline functions of a header by name, with their bodies
+    (they refer to symbols on behalf of the files that call them)."""
+    out = {}
+    for m in re.finditer(r"^static\s+inline\b[^{;]*?\b(\w+)\s*\([^{;]*\{", text, re.M):
+        i = m.end() - 1
         depth = 0
         for j in range(i, len(text)):
             depth += text[j] == "{"
             depth -= text[j] == "}"
             if depth == 0:
-                out.append(text[m.start():j + 1])
+                out[m.group(1)] = text[i:j + 1]
                 break
-    return "\n".join(out)
+    return out
 
 
 def dependencies(runtime_dir: Path) -> dict[str, set[str]]:
@@ -165,11 +162,20 @@ def dependencies(runtime_dir: Path) -> dict[str, set[str]]:
             continue
         included = headers(name, set())
         macros = _macros(raw[name])
+        inline: dict[str, str] = {}
         for h in included:
             macros.update(_macros(raw[h]))
+            inline.update(_inline_functions(stripped[h]))
+        # the header's inline functions count where they are used
+        used = set(re.findall(r"\b\w+\b", stripped[name])) & set(inline)
+        todo = set(used)
+        while todo:
+            more = set(re.findall(r"\b\w+\b", inline[todo.pop()])) & set(inline)
+            todo |= more - used
+            used |= more
         refs = _references(stripped[name], macros)
-        for h in included:
-            refs |= _references(_inline_bodies(stripped[h]), macros)
+        for f in used:
+            refs |= _references(inline[f], macros)
         deps[name] = {owner[s] for s in refs if s in owner and owner[s] != name}
     return deps
 
@@ -256,6 +262,8 @@ def test_the_check_sees_a_cycle(tmp_path):
     (tmp_path / "lf_b.c").write_text("int lf_b(void) {\n    return lf_c() + 1;\n}\n")
     (tmp_path / "lf_c.c").write_text('#include "lf_c.h"\nint lf_c(void) {\n    return 2;\n}\n'
                                      "int lf_c2(void) {\n    return lf_d();\n}\n")
+    # a header's inline function counts only in the files that call it
+    (tmp_path / "lf_g.c").write_text('#include "lf_c.h"\nint lf_g(void) {\n    return 3;\n}\n')
     (tmp_path / "lf_c.h").write_text("int lf_a(void);\nstatic inline int lf_d(void) "
                                      "{ return lf_a(); }\n")
     (tmp_path / "lf_e.c").write_text('#include "lf_e.h"\nint lf_e(void) {\n    return 0;\n}\n')
@@ -264,7 +272,7 @@ def test_the_check_sees_a_cycle(tmp_path):
                                      "int lf_g(void) {\n    return lf_e() + CALL_F();\n}\n")
     deps = dependencies(tmp_path)
     assert deps == {"lf_a.c": {"lf_b.c"}, "lf_b.c": {"lf_c.c"}, "lf_c.c": {"lf_a.c"},
-                    "lf_e.c": set(), "lf_f.c": {"lf_e.c"}}
+                    "lf_e.c": set(), "lf_f.c": {"lf_e.c"}, "lf_g.c": set()}
     assert cycles(deps) == [["lf_a.c", "lf_b.c", "lf_c.c"]]
     (tmp_path / "lf_e.c").write_text('#include "lf_e.h"\nint lf_e(void) {\n    return CALL_F();\n}\n')
     assert sorted(cycles(dependencies(tmp_path))) == [["lf_a.c", "lf_b.c", "lf_c.c"],

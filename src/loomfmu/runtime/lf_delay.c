@@ -1,127 +1,13 @@
 /* loomfmu shared runtime: delays.  Per delayed expression a ring of
  * accepted samples (t, g, dg/dt), Hermite-interpolated, and the breakpoints
- * where a jump of the history reaches the equations. */
+ * where a jump of the history reaches the equations.  This file writes the
+ * history (samples at accepted steps, refined until the interpolant matches
+ * the dense output); reading it, the delayed values at t, is lf_eval.c's. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "lf_internal.h"
-
-/* ---- delays: history of the delayed expressions ----------------------- */
-
-#define HT(c, k, i) (c)->hist[(((size_t)(k) * LF_HIST_CAP + (size_t)(((c)->hist_start[k] + (i)) % LF_HIST_CAP)) * 3)]
-#define HG(c, k, i) (&HT(c, k, i))[1]
-#define HD(c, k, i) (&HT(c, k, i))[2]
-
-/* g_k at time s from the history: constant before the first sample, the
- * last sample's Taylor line after it (not reached with steps <= tau), else
- * cubic Hermite (or linear) between the samples around s.  At a jump (two
- * samples at one time) `left` selects the value before it (the earlier
- * sample), otherwise the value after it.  s = t - tau is known to rounding
- * only (t_jump + tau - tau need not be t_jump): samples within `eps` of s
- * count as at s.  (Elsewhere the choice is immaterial: the interpolant is
- * continuous at a sample.)  *rate: the interpolant's time derivative at s,
- * dg/dt there, which Rosenbrock methods need in df/dt. */
-/* Is sample i of delay k before s (left: t_i < s - eps; else t_i <= s + eps)? */
-static int sample_before(const LfInstance *c, int k, long i, double s, int left, double eps) {
-    return left ? HT(c, k, i) < s - eps : HT(c, k, i) <= s + eps;
-}
-
-/* The last sample before s (sample_before), or -1.  The queries of one
- * step move forward through the ring: the search starts at the previous
- * answer (c->hist_cursor[k]) and its neighbours, then bisects. */
-static long hist_find(LfInstance *c, int k, double s, int left, double eps) {
-    long lo = -1, hi = c->hist_count[k], cur = c->hist_cursor[k];
-    if (cur >= 0 && cur < hi && sample_before(c, k, cur, s, left, eps)) {
-        if (cur + 1 == hi || !sample_before(c, k, cur + 1, s, left, eps)) return cur;
-        if (cur + 2 == hi || !sample_before(c, k, cur + 2, s, left, eps)) {
-            c->hist_cursor[k] = cur + 1;
-            return cur + 1;
-        }
-        lo = cur + 1;
-    } else if (cur >= 0 && cur < hi) {
-        hi = cur;
-    }
-    while (hi - lo > 1) {
-        long mid = (lo + hi) / 2;
-        if (sample_before(c, k, mid, s, left, eps)) lo = mid;
-        else hi = mid;
-    }
-    c->hist_cursor[k] = lo;
-    return lo;
-}
-
-/* (rate NULL: the slope is not needed, as in every call but Rosenbrock's
- * df/dt, and is not computed) */
-static double hist_interp(LfInstance *c, int k, double s, int left, double eps,
-                          double *rate) {
-    long lo = hist_find(c, k, s, left, eps), hi, n = c->hist_count[k];
-    double t0, t1, h, th, th2, th3, g0, g1, d0, d1;
-    if (lo < 0) {
-        if (rate) *rate = 0.0;
-        return HG(c, k, 0);
-    }
-    if (lo == n - 1) {
-        if (rate) *rate = HD(c, k, n - 1);
-        return HG(c, k, n - 1) + HD(c, k, n - 1) * (s - HT(c, k, n - 1));
-    }
-    hi = lo + 1;
-    t0 = HT(c, k, lo);
-    t1 = HT(c, k, hi);
-    g0 = HG(c, k, lo);
-    g1 = HG(c, k, hi);
-    d0 = HD(c, k, lo);
-    d1 = HD(c, k, hi);
-    h = t1 - t0;
-    th = (s - t0) / h;
-    if (c->delay_interp == LF_DELAY_LINEAR) {
-        if (rate) *rate = (g1 - g0) / h;
-        return g0 + (g1 - g0) * th;
-    }
-    th2 = th * th;
-    th3 = th2 * th;
-    if (rate)
-        *rate = ((6 * th2 - 6 * th) * (g0 - g1) / h + (3 * th2 - 4 * th + 1) * d0 +
-                 (3 * th2 - 2 * th) * d1);
-    return (2 * th3 - 3 * th2 + 1) * g0 + (th3 - 2 * th2 + th) * h * d0 + (3 * th2 - 2 * th3) * g1 +
-           (th3 - th2) * h * d1;
-}
-
-/* The delayed values at t (and, if rate != NULL, their time derivatives
- * for delays > 0).  Steps end at every breakpoint t_jump + tau and the
- * solver restarts there.  The stages of the step ending at a breakpoint
- * that run at its end take the value before the jump; the restarted solver
- * (t = its last accepted point) takes the value after it.  Only there is
- * s = t - tau taken as equal to a sample within rounding. */
-static LfStatus delayed(LfInstance *c, double t, const double *x, double *rate) {
-    double g[LF_DIM(2 * LF_ND)], r;
-    int k, need_now = 0, left = c->solver_ready && t > c->solver.t && t >= c->t_bp_step;
-    double eps = (left || (c->solver_ready && t == c->solver.t))
-                     ? 8 * LF_EPS * (fabs(t) > 1.0 ? fabs(t) : 1.0) /* fmax, inline */
-                     : 0.0;
-    for (k = 0; k < LF_ND; k++)
-        if (c->tau[k] == 0 || c->hist_count[k] == 0) need_now = 1;
-    if (need_now) { /* zero delay, or no history yet: the value now */
-        c->arg[6] = c->dval;
-        if (lf_eval_fn(c, LF_FN_HIST, t, x, c->w_cur, g, &g[LF_ND], NULL) != LF_OK) return LF_ERROR;
-    }
-    for (k = 0; k < LF_ND; k++) {
-        r = 0.0;
-        c->dval[k] = (c->tau[k] == 0 || c->hist_count[k] == 0)
-                         ? g[k]
-                         : hist_interp(c, k, t - c->tau[k], left, eps, rate ? &r : NULL);
-        if (rate) rate[k] = r;
-    }
-    return LF_OK;
-}
-
-LfStatus lf_delayed_values(LfInstance *c, double t, const double *x) {
-    return delayed(c, t, x, NULL);
-}
-
-LfStatus lf_delayed_rates(LfInstance *c, double t, const double *x, double *rate) {
-    return delayed(c, t, x, rate);
-}
 
 /* Room for the breakpoints t + tau_k of a jump of the history at t (one per
  * delay > 0, those already pending not counted).  The breakpoints passed
@@ -202,8 +88,8 @@ static void history_full(LfInstance *c, int k, double t) {
            "t = %.17g: history of delay %s is full: the equations read back to t - tau = "
            "%.17g, and the %d samples it holds (the most it can) start at t = %.17g, %g s "
            "apart on average; the steps are too short for tau = %g s (%s)", t,
-           lf_model.delay_names[k], t - c->tau[k], LF_HIST_CAP, HT(c, k, 0),
-           (t - HT(c, k, 0)) / (LF_HIST_CAP - 1), c->tau[k], advice);
+           lf_model.delay_names[k], t - c->tau[k], LF_HIST_CAP, LF_HT(c, k, 0),
+           (t - LF_HT(c, k, 0)) / (LF_HIST_CAP - 1), c->tau[k], advice);
 }
 
 /* Append (t, g, dg/dt) at an accepted point; `jump`: the history is
@@ -218,7 +104,7 @@ static LfStatus hist_append(LfInstance *c, double t, const double *g, int jump) 
          * the interpolation, and samples within rounding of it (a jump) */
         double oldest_needed = t - c->tau[k] - 16 * LF_EPS * fmax(1.0, fabs(t));
         if (c->tau[k] == 0) continue; /* read at the current time, never from here */
-        while (c->hist_count[k] >= 2 && HT(c, k, 1) < oldest_needed) {
+        while (c->hist_count[k] >= 2 && LF_HT(c, k, 1) < oldest_needed) {
             c->hist_start[k] = (c->hist_start[k] + 1) % LF_HIST_CAP;
             c->hist_count[k]--;
             if (c->hist_cursor[k] > 0) c->hist_cursor[k]--;
@@ -227,9 +113,9 @@ static LfStatus hist_append(LfInstance *c, double t, const double *g, int jump) 
             history_full(c, k, t);
             return LF_DISCARD;
         }
-        HT(c, k, c->hist_count[k]) = t;
-        HG(c, k, c->hist_count[k]) = g[k];
-        HD(c, k, c->hist_count[k]) = g[LF_ND + k];
+        LF_HT(c, k, c->hist_count[k]) = t;
+        LF_HG(c, k, c->hist_count[k]) = g[k];
+        LF_HD(c, k, c->hist_count[k]) = g[LF_ND + k];
         c->hist_count[k]++;
         if (jump && c->tau[k] > 0) add_breakpoint(c, t + c->tau[k]);
     }
@@ -411,14 +297,14 @@ static int estimate_fine(const LfInstance *c, double ta, const double *ga, doubl
         double tp, thp, q, dq, r0, r1, m0, m1;
         if (c->tau[k] == 0) continue;
         if (n < 2) return 0;
-        tp = HT(c, k, n - 2); /* the sample at ta is n - 1 */
-        if (HT(c, k, n - 1) != ta || !(tp < ta) || ta - tp > LF_HIST_EST_RATIO * h || LF_HIST_EST_RATIO * (ta - tp) < h)
+        tp = LF_HT(c, k, n - 2); /* the sample at ta is n - 1 */
+        if (LF_HT(c, k, n - 1) != ta || !(tp < ta) || ta - tp > LF_HIST_EST_RATIO * h || LF_HIST_EST_RATIO * (ta - tp) < h)
             return 0;
         thp = (tp - ta) / h;
         q = thp * thp * (thp - 1) * (thp - 1);
         dq = 2 * thp * (thp - 1) * (2 * thp - 1);
-        r0 = HG(c, k, n - 2) - hermite(ga[k], ga[LF_ND + k], gb[k], gb[LF_ND + k], h, thp);
-        r1 = h * HD(c, k, n - 2) -
+        r0 = LF_HG(c, k, n - 2) - hermite(ga[k], ga[LF_ND + k], gb[k], gb[LF_ND + k], h, thp);
+        r1 = h * LF_HD(c, k, n - 2) -
              ((6 * thp * thp - 6 * thp) * (ga[k] - gb[k]) +
               h * ((3 * thp * thp - 4 * thp + 1) * ga[LF_ND + k] +
                    (3 * thp * thp - 2 * thp) * gb[LF_ND + k]));
@@ -478,9 +364,9 @@ static int stored_start(const LfInstance *c, double t_old, double *ga) {
         ga[k] = 0.0;
         ga[LF_ND + k] = 0.0;
         if (c->tau[k] == 0) continue;
-        if (n == 0 || HT(c, k, n - 1) != t_old) return 0;
-        ga[k] = HG(c, k, n - 1);
-        ga[LF_ND + k] = HD(c, k, n - 1);
+        if (n == 0 || LF_HT(c, k, n - 1) != t_old) return 0;
+        ga[k] = LF_HG(c, k, n - 1);
+        ga[LF_ND + k] = LF_HD(c, k, n - 1);
     }
     return 1;
 }

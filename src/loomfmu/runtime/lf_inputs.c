@@ -1,6 +1,6 @@
 /* loomfmu shared runtime: inputs interpolated inside the step (FMI 2.0
- * fmi2SetRealInputDerivatives, canInterpolateInputs) and the outputs' time
- * derivatives (fmi2GetRealOutputDerivatives, order 1).
+ * fmi2SetRealInputDerivatives, canInterpolateInputs); the outputs' time
+ * derivatives are lf_outputs.c's.  Calls only lf_base.c (logging).
  *
  * Input k is the polynomial
  *     u_k(t) = r[LF_VR_U0 + k] + u_d1[k] s + u_d2[k] s^2 / 2,  s = t - u_t0[k],
@@ -20,7 +20,6 @@
 #include <string.h>
 
 #include "lf_internal.h"
-#include "lf_linalg.h"
 
 #define LF_INPUT_ORDER_MAX 2
 
@@ -160,43 +159,3 @@ void lf_inputs_seen(LfInstance *c) {
     c->seen_t = c->t;
 }
 
-/* ---- output derivatives -------------------------------------------------- */
-
-/* The delayed values' time derivatives at (t, x): the history's slope at
- * t - tau, or for tau = 0 the total derivative of g now. */
-static LfStatus delayed_rates(LfInstance *c, double t, const double *x, const double *w) {
-    double g[LF_DIM(2 * LF_ND)];
-    int k;
-    if (LF_ND == 0) return LF_OK;
-    if (lf_delayed_rates(c, t, x, c->d_rate) != LF_OK) return LF_ERROR;
-    if (lf_eval_fn(c, LF_FN_HIST, t, x, w, g, &g[LF_ND], NULL) != LF_OK) return LF_ERROR;
-    for (k = 0; k < LF_ND; k++)
-        if (c->tau[k] == 0) c->d_rate[k] = g[LF_ND + k];
-    return LF_OK;
-}
-
-#define LF_NYZ LF_DIM(LF_NY + LF_NZ)
-
-LfStatus lf_output_derivative(LfInstance *c, unsigned vr, double *value) {
-    double rate[LF_NYZ], dydw[LF_IMPLICIT ? LF_NYZ * LF_DIM(LF_NW) : 1];
-    double wrate[LF_IMPLICIT ? LF_DIM(LF_NW) : 1], w[LF_DIM(LF_NW)];
-    const double *x = &c->r[LF_VR_X0];
-    int i = (int)vr - (int)LF_VR_Y0, j;
-    LfStatus st = lf_solve_w(c, c->t, x, w);
-    if (st == LF_OK) st = delayed_rates(c, c->t, x, w);
-    if (st == LF_OK)
-        st = lf_eval_fn(c, LF_FN_YDER, c->t, x, w, rate, dydw, wrate);
-    if (LF_IMPLICIT && st == LF_OK) {
-        st = lf_solve_dFdw(c, c->t, x, w, wrate);
-        for (j = 0; st == LF_OK && j < LF_NW; j++) rate[i] -= dydw[i + j * (LF_NY + LF_NZ)] * wrate[j];
-    }
-    memset(c->d_rate, 0, sizeof c->d_rate);
-    if (st != LF_OK || !isfinite(rate[i])) {
-        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: fmi2GetRealOutputDerivatives: the time "
-               "derivative of %s cannot be evaluated here (%s)", c->t, lf_model.real_names[vr],
-               st != LF_OK ? "model equations not solvable" : "not finite");
-        return LF_ERROR;
-    }
-    *value = rate[i];
-    return LF_OK;
-}

@@ -1,4 +1,7 @@
-/* loomfmu shared runtime: initialization and the co-simulation step loop.
+/* loomfmu shared runtime: initialization and the co-simulation step loop,
+ * the top of the runtime's layers: it calls the files below (events,
+ * validity, known breaks, delays, the unknowns, inputs, outputs, start
+ * values) and none of them calls it.
  *
  * Inputs are held constant over a communication step (zero-order hold), or
  * follow their polynomials where the importer set input derivatives
@@ -25,27 +28,6 @@ static LfStatus check_constraints(LfInstance *c) {
             ok = 0;
         }
     return ok ? LF_OK : LF_ERROR;
-}
-
-/* States declared with a start expression (e.g. a static equilibrium) start
- * there for the parameters actually set, unless the importer set them. */
-LfStatus lf_initial_states(LfInstance *c) {
-    double x0[LF_DIM(LF_NX)];
-    int i;
-    if (lf_eval_fn(c, LF_FN_INIT, c->t, &c->r[LF_VR_X0], c->w_cur, x0, NULL, NULL) != LF_OK) {
-        lf_log(c, LF_ERROR, LF_LOG_ERROR, "initial states cannot be evaluated");
-        return LF_ERROR;
-    }
-    for (i = 0; i < LF_NX; i++) {
-        if (c->x_set[i]) continue;
-        if (!isfinite(x0[i])) {
-            lf_log(c, LF_ERROR, LF_LOG_ERROR, "initial value of %s is %g for these parameters",
-                   lf_model.real_names[LF_VR_X0 + i], x0[i]);
-            return LF_ERROR;
-        }
-        c->r[LF_VR_X0 + i] = x0[i];
-    }
-    return LF_OK;
 }
 
 LfStatus lf_initialize(LfInstance *c) {

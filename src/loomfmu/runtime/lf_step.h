@@ -44,8 +44,9 @@ LfStatus lf_settle_inputs(LfInstance *c);
 
 /* The modes after the event of indicator k (-1: none, e.g. an input jump)
  * at (t, x), without a solver (model exchange): the event's own mode first,
- * then every mode made consistent (lf_events.c); x is updated with the
- * reinitialized states; *changed (may be NULL): a mode or a state changed.
+ * then every mode made consistent; x is updated with the
+ * reinitialized states; *changed (may be NULL): a mode or a state changed
+ * (lf_modes.c).
  * LF_ERROR (logged) if no value of some mode is consistent. */
 LfStatus lf_event_update(LfInstance *c, int k, double t, double *x, int *changed);
 
