@@ -11,19 +11,19 @@ void lf_log(LfInstance *c, LfStatus status, LfLogCategory cat, const char *fmt, 
     char buf[512];
     va_list ap;
     /* warnings, discards and errors are always reported; the rest on request */
-    if (!c || !c->log) return;
-    if (!c->log_on[cat] && cat != LF_LOG_ERROR && cat != LF_LOG_DISCARD &&
+    if (!c || !c->unsaved.log) return;
+    if (!c->unsaved.log_on[cat] && cat != LF_LOG_ERROR && cat != LF_LOG_DISCARD &&
         cat != LF_LOG_WARNING)
         return;
-    if (c->quiet && cat == LF_LOG_DISCARD) return;
+    if (c->unsaved.quiet && cat == LF_LOG_DISCARD) return;
     va_start(ap, fmt);
     vsnprintf(buf, sizeof buf, fmt, ap);
     va_end(ap);
-    c->log(c->log_env, c->name, status, lf_log_category_names[cat], buf);
+    c->unsaved.log(c->unsaved.log_env, c->unsaved.name, status, lf_log_category_names[cat], buf);
 }
 
 static void *work_calloc(LfInstance *c, size_t n, size_t size) {
-    return c->alloc.calloc(n > 0 ? n : 1, size);
+    return c->unsaved.alloc.calloc(n > 0 ? n : 1, size);
 }
 
 /* Size the CasADi work arrays for the largest of the generated functions. */
@@ -38,9 +38,9 @@ int lf_alloc_casadi_work(LfInstance *c) {
         if (i > n_iw) n_iw = i;
         if (w > n_w) n_w = w;
     }
-    c->arg = (const double **)work_calloc(c, (size_t)n_arg, sizeof(double *));
-    c->res = (double **)work_calloc(c, (size_t)n_res, sizeof(double *));
-    c->iw = (long long *)work_calloc(c, (size_t)n_iw, sizeof(long long));
-    c->w = (double *)work_calloc(c, (size_t)n_w, sizeof(double));
-    return c->arg && c->res && c->iw && c->w;
+    c->unsaved.arg = (const double **)work_calloc(c, (size_t)n_arg, sizeof(double *));
+    c->unsaved.res = (double **)work_calloc(c, (size_t)n_res, sizeof(double *));
+    c->unsaved.iw = (long long *)work_calloc(c, (size_t)n_iw, sizeof(long long));
+    c->unsaved.w = (double *)work_calloc(c, (size_t)n_w, sizeof(double));
+    return c->unsaved.arg && c->unsaved.res && c->unsaved.iw && c->unsaved.w;
 }

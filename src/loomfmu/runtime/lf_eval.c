@@ -15,18 +15,18 @@
 /* k := pre(p): the parameter-only subexpressions (parameter folding). */
 static LfStatus fold_parameters(LfInstance *c) {
     int i, bad;
-    for (i = 0; i < 10; i++) c->arg[i] = NULL; /* pre reads p only */
-    c->args_set = 0;
-    c->arg[4] = &c->r[LF_VR_P0];
-    c->res[0] = c->k;
-    if (lf_model.fn[LF_FN_PRE].eval(c->arg, c->res, c->iw, c->w, 0)) return LF_ERROR;
+    for (i = 0; i < 10; i++) c->unsaved.arg[i] = NULL; /* pre reads p only */
+    c->unsaved.args_set = 0;
+    c->unsaved.arg[4] = &c->val.r[LF_VR_P0];
+    c->unsaved.res[0] = c->unsaved.k;
+    if (lf_model.fn[LF_FN_PRE].eval(c->unsaved.arg, c->unsaved.res, c->unsaved.iw, c->unsaved.w, 0)) return LF_ERROR;
     /* a non-finite k is not an error by itself (e.g. a term of a branch not
      * taken); the functions that use it report their own non-finite results */
-    bad = lf_first_nonfinite(c->k, LF_NK);
+    bad = lf_first_nonfinite(c->unsaved.k, LF_NK);
     if (bad >= 0)
         lf_log(c, LF_OK, LF_LOG_SOLVER, "t = %.17g: parameter-only subexpression %d is %g",
-               c->t, bad, c->k[bad]);
-    c->k_stale = 0;
+               c->run.t, bad, c->unsaved.k[bad]);
+    c->unsaved.k_stale = 0;
     return LF_OK;
 }
 
@@ -37,32 +37,32 @@ static LfStatus fold_parameters(LfInstance *c) {
 LfStatus lf_eval_fn(LfInstance *c, int fn, double t, const double *x, const double *w,
                         double *out0, double *out1, double *out2) {
     const double *u, *u_rate;
-    if (LF_NK > 0 && c->k_stale && fold_parameters(c) != LF_OK) return LF_ERROR;
+    if (LF_NK > 0 && c->unsaved.k_stale && fold_parameters(c) != LF_OK) return LF_ERROR;
     if (LF_ND > 0 && fn != LF_FN_HIST && fn != LF_FN_TAU && lf_delayed_values(c, t, x) != LF_OK)
         return LF_ERROR;
-    if (!c->args_set) { /* the arguments at fixed places, once (fold_parameters clears them) */
-        c->arg[4] = &c->r[LF_VR_P0];
-        c->arg[5] = c->q;
-        c->arg[6] = c->dval;
-        c->arg[8] = c->d_rate;
-        c->arg[9] = c->k;
-        c->args_set = 1;
+    if (!c->unsaved.args_set) { /* the arguments at fixed places, once (fold_parameters clears them) */
+        c->unsaved.arg[4] = &c->val.r[LF_VR_P0];
+        c->unsaved.arg[5] = c->val.q;
+        c->unsaved.arg[6] = c->dl.dval;
+        c->unsaved.arg[8] = c->unsaved.d_rate;
+        c->unsaved.arg[9] = c->unsaved.k;
+        c->unsaved.args_set = 1;
     }
-    if (c->u_poly) {
+    if (c->unsaved.u_poly) {
         lf_inputs_at(c, t, &u, &u_rate);
     } else { /* held: lf_inputs_at's own answer, without the call */
-        u = &c->r[LF_VR_U0];
-        u_rate = c->u_zero;
+        u = &c->val.r[LF_VR_U0];
+        u_rate = c->unsaved.u_zero;
     }
-    c->arg[0] = &t;
-    c->arg[1] = x;
-    c->arg[2] = w;
-    c->arg[3] = u;
-    c->arg[7] = u_rate;
-    c->res[0] = out0; /* functions with fewer outputs do not read the rest */
-    c->res[1] = out1;
-    c->res[2] = out2;
-    return lf_function_of(fn)->eval(c->arg, c->res, c->iw, c->w, 0) ? LF_ERROR : LF_OK;
+    c->unsaved.arg[0] = &t;
+    c->unsaved.arg[1] = x;
+    c->unsaved.arg[2] = w;
+    c->unsaved.arg[3] = u;
+    c->unsaved.arg[7] = u_rate;
+    c->unsaved.res[0] = out0; /* functions with fewer outputs do not read the rest */
+    c->unsaved.res[1] = out1;
+    c->unsaved.res[2] = out2;
+    return lf_function_of(fn)->eval(c->unsaved.arg, c->unsaved.res, c->unsaved.iw, c->unsaved.w, 0) ? LF_ERROR : LF_OK;
 }
 
 /* ---- delayed values at t: the history lookup ----------------------------- */
@@ -83,13 +83,13 @@ static int sample_before(const LfInstance *c, int k, long i, double s, int left,
 
 /* The last sample before s (sample_before), or -1.  The queries of one
  * step move forward through the ring: the search starts at the previous
- * answer (c->hist_cursor[k]) and its neighbours, then bisects. */
+ * answer (c->unsaved.hist_cursor[k]) and its neighbours, then bisects. */
 static long hist_find(LfInstance *c, int k, double s, int left, double eps) {
-    long lo = -1, hi = c->hist_count[k], cur = c->hist_cursor[k];
+    long lo = -1, hi = c->dl.hist_count[k], cur = c->unsaved.hist_cursor[k];
     if (cur >= 0 && cur < hi && sample_before(c, k, cur, s, left, eps)) {
         if (cur + 1 == hi || !sample_before(c, k, cur + 1, s, left, eps)) return cur;
         if (cur + 2 == hi || !sample_before(c, k, cur + 2, s, left, eps)) {
-            c->hist_cursor[k] = cur + 1;
+            c->unsaved.hist_cursor[k] = cur + 1;
             return cur + 1;
         }
         lo = cur + 1;
@@ -101,7 +101,7 @@ static long hist_find(LfInstance *c, int k, double s, int left, double eps) {
         if (sample_before(c, k, mid, s, left, eps)) lo = mid;
         else hi = mid;
     }
-    c->hist_cursor[k] = lo;
+    c->unsaved.hist_cursor[k] = lo;
     return lo;
 }
 
@@ -109,7 +109,7 @@ static long hist_find(LfInstance *c, int k, double s, int left, double eps) {
  * df/dt, and is not computed) */
 static double hist_interp(LfInstance *c, int k, double s, int left, double eps,
                           double *rate) {
-    long lo = hist_find(c, k, s, left, eps), hi, n = c->hist_count[k];
+    long lo = hist_find(c, k, s, left, eps), hi, n = c->dl.hist_count[k];
     double t0, t1, h, th, th2, th3, g0, g1, d0, d1;
     if (lo < 0) {
         if (rate) *rate = 0.0;
@@ -128,7 +128,7 @@ static double hist_interp(LfInstance *c, int k, double s, int left, double eps,
     d1 = LF_HD(c, k, hi);
     h = t1 - t0;
     th = (s - t0) / h;
-    if (c->delay_interp == LF_DELAY_LINEAR) {
+    if (c->dl.delay_interp == LF_DELAY_LINEAR) {
         if (rate) *rate = (g1 - g0) / h;
         return g0 + (g1 - g0) * th;
     }
@@ -149,21 +149,21 @@ static double hist_interp(LfInstance *c, int k, double s, int left, double eps,
  * s = t - tau taken as equal to a sample within rounding. */
 static LfStatus delayed(LfInstance *c, double t, const double *x, double *rate) {
     double g[LF_DIM(2 * LF_ND)], r;
-    int k, need_now = 0, left = c->solver_ready && t > c->solver.t && t >= c->t_bp_step;
-    double eps = (left || (c->solver_ready && t == c->solver.t))
+    int k, need_now = 0, left = c->run.solver_ready && t > c->solver.t && t >= c->unsaved.t_bp_step;
+    double eps = (left || (c->run.solver_ready && t == c->solver.t))
                      ? 8 * LF_EPS * (fabs(t) > 1.0 ? fabs(t) : 1.0) /* fmax, inline */
                      : 0.0;
     for (k = 0; k < LF_ND; k++)
-        if (c->tau[k] == 0 || c->hist_count[k] == 0) need_now = 1;
+        if (c->dl.tau[k] == 0 || c->dl.hist_count[k] == 0) need_now = 1;
     if (need_now) { /* zero delay, or no history yet: the value now */
-        c->arg[6] = c->dval;
-        if (lf_eval_fn(c, LF_FN_HIST, t, x, c->w_cur, g, &g[LF_ND], NULL) != LF_OK) return LF_ERROR;
+        c->unsaved.arg[6] = c->dl.dval;
+        if (lf_eval_fn(c, LF_FN_HIST, t, x, c->val.w_cur, g, &g[LF_ND], NULL) != LF_OK) return LF_ERROR;
     }
     for (k = 0; k < LF_ND; k++) {
         r = 0.0;
-        c->dval[k] = (c->tau[k] == 0 || c->hist_count[k] == 0)
+        c->dl.dval[k] = (c->dl.tau[k] == 0 || c->dl.hist_count[k] == 0)
                          ? g[k]
-                         : hist_interp(c, k, t - c->tau[k], left, eps, rate ? &r : NULL);
+                         : hist_interp(c, k, t - c->dl.tau[k], left, eps, rate ? &r : NULL);
         if (rate) rate[k] = r;
     }
     return LF_OK;

@@ -62,7 +62,7 @@ typedef struct {
     LfBlob *states;          /* FMU states made by this instance, freed with it */
 } Fmi3Env;
 
-#define ENV3(inst) ((Fmi3Env *)(inst)->log_env)
+#define ENV3(inst) ((Fmi3Env *)(inst)->unsaved.log_env)
 
 /* lf_fmi3.c */
 /* The instance if `c` is a live FMI 3 instance of this FMU, else NULL

@@ -26,7 +26,7 @@
 
 #define LF_EPS 2.220446049250313e-16
 
-/* lf_base.c: size and allocate the CasADi work arrays (c->arg, res, iw, w)
+/* lf_base.c: size and allocate the CasADi work arrays (c->unsaved.arg, res, iw, w)
  * for the largest generated function; 0 if out of memory */
 int lf_alloc_casadi_work(LfInstance *c);
 
@@ -45,7 +45,7 @@ static inline const LfFunction *lf_function_of(int fn) {
 
 /* The history of delay k: sample i (0: the oldest kept) in the ring, its
  * time, value and slope (lf_delay.c writes it, lf_eval.c reads it) */
-#define LF_HT(c, k, i) (c)->hist[(((size_t)(k) * LF_HIST_CAP + (size_t)(((c)->hist_start[k] + (i)) % LF_HIST_CAP)) * 3)]
+#define LF_HT(c, k, i) (c)->dl.hist[(((size_t)(k) * LF_HIST_CAP + (size_t)(((c)->dl.hist_start[k] + (i)) % LF_HIST_CAP)) * 3)]
 #define LF_HG(c, k, i) (&LF_HT(c, k, i))[1]
 #define LF_HD(c, k, i) (&LF_HT(c, k, i))[2]
 
@@ -61,15 +61,15 @@ LfStatus lf_eval_fn(LfInstance *c, int fn, double t, const double *x, const doub
  * outputs past res[0] are not set: a function with one output reads none. */
 static inline LfStatus lf_eval_fn1(LfInstance *c, int fn, double t, const double *x,
                                    const double *w, double *out0) {
-    if (LF_ND > 0 || (LF_NK > 0 && c->k_stale) || !c->args_set || c->u_poly)
+    if (LF_ND > 0 || (LF_NK > 0 && c->unsaved.k_stale) || !c->unsaved.args_set || c->unsaved.u_poly)
         return lf_eval_fn(c, fn, t, x, w, out0, NULL, NULL);
-    c->arg[0] = &t;
-    c->arg[1] = x;
-    c->arg[2] = w;
-    c->arg[3] = &c->r[LF_VR_U0];
-    c->arg[7] = c->u_zero;
-    c->res[0] = out0;
-    return lf_model.fn[fn].eval(c->arg, c->res, c->iw, c->w, 0) ? LF_ERROR : LF_OK;
+    c->unsaved.arg[0] = &t;
+    c->unsaved.arg[1] = x;
+    c->unsaved.arg[2] = w;
+    c->unsaved.arg[3] = &c->val.r[LF_VR_U0];
+    c->unsaved.arg[7] = c->unsaved.u_zero;
+    c->unsaved.res[0] = out0;
+    return lf_model.fn[fn].eval(c->unsaved.arg, c->unsaved.res, c->unsaved.iw, c->unsaved.w, 0) ? LF_ERROR : LF_OK;
 }
 static inline int lf_first_nonfinite(const double *v, size_t n) {
     size_t i;
@@ -89,7 +89,7 @@ LfStatus lf_prepare_initial(LfInstance *c);
 LfStatus lf_solve_w(LfInstance *c, double t, const double *x, double *w);
 LfStatus lf_rhs(void *ctx, double t, const double *x, double *dx);
 
-/* lf_eval.c: the delayed values at t, from the history (c->dval) */
+/* lf_eval.c: the delayed values at t, from the history (c->dl.dval) */
 LfStatus lf_delayed_values(LfInstance *c, double t, const double *x);
 /* the same, and d/dt of each delayed value with tau > 0 (0 for tau = 0) */
 LfStatus lf_delayed_rates(LfInstance *c, double t, const double *x, double *rate);
@@ -111,16 +111,16 @@ LfStatus lf_initial_modes(LfInstance *c);
 /* lf_events.c: event location after a step. */
 LfStatus lf_handle_events(LfInstance *c);
 /* early return (lf_step.h): perform the event located and deferred by
- * lf_handle_events when c->stop_at_events is set (nothing pending: LF_OK) */
+ * lf_handle_events when c->unsaved.stop_at_events is set (nothing pending: LF_OK) */
 LfStatus lf_apply_pending_event(LfInstance *c, int *changed);
 /* lf_breaks.c: t_bound, or earlier: where the next step is to land, a
  * margin before the predicted zero of an indicator known ahead (sets
- * c->kb_index); lf_events.c: after a step that landed there, cross it as
+ * c->kb.index); lf_events.c: after a step that landed there, cross it as
  * an event (the gap may reach up to t_limit) */
 double lf_known_break(LfInstance *c, double t_bound);
 LfStatus lf_cross_known_break(LfInstance *c, double t_limit);
 /* lf_events.c: rule 2's bound on the next step, left pending after a step
- * the known-break scan vouched for (c->kb_sure == -INFINITY), taken from the
+ * the known-break scan vouched for (c->unsaved.kb_sure == -INFINITY), taken from the
  * last step's samples (every indicator predicted; lf_known_break) */
 LfStatus lf_event_bound_pending(LfInstance *c);
 /* Scanning a function of time between samples (event indicators, validity
@@ -160,9 +160,9 @@ int lf_inputs_moved(LfInstance *c);
  * lf_inputs_moved. */
 static inline int lf_inputs_still(const LfInstance *c) {
     int k;
-    if (c->u_poly) return 0;
+    if (c->unsaved.u_poly) return 0;
     for (k = 0; k < LF_NU; k++)
-        if (c->r[LF_VR_U0 + k] != c->seen_u[k] || c->seen_d1[k] != 0 || c->seen_d2[k] != 0)
+        if (c->val.r[LF_VR_U0 + k] != c->in.seen_u[k] || c->in.seen_d1[k] != 0 || c->in.seen_d2[k] != 0)
             return 0;
     return 1;
 }

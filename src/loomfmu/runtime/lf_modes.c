@@ -10,15 +10,15 @@
 #include "lf_wcache.h"
 
 LfStatus lf_eval_events(LfInstance *c, double t, const double *x, double *e) {
-    const double *w = c->w_tmp;
+    const double *w = c->unsaved.w_tmp;
     LfStatus st;
     if (LF_NE == 0) return LF_OK;
     /* (at a step's end: the solver's last stage solved w there, and w_cur
      * holds it, lf_wcache.h; read there, without the copy a solve makes) */
-    if (LF_WK_USED && c->wc_on && lf_wk_take(c, t, x, c->w_cur)) {
-        w = c->w_cur;
+    if (LF_WK_USED && c->unsaved.wc_on && lf_wk_take(c, t, x, c->val.w_cur)) {
+        w = c->val.w_cur;
     } else {
-        st = lf_solve_w(c, t, x, c->w_tmp);
+        st = lf_solve_w(c, t, x, c->unsaved.w_tmp);
         if (st != LF_OK) return st;
     }
     if (lf_eval_fn1(c, LF_FN_EVT, t, x, w, e) != LF_OK ||
@@ -33,30 +33,30 @@ LfStatus lf_eval_events(LfInstance *c, double t, const double *x, double *e) {
  * priority order, that is consistent (validity >= 0) once the states are
  * reinitialized for it.  x is updated with the reinitialized states. */
 static LfStatus choose_mode(LfInstance *c, int k, double t, double *x) {
-    double old = c->q[k], x_try[LF_DIM(LF_NX)], valid[LF_DIM(LF_NQ)];
+    double old = c->val.q[k], x_try[LF_DIM(LF_NX)], valid[LF_DIM(LF_NQ)];
     int j;
     for (j = lf_model.mode_value_offset[k]; j < lf_model.mode_value_offset[k + 1]; j++) {
         LfStatus st;
-        c->q[k] = lf_model.mode_values[j];
-        c->wc_gen++; /* solves of another mode (lf_wcache.h) */
-        if (lf_eval_fn(c, LF_FN_REINIT, t, x, c->w_cur, x_try, NULL, NULL) != LF_OK)
+        c->val.q[k] = lf_model.mode_values[j];
+        c->unsaved.wc_gen++; /* solves of another mode (lf_wcache.h) */
+        if (lf_eval_fn(c, LF_FN_REINIT, t, x, c->val.w_cur, x_try, NULL, NULL) != LF_OK)
             return LF_ERROR;
-        c->quiet++;
-        st = lf_solve_w(c, t, x_try, c->w_tmp);
-        c->quiet--;
+        c->unsaved.quiet++;
+        st = lf_solve_w(c, t, x_try, c->unsaved.w_tmp);
+        c->unsaved.quiet--;
         if (st != LF_OK) continue; /* cannot be solved in this mode */
-        if (lf_eval_fn(c, LF_FN_VALID, t, x_try, c->w_tmp, valid, NULL, NULL) != LF_OK)
+        if (lf_eval_fn(c, LF_FN_VALID, t, x_try, c->unsaved.w_tmp, valid, NULL, NULL) != LF_OK)
             return LF_ERROR;
         if (valid[k] >= 0) {
             memcpy(x, x_try, sizeof(double) * LF_NX);
-            if (c->q[k] != old)
+            if (c->val.q[k] != old)
                 lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: mode %s: %g -> %g", t,
-                       lf_model.mode_names[k], old, c->q[k]);
+                       lf_model.mode_names[k], old, c->val.q[k]);
             return LF_OK;
         }
     }
-    c->q[k] = old;
-    c->wc_gen++;
+    c->val.q[k] = old;
+    c->unsaved.wc_gen++;
     /* a point the model cannot go on from (an input or a state far outside
      * what the model was made for): the step is not done, the caller puts
      * the modes back (Discard; at the start of the simulation an Error) */
@@ -87,20 +87,20 @@ LfStatus lf_consistent_modes(LfInstance *c, double t, double *x, int touched) {
     for (round = 0; LF_NQ > 0; round++) {
         int changed = 0;
         for (k = 0; k < LF_NQ; k++) {
-            double old = c->q[k];
+            double old = c->val.q[k];
             if (!chosen[k]) {
-                c->quiet++;
-                st = lf_solve_w(c, t, x, c->w_tmp);
-                c->quiet--;
+                c->unsaved.quiet++;
+                st = lf_solve_w(c, t, x, c->unsaved.w_tmp);
+                c->unsaved.quiet--;
                 if (st == LF_OK &&
-                    lf_eval_fn(c, LF_FN_VALID, t, x, c->w_tmp, valid, NULL, NULL) == LF_OK &&
+                    lf_eval_fn(c, LF_FN_VALID, t, x, c->unsaved.w_tmp, valid, NULL, NULL) == LF_OK &&
                     valid[k] >= 0)
                     continue;
             }
             st = choose_mode(c, k, t, x);
             if (st != LF_OK) return st;
             chosen[k] = 1;
-            if (c->q[k] != old) changed = 1;
+            if (c->val.q[k] != old) changed = 1;
         }
         if (!changed) break;
         if (round == LF_MODE_ROUNDS) {
@@ -118,9 +118,9 @@ LfStatus lf_consistent_modes(LfInstance *c, double t, double *x, int touched) {
  * start values each time makes the result independent of earlier reads. */
 LfStatus lf_initial_modes(LfInstance *c) {
     int k;
-    for (k = 0; k < LF_NQ; k++) c->q[k] = lf_model.mode_start[k];
-    c->wc_gen++;
-    return lf_consistent_modes(c, c->t, &c->r[LF_VR_X0], -1);
+    for (k = 0; k < LF_NQ; k++) c->val.q[k] = lf_model.mode_start[k];
+    c->unsaved.wc_gen++;
+    return lf_consistent_modes(c, c->run.t, &c->val.r[LF_VR_X0], -1);
 }
 
 /* The modes after event k at (t, x) without a solver: the event's own mode
@@ -131,7 +131,7 @@ LfStatus lf_event_update(LfInstance *c, int k, double t, double *x, int *changed
     double q0[LF_DIM(LF_NQ)], x0[LF_DIM(LF_NX)];
     int touched = k >= 0 && k < LF_NE ? lf_model.event_mode[k] : -1;
     LfStatus st;
-    memcpy(q0, c->q, sizeof q0);
+    memcpy(q0, c->val.q, sizeof q0);
     memcpy(x0, x, sizeof(double) * LF_NX);
     if (changed) *changed = 0;
     if (LF_NQ == 0) return LF_OK;
@@ -139,13 +139,13 @@ LfStatus lf_event_update(LfInstance *c, int k, double t, double *x, int *changed
     else st = LF_OK;
     if (st == LF_OK) st = lf_consistent_modes(c, t, x, touched);
     if (st != LF_OK) { /* the modes and states as they were */
-        memcpy(c->q, q0, sizeof q0);
+        memcpy(c->val.q, q0, sizeof q0);
         memcpy(x, x0, sizeof(double) * LF_NX);
-        c->wc_gen++;
+        c->unsaved.wc_gen++;
         return st;
     }
     if (changed)
-        *changed = memcmp(q0, c->q, sizeof(double) * LF_NQ) != 0 ||
+        *changed = memcmp(q0, c->val.q, sizeof(double) * LF_NQ) != 0 ||
                    memcmp(x0, x, sizeof(double) * LF_NX) != 0;
     return LF_OK;
 }
