@@ -52,8 +52,8 @@ static LfInstance *make(void) {
     alloc.free = cb_free;
     c = lf_instantiate("early_return", logger, NULL, alloc);
     if (!c) return NULL;
-    for (k = 0; k < LF_N_LOG; k++) c->log_on[k] = k == LF_LOG_EVENTS || k != LF_LOG_SOLVER;
-    c->state = LF_ST_INIT;
+    for (k = 0; k < LF_N_LOG; k++) c->unsaved.log_on[k] = k == LF_LOG_EVENTS || k != LF_LOG_SOLVER;
+    c->run.state = LF_ST_INIT;
     return c;
 }
 
@@ -73,8 +73,8 @@ static int set_value(LfInstance *c, const char *arg) {
 
 static void print_point(const LfInstance *c) {
     unsigned vr;
-    printf("t %.17g", c->t);
-    for (vr = 0; vr < LF_NREAL; vr++) printf(" %.17g", c->r[vr]);
+    printf("t %.17g", c->run.t);
+    for (vr = 0; vr < LF_NREAL; vr++) printf(" %.17g", c->val.r[vr]);
     printf("\n");
 }
 
@@ -85,7 +85,7 @@ static LfInstance *through_state(LfInstance *c) {
     unsigned char *buf = (unsigned char *)malloc(n);
     LfInstance *d = make();
     if (!buf || !d) return NULL;
-    d->stop_at_events = c->stop_at_events; /* configuration, not state */
+    d->unsaved.stop_at_events = c->unsaved.stop_at_events; /* configuration, not state */
     lf_state_write(c, buf);
     if (lf_state_read(d, buf, n) != LF_OK) {
         free(buf);
@@ -150,57 +150,57 @@ int main(int argc, char **argv) {
     if (!c) return fail("lf_instantiate failed", 0);
     for (a = 4; a < argc; a++)
         if (argv[a][0] != '@' && !set_value(c, argv[a])) return fail(argv[a], 0);
-    c->stop_at_events = strcmp(mode, "plain") != 0 && strcmp(mode, "quiet") != 0;
+    c->unsaved.stop_at_events = strcmp(mode, "plain") != 0 && strcmp(mode, "quiet") != 0;
     if (lf_initialize(c) != LF_OK) return fail("lf_initialize failed", 0);
-    c->state = LF_ST_STEP_COMPLETE;
+    c->run.state = LF_ST_STEP_COMPLETE;
     if (strcmp(mode, "quiet") != 0) print_point(c);
     n = (long)floor(t_end / h + 0.5);
-    for (i = 1, t = c->t; i <= n; i++) {
+    for (i = 1, t = c->run.t; i <= n; i++) {
         double t_next = i * h;
         for (a = 4; a < argc; a++) { /* inputs set during the run */
             const char *colon = strchr(argv[a], ':');
             int k;
-            if (argv[a][0] != '@' || !colon || atof(argv[a] + 1) > c->t + 1e-12 ||
-                atof(argv[a] + 1) <= c->t - h + 1e-12)
+            if (argv[a][0] != '@' || !colon || atof(argv[a] + 1) > c->run.t + 1e-12 ||
+                atof(argv[a] + 1) <= c->run.t - h + 1e-12)
                 continue;
-            if (!set_value(c, colon + 1)) return fail(argv[a], c->t);
+            if (!set_value(c, colon + 1)) return fail(argv[a], c->run.t);
             if (strcmp(mode, "settle") != 0) continue;
             if (lf_settle_inputs(c) != LF_OK || lf_update_outputs(c) != LF_OK)
-                return fail("lf_settle_inputs failed", c->t);
-            printf("settled %.17g", c->t);
-            for (k = 0; k < (int)LF_NREAL; k++) printf(" %.17g", c->r[k]);
-            for (k = 0; k < LF_NQ; k++) printf(" %g", c->q[k]);
+                return fail("lf_settle_inputs failed", c->run.t);
+            printf("settled %.17g", c->run.t);
+            for (k = 0; k < (int)LF_NREAL; k++) printf(" %.17g", c->val.r[k]);
+            for (k = 0; k < LF_NQ; k++) printf(" %g", c->val.q[k]);
             printf("\n");
         }
-        while (t_next - c->t > 1e-13 * fmax(1.0, fabs(t_next))) {
+        while (t_next - c->run.t > 1e-13 * fmax(1.0, fabs(t_next))) {
             int changed = -1;
-            LfStatus st = lf_do_step(c, c->t, t_next - c->t);
-            if (st != LF_OK) return fail("lf_do_step failed", c->t);
-            if (!c->event_pending) {
-                if (fabs(c->t - t_next) > 1e-13 * fmax(1.0, fabs(t_next)))
-                    return fail("step ended early with no event pending", c->t);
+            LfStatus st = lf_do_step(c, c->run.t, t_next - c->run.t);
+            if (st != LF_OK) return fail("lf_do_step failed", c->run.t);
+            if (!c->ev.pending) {
+                if (fabs(c->run.t - t_next) > 1e-13 * fmax(1.0, fabs(t_next)))
+                    return fail("step ended early with no event pending", c->run.t);
                 continue;
             }
-            if (!c->stop_at_events || c->t != c->t_event || c->t >= t_next || c->t < t)
-                return fail("early return outside the step, or not at t_event", c->t);
+            if (!c->unsaved.stop_at_events || c->run.t != c->ev.t_event || c->run.t >= t_next || c->run.t < t)
+                return fail("early return outside the step, or not at t_event", c->run.t);
             if (strcmp(mode, "corrupt") == 0) corrupt_pending(c);
             if (strcmp(mode, "state") == 0) {
                 c = through_state(c);
                 if (!c) return fail("FMU state with a pending event refused", t);
             }
-            printf("early %.17g %d", c->t, c->event_index);
+            printf("early %.17g %d", c->run.t, c->ev.index);
             if (strcmp(mode, "lazy") != 0) {
                 if (lf_handle_pending_event(c, &changed) != LF_OK)
-                    return fail("lf_handle_pending_event failed", c->t);
-                if (c->event_pending) return fail("event still pending after handling", c->t);
+                    return fail("lf_handle_pending_event failed", c->run.t);
+                if (c->ev.pending) return fail("event still pending after handling", c->run.t);
             }
             printf(" %d\n", changed);
         }
-        t = c->t;
+        t = c->run.t;
         if (strcmp(mode, "quiet") != 0 || i == n) print_point(c);
     }
     printf("steps %ld %ld %ld %ld %ld\n", c->solver.n_steps, c->solver.n_rejected,
-           c->solver.n_rhs, c->n_events, c->n_known_breaks);
+           c->solver.n_rhs, c->stats.n_events, c->unsaved.n_known_breaks);
     lf_free(c);
     return 0;
 }

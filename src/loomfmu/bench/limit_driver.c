@@ -248,8 +248,8 @@ static double time_outputs(LfInstance *c, int best_of) {
         for (;;) {
             t0 = now();
             for (i = 0; i < calls; i++) {
-                c->outputs_valid = 0;
-                c->ho_valid = 0; /* the whole evaluation, not the kept outputs */
+                c->run.outputs_valid = 0;
+                c->unsaved.ho_valid = 0; /* the whole evaluation, not the kept outputs */
                 if (lf_update_outputs(c) != LF_OK) return -1.0;
             }
             t1 = now();
@@ -270,7 +270,7 @@ static double time_hist(LfInstance *c, double t, const double *x, int best_of) {
     double g[LF_DIM(2 * LF_ND)], best = INFINITY;
     long calls = 1, i;
     int b, k, kept = 0;
-    for (k = 0; k < LF_ND; k++) kept |= c->tau[k] > 0;
+    for (k = 0; k < LF_ND; k++) kept |= c->dl.tau[k] > 0;
     if (!kept) return 0.0;
     for (b = 0; b < best_of; b++) {
         Clock t0, t1;
@@ -322,7 +322,7 @@ int main(int argc, char **argv) {
         printf(" \"steps\": %ld, \"rejected\": %ld, \"rhs\": %ld, \"jac\": %ld, \"lu\": %ld, "
                "\"events\": %ld, \"newton_failures\": %ld,\n",
                c->solver.n_steps, c->solver.n_rejected, c->solver.n_rhs, c->solver.n_jac,
-               c->solver.n_lu, c->n_events, c->n_newton_fail);
+               c->solver.n_lu, c->stats.n_events, c->stats.n_newton_fail);
         print_outputs(comp);
         /* the right-hand side and Jacobian at the run's last accepted point */
         t = c->solver.t;

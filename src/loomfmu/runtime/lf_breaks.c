@@ -28,7 +28,7 @@
  * states driven by inputs) only while the inputs are held. */
 static int predictable(const LfInstance *c, int k) {
     int level = lf_model.event_time_only[k];
-    return level == 1 || (level == 2 && !c->u_poly);
+    return level == 1 || (level == 2 && !c->unsaved.u_poly);
 }
 
 static int any_predictable(const LfInstance *c) {
@@ -46,21 +46,21 @@ static int all_predictable(const LfInstance *c) {
 }
 
 /* der(x_j) of the clock states at the solver's point (constant while the
- * parameters and the held inputs are: kept until c->kb_ready is cleared).
+ * parameters and the held inputs are: kept until c->kb.ready is cleared).
  * Newton's start is left as the step loop had it. */
 static LfStatus clock_rates(LfInstance *c) {
     double w_keep[LF_DIM(LF_NW)];
     int j;
     LfStatus st;
-    memcpy(w_keep, c->w_cur, sizeof w_keep);
-    c->quiet++;
-    st = lf_solve_w(c, c->solver.t, c->solver.x, c->w_tmp);
-    c->quiet--;
-    memcpy(c->w_cur, w_keep, sizeof w_keep);
-    c->wk_g = 0; /* w_cur is no longer the last solve's (lf_wcache.h) */
+    memcpy(w_keep, c->val.w_cur, sizeof w_keep);
+    c->unsaved.quiet++;
+    st = lf_solve_w(c, c->solver.t, c->solver.x, c->unsaved.w_tmp);
+    c->unsaved.quiet--;
+    memcpy(c->val.w_cur, w_keep, sizeof w_keep);
+    c->unsaved.wk_g = 0; /* w_cur is no longer the last solve's (lf_wcache.h) */
     if (st != LF_OK) return st;
-    for (j = 0; j < LF_NX; j++) c->kb_xdot[j] = lf_model.clock_state[j] > 0 ? c->w_tmp[j] : 0.0;
-    c->kb_ready = 1;
+    for (j = 0; j < LF_NX; j++) c->kb.xdot[j] = lf_model.clock_state[j] > 0 ? c->unsaved.w_tmp[j] : 0.0;
+    c->kb.ready = 1;
     return LF_OK;
 }
 
@@ -68,8 +68,8 @@ static LfStatus clock_rates(LfInstance *c) {
 static LfStatus predicted(LfInstance *c, double t, double *e) {
     double x[LF_DIM(LF_NX)];
     int j;
-    for (j = 0; j < LF_NX; j++) x[j] = c->solver.x[j] + c->kb_xdot[j] * (t - c->solver.t);
-    if (lf_eval_fn1(c, LF_FN_EVT, t, x, c->w_cur, e) != LF_OK) return LF_DISCARD;
+    for (j = 0; j < LF_NX; j++) x[j] = c->solver.x[j] + c->kb.xdot[j] * (t - c->solver.t);
+    if (lf_eval_fn1(c, LF_FN_EVT, t, x, c->val.w_cur, e) != LF_OK) return LF_DISCARD;
     return LF_OK;
 }
 
@@ -152,22 +152,22 @@ static int chunk_unresolved(const LfInstance *c, const double *ea, const double 
 }
 
 /* The step about to be taken ends at t_end: the events' scan after it may
- * rely on the prediction (c->kb_cert, lf_handle_events) if every indicator
+ * rely on the prediction (c->unsaved.kb_cert, lf_handle_events) if every indicator
  * is predicted and the scan vouches for no root up to t_end.  The scan
- * vouches for everything up to kb_clear while kb_ready is set: every chunk
+ * vouches for everything up to kb.clear while kb.ready is set: every chunk
  * from where the scan (re)started resolved (no sign change, no extremum
  * near zero), chained by the same rules as the solver's steps (each at
  * most LF_EVENT_GROWTH times the last, bounded by its curvature), the
  * first one no longer than the solver's proposed step (bounded by rule 2,
  * lf_events.c).  A scan that cannot vouch so (no step proposed yet, a
- * chunk accepted unresolved) is not kept: kb_ready is cleared and the scan
+ * chunk accepted unresolved) is not kept: kb.ready is cleared and the scan
  * starts again at the next step.  So the vouch is a function of the FMU
- * state (kb_ready, kb_clear), the same after a state is set again, which
+ * state (kb.ready, kb.clear), the same after a state is set again, which
  * matters because it decides whether rule 2's bound is taken
  * (lf_event_bound_pending).  A chunk in which a root was found vouches for
  * nothing: an earlier root may hide in it. */
 static double certified(LfInstance *c, double t_end, int all) {
-    c->kb_cert = t_end <= c->kb_clear && all;
+    c->unsaved.kb_cert = t_end <= c->kb.clear && all;
     return t_end;
 }
 
@@ -177,9 +177,9 @@ static double certified(LfInstance *c, double t_end, int all) {
 
 /* the scan is not kept: it starts again at the next step */
 static double drop_scan(LfInstance *c, double t_bound) {
-    c->kb_ready = 0;
-    c->kb_index = -1;
-    c->kb_dt = 0.0;
+    c->kb.ready = 0;
+    c->kb.index = -1;
+    c->kb.dt = 0.0;
     return t_bound;
 }
 
@@ -187,12 +187,12 @@ static double drop_scan(LfInstance *c, double t_bound) {
  * changed: restart_for_inputs, lf_step.c), so rule 2's bound, if it was left
  * pending, can no longer be taken from that step's dense output: the step
  * is no longer than the chunk the scan was to take next, bounded by the
- * same rules.  kb_dt is 0 where there is none (after an event or a break,
+ * same rules.  kb.dt is 0 where there is none (after an event or a break,
  * at the start, a scan not kept), and part of the FMU state with the scan:
  * the same after a state is set. */
 static void restart_bound(LfInstance *c) {
     LfSolver *s = &c->solver;
-    if (s->t == s->t_old && s->n_steps > 0 && c->kb_dt > 0 && s->h > c->kb_dt) s->h = c->kb_dt;
+    if (s->t == s->t_old && s->n_steps > 0 && c->kb.dt > 0 && s->h > c->kb.dt) s->h = c->kb.dt;
 }
 
 /* all: every indicator predictable (all_predictable, constant over the call) */
@@ -201,11 +201,11 @@ static double scan(LfInstance *c, double t_bound, int all) {
     double em[LF_DIM(LF_NE)], eb[LF_DIM(LF_NE)], t0 = s->t, margin, tl = 0.0, tr = 0.0;
     double h;
     int k = -1, unresolved = 0;
-    if (c->kb_ready && c->kb_index >= 0 && !(c->kb_t_land > t0))
-        c->kb_ready = 0; /* past the break located before: scan again from here */
-    if (c->kb_ready && c->kb_index < 0 && c->kb_clear < t0)
-        c->kb_ready = 0; /* the solver moved past the scan (cannot happen) */
-    if (!c->kb_ready) {
+    if (c->kb.ready && c->kb.index >= 0 && !(c->kb.t_land > t0))
+        c->kb.ready = 0; /* past the break located before: scan again from here */
+    if (c->kb.ready && c->kb.index < 0 && c->kb.clear < t0)
+        c->kb.ready = 0; /* the solver moved past the scan (cannot happen) */
+    if (!c->kb.ready) {
         /* no step proposed yet (the start): nothing to vouch with */
         if (!(s->h > 0)) return drop_scan(c, t_bound);
         /* the first chunk is the solver's proposed step: rule 2's bound on
@@ -213,38 +213,38 @@ static double scan(LfInstance *c, double t_bound, int all) {
         if (all && lf_event_bound_pending(c) != LF_OK)
             return drop_scan(c, t_bound);
         restart_bound(c);
-        c->kb_index = -1;
+        c->kb.index = -1;
         if (clock_rates(c) != LF_OK) return drop_scan(c, t_bound);
-        c->kb_clear = t0;
-        memcpy(c->kb_e, c->e_old, sizeof c->kb_e);
-        c->kb_dt = s->h;
+        c->kb.clear = t0;
+        memcpy(c->kb.e, c->ev.e_old, sizeof c->kb.e);
+        c->kb.dt = s->h;
     }
     h = s->h;
-    if (c->kb_index >= 0) /* a break located before, still ahead: no root before it */
-        return certified(c, lf_min(c->kb_t_land, t_bound), all);
+    if (c->kb.index >= 0) /* a break located before, still ahead: no root before it */
+        return certified(c, lf_min(c->kb.t_land, t_bound), all);
     /* scan the prediction ahead in chunks until t_bound is covered or a
-     * root is found: no root before kb_clear */
-    while (c->kb_clear < t_bound) {
-        double ta = c->kb_clear, tb = ta + c->kb_dt, dt_next;
+     * root is found: no root before kb.clear */
+    while (c->kb.clear < t_bound) {
+        double ta = c->kb.clear, tb = ta + c->kb.dt, dt_next;
         if (!(tb > ta) || predicted(c, 0.5 * (ta + tb), em) != LF_OK ||
             predicted(c, tb, eb) != LF_OK)
             return drop_scan(c, t_bound);
-        if (first_root(c, ta, c->kb_e, em, tb, eb, &tl, &tr, &k)) break;
-        if (chunk_unresolved(c, c->kb_e, em, eb, c->kb_dt, &dt_next)) {
-            if (c->kb_dt > LF_KB_MIN_CHUNK * h) {
-                c->kb_dt *= 0.25;
+        if (first_root(c, ta, c->kb.e, em, tb, eb, &tl, &tr, &k)) break;
+        if (chunk_unresolved(c, c->kb.e, em, eb, c->kb.dt, &dt_next)) {
+            if (c->kb.dt > LF_KB_MIN_CHUNK * h) {
+                c->kb.dt *= 0.25;
                 continue;
             }
             unresolved = 1; /* accepted unresolved: vouches for nothing more */
         }
-        c->kb_clear = tb;
-        memcpy(c->kb_e, eb, sizeof c->kb_e);
-        c->kb_dt = lf_max(dt_next, 0.25 * c->kb_dt);
+        c->kb.clear = tb;
+        memcpy(c->kb.e, eb, sizeof c->kb.e);
+        c->kb.dt = lf_max(dt_next, 0.25 * c->kb.dt);
     }
     /* a chunk accepted unresolved lies before t_bound (and before any root
      * found after it): the step is not vouched for, and lands nowhere */
     if (unresolved) return drop_scan(c, t_bound);
-    if (c->kb_clear >= t_bound) return certified(c, t_bound, all);
+    if (c->kb.clear >= t_bound) return certified(c, t_bound, all);
     /* land a margin before the root (as the step redone up to an event
      * stops: lf_events.c), and only if that is at least another margin
      * past the step's start.  A solver already standing about a margin
@@ -260,27 +260,27 @@ static double scan(LfInstance *c, double t_bound, int all) {
      * that straddles it (lf_handle_events locates it as any event). */
     margin = LF_EVENT_GAP * fmax(1.0, fabs(tl));
     if (!(tl - margin > t0 + margin)) return drop_scan(c, t_bound); /* scan again after it */
-    c->kb_index = k;
-    c->kb_t_land = tl - margin;
-    c->kb_t_right = tr;
-    return certified(c, lf_min(c->kb_t_land, t_bound), all);
+    c->kb.index = k;
+    c->kb.t_land = tl - margin;
+    c->kb.t_right = tr;
+    return certified(c, lf_min(c->kb.t_land, t_bound), all);
 }
 
 double lf_known_break(LfInstance *c, double t_bound) {
     double t;
-    /* which indicators are predictable depends on c->u_poly only: asked once */
+    /* which indicators are predictable depends on c->unsaved.u_poly only: asked once */
     int all = LF_NE > 0 && all_predictable(c);
-    c->kb_cert = 0; /* set where the scan vouches for the whole step */
+    c->unsaved.kb_cert = 0; /* set where the scan vouches for the whole step */
     if (LF_NE == 0 || !(all || any_predictable(c))) {
-        if (!c->kb_ready) restart_bound(c);
+        if (!c->kb.ready) restart_bound(c);
         drop_scan(c, t_bound);
         return t_bound;
     }
     t = scan(c, t_bound, all);
     /* the events' scan of a step not vouched for needs rule 2's bound on it,
      * left pending after a step that was (lf_events.c) */
-    if (!c->kb_cert && all && lf_event_bound_pending(c) != LF_OK) {
-        c->kb_cert = 0;
+    if (!c->unsaved.kb_cert && all && lf_event_bound_pending(c) != LF_OK) {
+        c->unsaved.kb_cert = 0;
         return t_bound;
     }
     return t;

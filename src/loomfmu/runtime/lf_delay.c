@@ -1,127 +1,13 @@
 /* loomfmu shared runtime: delays.  Per delayed expression a ring of
  * accepted samples (t, g, dg/dt), Hermite-interpolated, and the breakpoints
- * where a jump of the history reaches the equations. */
+ * where a jump of the history reaches the equations.  This file writes the
+ * history (samples at accepted steps, refined until the interpolant matches
+ * the dense output); reading it, the delayed values at t, is lf_eval.c's. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "lf_internal.h"
-
-/* ---- delays: history of the delayed expressions ----------------------- */
-
-#define HT(c, k, i) (c)->hist[(((size_t)(k) * LF_HIST_CAP + (size_t)(((c)->hist_start[k] + (i)) % LF_HIST_CAP)) * 3)]
-#define HG(c, k, i) (&HT(c, k, i))[1]
-#define HD(c, k, i) (&HT(c, k, i))[2]
-
-/* g_k at time s from the history: constant before the first sample, the
- * last sample's Taylor line after it (not reached with steps <= tau), else
- * cubic Hermite (or linear) between the samples around s.  At a jump (two
- * samples at one time) `left` selects the value before it (the earlier
- * sample), otherwise the value after it.  s = t - tau is known to rounding
- * only (t_jump + tau - tau need not be t_jump): samples within `eps` of s
- * count as at s.  (Elsewhere the choice is immaterial: the interpolant is
- * continuous at a sample.)  *rate: the interpolant's time derivative at s,
- * dg/dt there, which Rosenbrock methods need in df/dt. */
-/* Is sample i of delay k before s (left: t_i < s - eps; else t_i <= s + eps)? */
-static int sample_before(const LfInstance *c, int k, long i, double s, int left, double eps) {
-    return left ? HT(c, k, i) < s - eps : HT(c, k, i) <= s + eps;
-}
-
-/* The last sample before s (sample_before), or -1.  The queries of one
- * step move forward through the ring: the search starts at the previous
- * answer (c->hist_cursor[k]) and its neighbours, then bisects. */
-static long hist_find(LfInstance *c, int k, double s, int left, double eps) {
-    long lo = -1, hi = c->hist_count[k], cur = c->hist_cursor[k];
-    if (cur >= 0 && cur < hi && sample_before(c, k, cur, s, left, eps)) {
-        if (cur + 1 == hi || !sample_before(c, k, cur + 1, s, left, eps)) return cur;
-        if (cur + 2 == hi || !sample_before(c, k, cur + 2, s, left, eps)) {
-            c->hist_cursor[k] = cur + 1;
-            return cur + 1;
-        }
-        lo = cur + 1;
-    } else if (cur >= 0 && cur < hi) {
-        hi = cur;
-    }
-    while (hi - lo > 1) {
-        long mid = (lo + hi) / 2;
-        if (sample_before(c, k, mid, s, left, eps)) lo = mid;
-        else hi = mid;
-    }
-    c->hist_cursor[k] = lo;
-    return lo;
-}
-
-/* (rate NULL: the slope is not needed, as in every call but Rosenbrock's
- * df/dt, and is not computed) */
-static double hist_interp(LfInstance *c, int k, double s, int left, double eps,
-                          double *rate) {
-    long lo = hist_find(c, k, s, left, eps), hi, n = c->hist_count[k];
-    double t0, t1, h, th, th2, th3, g0, g1, d0, d1;
-    if (lo < 0) {
-        if (rate) *rate = 0.0;
-        return HG(c, k, 0);
-    }
-    if (lo == n - 1) {
-        if (rate) *rate = HD(c, k, n - 1);
-        return HG(c, k, n - 1) + HD(c, k, n - 1) * (s - HT(c, k, n - 1));
-    }
-    hi = lo + 1;
-    t0 = HT(c, k, lo);
-    t1 = HT(c, k, hi);
-    g0 = HG(c, k, lo);
-    g1 = HG(c, k, hi);
-    d0 = HD(c, k, lo);
-    d1 = HD(c, k, hi);
-    h = t1 - t0;
-    th = (s - t0) / h;
-    if (c->delay_interp == LF_DELAY_LINEAR) {
-        if (rate) *rate = (g1 - g0) / h;
-        return g0 + (g1 - g0) * th;
-    }
-    th2 = th * th;
-    th3 = th2 * th;
-    if (rate)
-        *rate = ((6 * th2 - 6 * th) * (g0 - g1) / h + (3 * th2 - 4 * th + 1) * d0 +
-                 (3 * th2 - 2 * th) * d1);
-    return (2 * th3 - 3 * th2 + 1) * g0 + (th3 - 2 * th2 + th) * h * d0 + (3 * th2 - 2 * th3) * g1 +
-           (th3 - th2) * h * d1;
-}
-
-/* The delayed values at t (and, if rate != NULL, their time derivatives
- * for delays > 0).  Steps end at every breakpoint t_jump + tau and the
- * solver restarts there.  The stages of the step ending at a breakpoint
- * that run at its end take the value before the jump; the restarted solver
- * (t = its last accepted point) takes the value after it.  Only there is
- * s = t - tau taken as equal to a sample within rounding. */
-static LfStatus delayed(LfInstance *c, double t, const double *x, double *rate) {
-    double g[LF_DIM(2 * LF_ND)], r;
-    int k, need_now = 0, left = c->solver_ready && t > c->solver.t && t >= c->t_bp_step;
-    double eps = (left || (c->solver_ready && t == c->solver.t))
-                     ? 8 * LF_EPS * (fabs(t) > 1.0 ? fabs(t) : 1.0) /* fmax, inline */
-                     : 0.0;
-    for (k = 0; k < LF_ND; k++)
-        if (c->tau[k] == 0 || c->hist_count[k] == 0) need_now = 1;
-    if (need_now) { /* zero delay, or no history yet: the value now */
-        c->arg[6] = c->dval;
-        if (lf_eval_fn(c, LF_FN_HIST, t, x, c->w_cur, g, &g[LF_ND], NULL) != LF_OK) return LF_ERROR;
-    }
-    for (k = 0; k < LF_ND; k++) {
-        r = 0.0;
-        c->dval[k] = (c->tau[k] == 0 || c->hist_count[k] == 0)
-                         ? g[k]
-                         : hist_interp(c, k, t - c->tau[k], left, eps, rate ? &r : NULL);
-        if (rate) rate[k] = r;
-    }
-    return LF_OK;
-}
-
-LfStatus lf_delayed_values(LfInstance *c, double t, const double *x) {
-    return delayed(c, t, x, NULL);
-}
-
-LfStatus lf_delayed_rates(LfInstance *c, double t, const double *x, double *rate) {
-    return delayed(c, t, x, rate);
-}
 
 /* Room for the breakpoints t + tau_k of a jump of the history at t (one per
  * delay > 0, those already pending not counted).  The breakpoints passed
@@ -132,36 +18,36 @@ LfStatus lf_delayed_rates(LfInstance *c, double t, const double *x, double *rate
 static LfStatus breakpoints_fit(LfInstance *c, double t) {
     int i, j = 0, k, need = 0, n_pos = 0, longest = 0;
     double first = t; /* the earliest pending jump (of the longest delay) */
-    for (i = 0; i < c->n_bp; i++)
-        if (c->bp[i] > t) c->bp[j++] = c->bp[i];
-    c->n_bp = j;
+    for (i = 0; i < c->dl.n_bp; i++)
+        if (c->dl.bp[i] > t) c->dl.bp[j++] = c->dl.bp[i];
+    c->dl.n_bp = j;
     for (k = 0; k < LF_ND; k++) {
         int pending = 0;
-        if (c->tau[k] == 0) continue;
+        if (c->dl.tau[k] == 0) continue;
         n_pos++;
-        if (c->tau[k] > c->tau[longest]) longest = k;
-        for (i = 0; i < c->n_bp && !pending; i++) pending = c->bp[i] == t + c->tau[k];
+        if (c->dl.tau[k] > c->dl.tau[longest]) longest = k;
+        for (i = 0; i < c->dl.n_bp && !pending; i++) pending = c->dl.bp[i] == t + c->dl.tau[k];
         need += !pending;
     }
-    if (c->n_bp + need <= LF_BP_CAP) return LF_OK;
-    for (i = 0; i < c->n_bp; i++) first = fmin(first, c->bp[i] - c->tau[longest]);
+    if (c->dl.n_bp + need <= LF_BP_CAP) return LF_OK;
+    for (i = 0; i < c->dl.n_bp; i++) first = fmin(first, c->dl.bp[i] - c->dl.tau[longest]);
     lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
            "t = %.17g: too many input changes within one delay time: %d jumps of delayed "
            "values are pending (the most this FMU holds): each input change (or mode event) "
            "reaches the equations tau later (tau = %g s, delay %s), and those pending "
            "came about %g s apart; change the inputs at most every tau / %d = %g s "
            "(a longer communication step, or set an input only when its value changes); "
-           "step discarded", t, c->n_bp, c->tau[longest], lf_model.delay_names[longest],
-           (t - first) * n_pos / (c->n_bp > 0 ? c->n_bp : 1), LF_MAX_BP / n_pos,
-           c->tau[longest] * n_pos / LF_MAX_BP); /* reached only with delays */
+           "step discarded", t, c->dl.n_bp, c->dl.tau[longest], lf_model.delay_names[longest],
+           (t - first) * n_pos / (c->dl.n_bp > 0 ? c->dl.n_bp : 1), LF_MAX_BP / n_pos,
+           c->dl.tau[longest] * n_pos / LF_MAX_BP); /* reached only with delays */
     return LF_DISCARD;
 }
 
 static void add_breakpoint(LfInstance *c, double t) {
     int i;
-    for (i = 0; i < c->n_bp; i++)
-        if (c->bp[i] == t) return;
-    if (c->n_bp < LF_BP_CAP) c->bp[c->n_bp++] = t; /* room made by breakpoints_fit */
+    for (i = 0; i < c->dl.n_bp; i++)
+        if (c->dl.bp[i] == t) return;
+    if (c->dl.n_bp < LF_BP_CAP) c->dl.bp[c->dl.n_bp++] = t; /* room made by breakpoints_fit */
 }
 
 /* The next pending breakpoint after t, or t_end if none comes first (and
@@ -170,15 +56,15 @@ double lf_next_breakpoint(LfInstance *c, double t, double t_end, int *is_bp) {
     double next = t_end;
     int i, j = 0;
     *is_bp = 0;
-    for (i = 0; i < c->n_bp; i++) {
-        if (c->bp[i] <= t) continue;
-        c->bp[j++] = c->bp[i];
-        if (c->bp[i] <= next) {
-            next = c->bp[i];
+    for (i = 0; i < c->dl.n_bp; i++) {
+        if (c->dl.bp[i] <= t) continue;
+        c->dl.bp[j++] = c->dl.bp[i];
+        if (c->dl.bp[i] <= next) {
+            next = c->dl.bp[i];
             *is_bp = 1;
         }
     }
-    c->n_bp = j;
+    c->dl.n_bp = j;
     return next;
 }
 
@@ -193,17 +79,17 @@ static void history_full(LfInstance *c, int k, double t) {
         snprintf(advice, sizeof advice, "%s takes fixed steps of solver_h_fixed = %g s: raise "
                  "it to at least tau / %d = %g s, or loosen solver_rtol / solver_atol, which "
                  "bound the history's interpolation error", s->method->name, s->opt.h_fixed,
-                 LF_HIST_CAP, c->tau[k] / LF_HIST_CAP);
+                 LF_HIST_CAP, c->dl.tau[k] / LF_HIST_CAP);
     else /* every communication point ends a step, and every step adds a sample */
         snprintf(advice, sizeof advice, "communication steps of at least tau / %d = %g s "
                  "(each ends a solver step), and looser solver_rtol / solver_atol",
-                 LF_HIST_CAP, c->tau[k] / LF_HIST_CAP);
+                 LF_HIST_CAP, c->dl.tau[k] / LF_HIST_CAP);
     lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
            "t = %.17g: history of delay %s is full: the equations read back to t - tau = "
            "%.17g, and the %d samples it holds (the most it can) start at t = %.17g, %g s "
            "apart on average; the steps are too short for tau = %g s (%s)", t,
-           lf_model.delay_names[k], t - c->tau[k], LF_HIST_CAP, HT(c, k, 0),
-           (t - HT(c, k, 0)) / (LF_HIST_CAP - 1), c->tau[k], advice);
+           lf_model.delay_names[k], t - c->dl.tau[k], LF_HIST_CAP, LF_HT(c, k, 0),
+           (t - LF_HT(c, k, 0)) / (LF_HIST_CAP - 1), c->dl.tau[k], advice);
 }
 
 /* Append (t, g, dg/dt) at an accepted point; `jump`: the history is
@@ -216,22 +102,22 @@ static LfStatus hist_append(LfInstance *c, double t, const double *g, int jump) 
         /* every later query is at s >= t - tau (stages run at or after the
          * last accepted point t); the sample at or before that is kept for
          * the interpolation, and samples within rounding of it (a jump) */
-        double oldest_needed = t - c->tau[k] - 16 * LF_EPS * fmax(1.0, fabs(t));
-        if (c->tau[k] == 0) continue; /* read at the current time, never from here */
-        while (c->hist_count[k] >= 2 && HT(c, k, 1) < oldest_needed) {
-            c->hist_start[k] = (c->hist_start[k] + 1) % LF_HIST_CAP;
-            c->hist_count[k]--;
-            if (c->hist_cursor[k] > 0) c->hist_cursor[k]--;
+        double oldest_needed = t - c->dl.tau[k] - 16 * LF_EPS * fmax(1.0, fabs(t));
+        if (c->dl.tau[k] == 0) continue; /* read at the current time, never from here */
+        while (c->dl.hist_count[k] >= 2 && LF_HT(c, k, 1) < oldest_needed) {
+            c->dl.hist_start[k] = (c->dl.hist_start[k] + 1) % LF_HIST_CAP;
+            c->dl.hist_count[k]--;
+            if (c->unsaved.hist_cursor[k] > 0) c->unsaved.hist_cursor[k]--;
         }
-        if (c->hist_count[k] == LF_HIST_CAP) {
+        if (c->dl.hist_count[k] == LF_HIST_CAP) {
             history_full(c, k, t);
             return LF_DISCARD;
         }
-        HT(c, k, c->hist_count[k]) = t;
-        HG(c, k, c->hist_count[k]) = g[k];
-        HD(c, k, c->hist_count[k]) = g[LF_ND + k];
-        c->hist_count[k]++;
-        if (jump && c->tau[k] > 0) add_breakpoint(c, t + c->tau[k]);
+        LF_HT(c, k, c->dl.hist_count[k]) = t;
+        LF_HG(c, k, c->dl.hist_count[k]) = g[k];
+        LF_HD(c, k, c->dl.hist_count[k]) = g[LF_ND + k];
+        c->dl.hist_count[k]++;
+        if (jump && c->dl.tau[k] > 0) add_breakpoint(c, t + c->dl.tau[k]);
     }
     return LF_OK;
 }
@@ -256,20 +142,20 @@ LfStatus lf_hist_push(LfInstance *c, double t, const double *x, int jump) {
  * history needs (the sample at the step's end); the C-level benchmark times
  * it (loomfmu bench limit: the limit of a delay model). */
 LfStatus lf_hist_sample(LfInstance *c, double t, const double *x, double *g) {
-    LfStatus st = lf_solve_w(c, t, x, c->w_tmp);
+    LfStatus st = lf_solve_w(c, t, x, c->unsaved.w_tmp);
     if (st != LF_OK) return st;
-    return lf_eval_fn(c, LF_FN_HIST, t, x, c->w_tmp, g, &g[LF_ND], NULL);
+    return lf_eval_fn(c, LF_FN_HIST, t, x, c->unsaved.w_tmp, g, &g[LF_ND], NULL);
 }
 
 #ifdef LF_HISTOUT_FN
 /* The point the generated functions see at (t, x) with w: the inputs at t
  * and their rates as lf_eval_fn passes them. */
 static void inputs_of(LfInstance *c, double t, const double **u, const double **u_rate) {
-    if (c->u_poly) {
+    if (c->unsaved.u_poly) {
         lf_inputs_at(c, t, u, u_rate);
     } else {
-        *u = &c->r[LF_VR_U0];
-        *u_rate = c->u_zero;
+        *u = &c->val.r[LF_VR_U0];
+        *u_rate = c->unsaved.u_zero;
     }
 }
 #endif
@@ -285,22 +171,22 @@ LfStatus lf_hist_sample_end(LfInstance *c, double t, const double *x, double *g)
     double y[LF_DIM(LF_NY + LF_NZ)];
     const double *u, *u_rate;
     LfStatus st;
-    c->ho_valid = 0;
-    st = lf_solve_w(c, t, x, c->w_tmp);
+    c->unsaved.ho_valid = 0;
+    st = lf_solve_w(c, t, x, c->unsaved.w_tmp);
     if (st != LF_OK) return st;
-    if (lf_eval_fn(c, LF_FN_HISTOUT, t, x, c->w_tmp, g, &g[LF_ND], y) != LF_OK) return LF_ERROR;
+    if (lf_eval_fn(c, LF_FN_HISTOUT, t, x, c->unsaved.w_tmp, g, &g[LF_ND], y) != LF_OK) return LF_ERROR;
     if (lf_first_nonfinite(y, LF_NY + LF_NZ) >= 0) return LF_OK; /* reported where read */
     inputs_of(c, t, &u, &u_rate);
-    c->ho_t = t;
-    memcpy(c->ho_x, x, sizeof(double) * LF_NX);
-    memcpy(c->ho_u, u, sizeof(double) * LF_NU);
-    memcpy(c->ho_ur, u_rate, sizeof(double) * LF_NU);
-    memcpy(c->ho_p, &c->r[LF_VR_P0], sizeof(double) * LF_NP);
-    memcpy(c->ho_q, c->q, sizeof(double) * LF_NQ);
-    memcpy(c->ho_d, c->dval, sizeof(double) * LF_ND);
-    memcpy(c->ho_w, c->w_tmp, sizeof(double) * LF_NW);
-    memcpy(c->ho_y, y, sizeof(double) * (LF_NY + LF_NZ));
-    c->ho_valid = 1;
+    c->unsaved.ho_t = t;
+    memcpy(c->unsaved.ho_x, x, sizeof(double) * LF_NX);
+    memcpy(c->unsaved.ho_u, u, sizeof(double) * LF_NU);
+    memcpy(c->unsaved.ho_ur, u_rate, sizeof(double) * LF_NU);
+    memcpy(c->unsaved.ho_p, &c->val.r[LF_VR_P0], sizeof(double) * LF_NP);
+    memcpy(c->unsaved.ho_q, c->val.q, sizeof(double) * LF_NQ);
+    memcpy(c->unsaved.ho_d, c->dl.dval, sizeof(double) * LF_ND);
+    memcpy(c->unsaved.ho_w, c->unsaved.w_tmp, sizeof(double) * LF_NW);
+    memcpy(c->unsaved.ho_y, y, sizeof(double) * (LF_NY + LF_NZ));
+    c->unsaved.ho_valid = 1;
     return LF_OK;
 #else
     return lf_hist_sample(c, t, x, g);
@@ -315,25 +201,25 @@ LfStatus lf_hist_sample_end(LfInstance *c, double t, const double *x, double *g)
  * there would set them. */
 int lf_hist_outputs(LfInstance *c, const double *w, double *y) {
 #ifdef LF_HISTOUT_FN
-    const double *x = &c->r[LF_VR_X0], *u, *u_rate;
-    if (!c->ho_valid || memcmp(&c->ho_t, &c->t, sizeof c->t) ||
-        memcmp(c->ho_x, x, sizeof(double) * LF_NX) ||
-        memcmp(c->ho_p, &c->r[LF_VR_P0], sizeof(double) * LF_NP) ||
-        memcmp(c->ho_q, c->q, sizeof(double) * LF_NQ))
+    const double *x = &c->val.r[LF_VR_X0], *u, *u_rate;
+    if (!c->unsaved.ho_valid || memcmp(&c->unsaved.ho_t, &c->run.t, sizeof c->run.t) ||
+        memcmp(c->unsaved.ho_x, x, sizeof(double) * LF_NX) ||
+        memcmp(c->unsaved.ho_p, &c->val.r[LF_VR_P0], sizeof(double) * LF_NP) ||
+        memcmp(c->unsaved.ho_q, c->val.q, sizeof(double) * LF_NQ))
         return 0;
-    inputs_of(c, c->t, &u, &u_rate);
-    if (memcmp(c->ho_u, u, sizeof(double) * LF_NU) ||
-        memcmp(c->ho_ur, u_rate, sizeof(double) * LF_NU))
+    inputs_of(c, c->run.t, &u, &u_rate);
+    if (memcmp(c->unsaved.ho_u, u, sizeof(double) * LF_NU) ||
+        memcmp(c->unsaved.ho_ur, u_rate, sizeof(double) * LF_NU))
         return 0;
-    if (w && memcmp(c->ho_w, w, sizeof(double) * LF_NW)) return 0;
-    if (lf_delayed_values(c, c->t, x) != LF_OK ||
-        memcmp(c->ho_d, c->dval, sizeof(double) * LF_ND))
+    if (w && memcmp(c->unsaved.ho_w, w, sizeof(double) * LF_NW)) return 0;
+    if (lf_delayed_values(c, c->run.t, x) != LF_OK ||
+        memcmp(c->unsaved.ho_d, c->dl.dval, sizeof(double) * LF_ND))
         return 0;
     if (!w) {
-        memcpy(c->w_tmp, c->ho_w, sizeof(double) * LF_NW);
-        memcpy(c->w_cur, c->ho_w, sizeof(double) * LF_NW);
+        memcpy(c->unsaved.w_tmp, c->unsaved.ho_w, sizeof(double) * LF_NW);
+        memcpy(c->val.w_cur, c->unsaved.ho_w, sizeof(double) * LF_NW);
     }
-    memcpy(y, c->ho_y, sizeof(double) * (LF_NY + LF_NZ));
+    memcpy(y, c->unsaved.ho_y, sizeof(double) * (LF_NY + LF_NZ));
     return 1;
 #else
     (void)c;
@@ -357,7 +243,7 @@ static int hermite_misses(const LfInstance *c, const double *ga, const double *g
     int k;
     for (k = 0; k < LF_ND; k++) {
         double herm;
-        if (c->tau[k] == 0) continue;
+        if (c->dl.tau[k] == 0) continue;
         herm = hermite(ga[k], ga[LF_ND + k], gb[k], gb[LF_ND + k], h, th);
         if (fabs(herm - g[k]) > scale * (c->solver.opt.atol + c->solver.opt.rtol * fabs(g[k])))
             return 1;
@@ -407,18 +293,18 @@ static int estimate_fine(const LfInstance *c, double ta, const double *ga, doubl
     double h = tb - ta;
     int k, i;
     for (k = 0; k < LF_ND; k++) {
-        long n = c->hist_count[k];
+        long n = c->dl.hist_count[k];
         double tp, thp, q, dq, r0, r1, m0, m1;
-        if (c->tau[k] == 0) continue;
+        if (c->dl.tau[k] == 0) continue;
         if (n < 2) return 0;
-        tp = HT(c, k, n - 2); /* the sample at ta is n - 1 */
-        if (HT(c, k, n - 1) != ta || !(tp < ta) || ta - tp > LF_HIST_EST_RATIO * h || LF_HIST_EST_RATIO * (ta - tp) < h)
+        tp = LF_HT(c, k, n - 2); /* the sample at ta is n - 1 */
+        if (LF_HT(c, k, n - 1) != ta || !(tp < ta) || ta - tp > LF_HIST_EST_RATIO * h || LF_HIST_EST_RATIO * (ta - tp) < h)
             return 0;
         thp = (tp - ta) / h;
         q = thp * thp * (thp - 1) * (thp - 1);
         dq = 2 * thp * (thp - 1) * (2 * thp - 1);
-        r0 = HG(c, k, n - 2) - hermite(ga[k], ga[LF_ND + k], gb[k], gb[LF_ND + k], h, thp);
-        r1 = h * HD(c, k, n - 2) -
+        r0 = LF_HG(c, k, n - 2) - hermite(ga[k], ga[LF_ND + k], gb[k], gb[LF_ND + k], h, thp);
+        r1 = h * LF_HD(c, k, n - 2) -
              ((6 * thp * thp - 6 * thp) * (ga[k] - gb[k]) +
               h * ((3 * thp * thp - 4 * thp + 1) * ga[LF_ND + k] +
                    (3 * thp * thp - 2 * thp) * gb[LF_ND + k]));
@@ -474,13 +360,13 @@ static LfStatus hist_refine(LfInstance *c, double ta, const double *ga, double t
 static int stored_start(const LfInstance *c, double t_old, double *ga) {
     int k;
     for (k = 0; k < LF_ND; k++) {
-        long n = c->hist_count[k];
+        long n = c->dl.hist_count[k];
         ga[k] = 0.0;
         ga[LF_ND + k] = 0.0;
-        if (c->tau[k] == 0) continue;
-        if (n == 0 || HT(c, k, n - 1) != t_old) return 0;
-        ga[k] = HG(c, k, n - 1);
-        ga[LF_ND + k] = HD(c, k, n - 1);
+        if (c->dl.tau[k] == 0) continue;
+        if (n == 0 || LF_HT(c, k, n - 1) != t_old) return 0;
+        ga[k] = LF_HG(c, k, n - 1);
+        ga[LF_ND + k] = LF_HD(c, k, n - 1);
     }
     return 1;
 }
@@ -490,9 +376,9 @@ LfStatus lf_hist_step(LfInstance *c) {
     LfSolver *s = &c->solver;
     int k = 0;
     LfStatus st;
-    while (k < LF_ND && c->tau[k] == 0) k++;
+    while (k < LF_ND && c->dl.tau[k] == 0) k++;
     if (k == LF_ND) return LF_OK; /* only zero delays: no history is kept */
-    if (c->delay_interp == LF_DELAY_LINEAR || !(s->t > s->t_old) ||
+    if (c->dl.delay_interp == LF_DELAY_LINEAR || !(s->t > s->t_old) ||
         !stored_start(c, s->t_old, ga))
         return lf_hist_push(c, s->t, s->x, 0);
     st = lf_hist_sample_end(c, s->t, s->x, gb);
@@ -504,23 +390,23 @@ LfStatus lf_hist_step(LfInstance *c) {
 LfStatus lf_init_delays(LfInstance *c, LfSolverOptions *opt) {
     int k;
     if (LF_ND == 0) return LF_OK;
-    if (lf_eval_fn(c, LF_FN_TAU, c->t, &c->r[LF_VR_X0], c->w_cur, c->tau, NULL, NULL) != LF_OK)
+    if (lf_eval_fn(c, LF_FN_TAU, c->run.t, &c->val.r[LF_VR_X0], c->val.w_cur, c->dl.tau, NULL, NULL) != LF_OK)
         return LF_ERROR;
     for (k = 0; k < LF_ND; k++) {
-        if (!(c->tau[k] >= 0) || c->tau[k] > lf_model.delay_max[k]) {
+        if (!(c->dl.tau[k] >= 0) || c->dl.tau[k] > lf_model.delay_max[k]) {
             lf_log(c, LF_ERROR, LF_LOG_ERROR,
                    "delay %s = %g s: allowed 0 ... %g s, the longest delay this FMU's "
                    "history was built to hold (rebuild with a larger max_delay)",
-                   lf_model.delay_names[k], c->tau[k], lf_model.delay_max[k]);
+                   lf_model.delay_names[k], c->dl.tau[k], lf_model.delay_max[k]);
             return LF_ERROR;
         }
         /* a step longer than the delay would need history not yet computed */
-        if (c->tau[k] > 0 && opt->h_max > c->tau[k]) opt->h_max = c->tau[k];
-        if (c->tau[k] > 0 && opt->h_fixed > c->tau[k]) {
+        if (c->dl.tau[k] > 0 && opt->h_max > c->dl.tau[k]) opt->h_max = c->dl.tau[k];
+        if (c->dl.tau[k] > 0 && opt->h_fixed > c->dl.tau[k]) {
             lf_log(c, LF_WARNING, LF_LOG_WARNING,
                    "solver_h_fixed = %g s is longer than delay %s = %g s: rk4 steps are "
-                   "limited to the delay", opt->h_fixed, lf_model.delay_names[k], c->tau[k]);
-            opt->h_fixed = c->tau[k];
+                   "limited to the delay", opt->h_fixed, lf_model.delay_names[k], c->dl.tau[k]);
+            opt->h_fixed = c->dl.tau[k];
         }
     }
     return LF_OK;

@@ -38,19 +38,19 @@ static LfStatus check_args(LfInstance *c, const unsigned *unknown_vr, size_t nu,
     if (nu > DIRDER_N_LIMIT || nk > DIRDER_N_LIMIT) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: directional derivative: %zu unknowns and "
                "%zu knowns; allowed: at most %zu each (the model has %d Real variables and "
-               "%d state derivatives); nothing read", c->t, nu, nk, DIRDER_N_LIMIT,
+               "%d state derivatives); nothing read", c->run.t, nu, nk, DIRDER_N_LIMIT,
                LF_NREAL, LF_NX);
         return LF_ERROR;
     }
     if (nu > 0 && (!unknown_vr || !out)) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: directional derivative: %s is NULL with "
-               "%zu unknowns; allowed: an array of %zu", c->t, unknown_vr ? "dvUnknown" :
+               "%zu unknowns; allowed: an array of %zu", c->run.t, unknown_vr ? "dvUnknown" :
                "vUnknown_ref", nu, nu);
         return LF_ERROR;
     }
     if (nk > 0 && (!known_vr || !seed)) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: directional derivative: %s is NULL with "
-               "%zu knowns; allowed: an array of %zu", c->t, known_vr ? "dvKnown" :
+               "%zu knowns; allowed: an array of %zu", c->run.t, known_vr ? "dvKnown" :
                "vKnown_ref", nk, nk);
         return LF_ERROR;
     }
@@ -59,7 +59,7 @@ static LfStatus check_args(LfInstance *c, const unsigned *unknown_vr, size_t nu,
         if (!((vr >= LF_VR_Y0 && vr < LF_NREAL) || (vr >= VR_DER0 && vr < VR_DER0 + LF_NX))) {
             lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: directional derivative: unknown %zu "
                    "has value reference %u (%s); allowed: outputs and algebraic locals %u..%d, "
-                   "state derivatives der(x) %u..%d", c->t, i, vr,
+                   "state derivatives der(x) %u..%d", c->run.t, i, vr,
                    vr < LF_NREAL ? lf_model.real_names[vr] : "not a Real of the model",
                    (unsigned)LF_VR_Y0, LF_NREAL - 1, VR_DER0, LF_NREAL + LF_NX - 1);
             return LF_ERROR;
@@ -69,7 +69,7 @@ static LfStatus check_args(LfInstance *c, const unsigned *unknown_vr, size_t nu,
         unsigned vr = known_vr[i];
         if (!(vr >= LF_VR_X0 && vr < LF_VR_Y0)) {
             lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: directional derivative: known %zu "
-                   "has value reference %u (%s); allowed: states and inputs %u..%d", c->t, i, vr,
+                   "has value reference %u (%s); allowed: states and inputs %u..%d", c->run.t, i, vr,
                    vr < LF_NREAL ? lf_model.real_names[vr] :
                    vr < VR_DER0 + LF_NX ? "a state derivative" : "not a Real of the model",
                    (unsigned)LF_VR_X0, LF_VR_Y0 - 1);
@@ -77,7 +77,7 @@ static LfStatus check_args(LfInstance *c, const unsigned *unknown_vr, size_t nu,
         }
         if (!isfinite(seed[i])) {
             lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: directional derivative: seed %zu "
-                   "(of %s) is %g; allowed: a finite number", c->t, i, lf_model.real_names[vr],
+                   "(of %s) is %g; allowed: a finite number", c->run.t, i, lf_model.real_names[vr],
                    seed[i]);
             return LF_ERROR;
         }
@@ -98,15 +98,15 @@ static LfStatus unknowns_change(LfInstance *c, const double *x, const double *w,
     memset(dw, 0, sizeof(double) * LF_DIM(LF_NW));
     memset(dd, 0, sizeof(double) * LF_DIM(LF_ND));
     if (LF_ND > 0) {
-        if (lf_eval_fn(c, LF_FN_DJAC, c->t, x, w, wd, gx, gt) != LF_OK) return LF_ERROR;
+        if (lf_eval_fn(c, LF_FN_DJAC, c->run.t, x, w, wd, gx, gt) != LF_OK) return LF_ERROR;
         gemv_add(gx, LF_ND, LF_NX, dx, dd);
         gemv_add(gu, LF_ND, LF_NU, du, dd);
         for (k = 0; k < LF_ND; k++)
-            if (c->tau[k] > 0) dd[k] = 0.0; /* read from the history: held */
+            if (c->dl.tau[k] > 0) dd[k] = 0.0; /* read from the history: held */
     }
     if (LF_IMPLICIT) {
-        if (lf_eval_fn(c, LF_FN_RJAC, c->t, x, w, ww, wx, wt) != LF_OK) return LF_ERROR;
-    } else if (lf_eval_fn(c, LF_FN_WJAC, c->t, x, w, wx, wt, NULL) != LF_OK) {
+        if (lf_eval_fn(c, LF_FN_RJAC, c->run.t, x, w, ww, wx, wt) != LF_OK) return LF_ERROR;
+    } else if (lf_eval_fn(c, LF_FN_WJAC, c->run.t, x, w, wx, wt, NULL) != LF_OK) {
         return LF_ERROR;
     }
     gemv_add(wx, LF_NW, LF_NX, dx, dw);
@@ -115,7 +115,7 @@ static LfStatus unknowns_change(LfInstance *c, const double *x, const double *w,
     if (LF_IMPLICIT) {
         if (lf_lu_factor(ww, LF_NW, piv) != 0) {
             lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: directional derivative: dF/dw "
-                   "is singular (the algebraic loop has no unique solution here)", c->t);
+                   "is singular (the algebraic loop has no unique solution here)", c->run.t);
             return LF_DISCARD;
         }
         lf_lu_solve(ww, LF_NW, piv, dw);
@@ -130,7 +130,7 @@ static LfStatus outputs_change(LfInstance *c, const double *x, const double *w,
                                const double *dw, const double *yd, double *dy) {
     double yx[LF_DIM(NOUT * LF_NX)], yw[LF_DIM(NOUT * LF_NW)], yu[LF_DIM(NOUT * LF_NU)];
     memset(dy, 0, sizeof(double) * NOUT);
-    if (lf_eval_fn(c, LF_FN_DIRY, c->t, x, w, yx, yw, yu) != LF_OK) return LF_ERROR;
+    if (lf_eval_fn(c, LF_FN_DIRY, c->run.t, x, w, yx, yw, yu) != LF_OK) return LF_ERROR;
     gemv_add(yx, NOUT, LF_NX, dx, dy);
     gemv_add(yw, NOUT, LF_NW, dw, dy);
     gemv_add(yu, NOUT, LF_NU, du, dy);
@@ -168,14 +168,14 @@ LfStatus lf_directional_derivative(LfInstance *c, const unsigned *unknown_vr, si
     }
     for (i = 0; i < nu; i++) need_y |= unknown_vr[i] < LF_NREAL;
     if (lf_prepare_initial(c) != LF_OK) return LF_ERROR;
-    x = &c->r[LF_VR_X0];
-    st = lf_solve_w(c, c->t, x, w);
+    x = &c->val.r[LF_VR_X0];
+    st = lf_solve_w(c, c->run.t, x, w);
     if (st != LF_OK) {
         lf_log(c, st, st == LF_ERROR ? LF_LOG_ERROR : LF_LOG_DISCARD, "t = %.17g: directional "
-               "derivative: the model equations cannot be solved here", c->t);
+               "derivative: the model equations cannot be solved here", c->run.t);
         return st;
     }
-    if (lf_eval_fn(c, LF_FN_DIRW, c->t, x, w, wu, gu, yd) != LF_OK) return LF_ERROR;
+    if (lf_eval_fn(c, LF_FN_DIRW, c->run.t, x, w, wu, gu, yd) != LF_OK) return LF_ERROR;
     st = unknowns_change(c, x, w, dx, du, wu, gu, dd, dw);
     if (st == LF_OK && need_y) st = outputs_change(c, x, w, dx, du, dd, dw, yd, res + LF_NX);
     if (st != LF_OK) return st;
@@ -184,7 +184,7 @@ LfStatus lf_directional_derivative(LfInstance *c, const unsigned *unknown_vr, si
         double v = pick(res, unknown_vr[i]);
         if (!isfinite(v)) {
             lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: directional derivative of "
-                   "unknown %zu (%s) is %g (not finite)", c->t, i,
+                   "unknown %zu (%s) is %g (not finite)", c->run.t, i,
                    unknown_vr[i] >= VR_DER0 ? "a state derivative" :
                    lf_model.real_names[unknown_vr[i]], v);
             return LF_DISCARD;

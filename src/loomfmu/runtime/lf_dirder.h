@@ -12,8 +12,8 @@
 #include "lf_runtime.h"
 
 /* out[i] = sum_j d(unknown_vr[i]) / d(known_vr[j]) seed[j], exact, at the
- * instance's current point: time c->t, the states r[LF_VR_X0..], the inputs
- * at c->t (held values or their polynomials), the modes and parameters.
+ * instance's current point: time c->run.t, the states r[LF_VR_X0..], the inputs
+ * at c->run.t (held values or their polynomials), the modes and parameters.
  * Delayed values with tau = 0 are differentiated through (d = g(t, x, u)),
  * those with tau > 0 are held (they depend on the past only).
  *

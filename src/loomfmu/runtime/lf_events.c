@@ -1,5 +1,8 @@
-/* loomfmu shared runtime: event indicators and discrete modes; events are
- * located inside an accepted step on the solver's dense output. */
+/* loomfmu shared runtime: events located inside an accepted step on the
+ * solver's dense output, the step redone up to the root, the state carried
+ * across it, the modes chosen again (lf_modes.c) and the solver restarted;
+ * the early return's deferred event.  Called by the step loop (lf_step.c)
+ * and the known breaks (lf_breaks.c); calls only files below it. */
 #include <math.h>
 #include <string.h>
 
@@ -10,128 +13,14 @@
 
 /* ---- stepping ------------------------------------------------------------ */
 
-LfStatus lf_eval_events(LfInstance *c, double t, const double *x, double *e) {
-    const double *w = c->w_tmp;
-    LfStatus st;
-    if (LF_NE == 0) return LF_OK;
-    /* (at a step's end: the solver's last stage solved w there, and w_cur
-     * holds it, lf_wcache.h; read there, without the copy a solve makes) */
-    if (LF_WK_USED && c->wc_on && lf_wk_take(c, t, x, c->w_cur)) {
-        w = c->w_cur;
-    } else {
-        st = lf_solve_w(c, t, x, c->w_tmp);
-        if (st != LF_OK) return st;
-    }
-    if (lf_eval_fn1(c, LF_FN_EVT, t, x, w, e) != LF_OK ||
-        lf_first_nonfinite(e, LF_NE) >= 0) {
-        lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: event indicators not finite", t);
-        return LF_DISCARD;
-    }
-    return LF_OK;
-}
-
-/* Choose the value of mode k at (t, x): the first value, in the declared
- * priority order, that is consistent (validity >= 0) once the states are
- * reinitialized for it.  x is updated with the reinitialized states. */
-static LfStatus choose_mode(LfInstance *c, int k, double t, double *x) {
-    double old = c->q[k], x_try[LF_DIM(LF_NX)], valid[LF_DIM(LF_NQ)];
-    int j;
-    for (j = lf_model.mode_value_offset[k]; j < lf_model.mode_value_offset[k + 1]; j++) {
-        LfStatus st;
-        c->q[k] = lf_model.mode_values[j];
-        c->wc_gen++; /* solves of another mode (lf_wcache.h) */
-        if (lf_eval_fn(c, LF_FN_REINIT, t, x, c->w_cur, x_try, NULL, NULL) != LF_OK)
-            return LF_ERROR;
-        c->quiet++;
-        st = lf_solve_w(c, t, x_try, c->w_tmp);
-        c->quiet--;
-        if (st != LF_OK) continue; /* cannot be solved in this mode */
-        if (lf_eval_fn(c, LF_FN_VALID, t, x_try, c->w_tmp, valid, NULL, NULL) != LF_OK)
-            return LF_ERROR;
-        if (valid[k] >= 0) {
-            memcpy(x, x_try, sizeof(double) * LF_NX);
-            if (c->q[k] != old)
-                lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: mode %s: %g -> %g", t,
-                       lf_model.mode_names[k], old, c->q[k]);
-            return LF_OK;
-        }
-    }
-    c->q[k] = old;
-    c->wc_gen++;
-    /* a point the model cannot go on from (an input or a state far outside
-     * what the model was made for): the step is not done, the caller puts
-     * the modes back (Discard; at the start of the simulation an Error) */
-    lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
-           "t = %.17g: no value of mode %s is consistent here (the model has no "
-           "solution with any of its declared values)", t, lf_model.mode_names[k]);
-    return LF_DISCARD;
-}
-
-#define LF_MODE_ROUNDS (2 * LF_NQ + 2)
-
-/* Make every mode consistent at (t, x).  A mode is chosen again
- * (choose_mode: the first valid value in priority order) when its validity
- * is < 0, and, once chosen, again in every later round: a mode chosen here
- * sits at its boundary (a joint that just broke away or stuck, its speed
- * 0), and another mode's change can make a value of higher priority valid
- * again (coupled friction joints: with joint 2 slipping, joint 1 can stay
- * stuck).  Rounds repeat until one changes nothing.  `touched`: a mode
- * already chosen at this point (the event's), or -1.  x is updated with the
- * reinitialized states.  Used at the start, after an input change and
- * after every event. */
-LfStatus lf_consistent_modes(LfInstance *c, double t, double *x, int touched) {
-    double valid[LF_DIM(LF_NQ)];
-    unsigned char chosen[LF_DIM(LF_NQ)];
-    int k, round;
-    LfStatus st;
-    for (k = 0; k < LF_NQ; k++) chosen[k] = (unsigned char)(k == touched);
-    for (round = 0; LF_NQ > 0; round++) {
-        int changed = 0;
-        for (k = 0; k < LF_NQ; k++) {
-            double old = c->q[k];
-            if (!chosen[k]) {
-                c->quiet++;
-                st = lf_solve_w(c, t, x, c->w_tmp);
-                c->quiet--;
-                if (st == LF_OK &&
-                    lf_eval_fn(c, LF_FN_VALID, t, x, c->w_tmp, valid, NULL, NULL) == LF_OK &&
-                    valid[k] >= 0)
-                    continue;
-            }
-            st = choose_mode(c, k, t, x);
-            if (st != LF_OK) return st;
-            chosen[k] = 1;
-            if (c->q[k] != old) changed = 1;
-        }
-        if (!changed) break;
-        if (round == LF_MODE_ROUNDS) {
-            lf_log(c, LF_ERROR, LF_LOG_ERROR,
-                   "t = %.17g: the modes do not settle (%d rounds of choosing them again)", t,
-                   LF_MODE_ROUNDS);
-            return LF_ERROR;
-        }
-    }
-    return LF_OK;
-}
-
-/* The modes at the start: from their start values, every one made
- * consistent (a start value that is valid is kept).  Starting from the
- * start values each time makes the result independent of earlier reads. */
-LfStatus lf_initial_modes(LfInstance *c) {
-    int k;
-    for (k = 0; k < LF_NQ; k++) c->q[k] = lf_model.mode_start[k];
-    c->wc_gen++;
-    return lf_consistent_modes(c, c->t, &c->r[LF_VR_X0], -1);
-}
-
 static int crossed(double a, double b) { return (a > 0 && b <= 0) || (a < 0 && b >= 0); }
 
 /* Event indicator k on the dense output at time t. */
 static LfStatus event_at(LfInstance *c, int k, double t, double *g) {
     LfStatus st;
-    c->solver.method->dense(&c->solver, t, c->x_tmp);
-    st = lf_eval_events(c, t, c->x_tmp, c->e_new);
-    *g = c->e_new[k];
+    c->solver.method->dense(&c->solver, t, c->unsaved.x_tmp);
+    st = lf_eval_events(c, t, c->unsaved.x_tmp, c->unsaved.e_new);
+    *g = c->unsaved.e_new[k];
     return st;
 }
 
@@ -184,7 +73,7 @@ static LfStatus locate_root(LfInstance *c, int k, double ta, double ga, double t
  * restarts at the last point tried, with that point's indicators. */
 static LfStatus cross_gap(LfInstance *c, int k, double t_left, const double *x_left,
                           double gap, double t_limit, int *crossed_out) {
-    double f[LF_DIM(LF_NX)], x[LF_DIM(LF_NX)], old = c->e_old[k];
+    double f[LF_DIM(LF_NX)], x[LF_DIM(LF_NX)], old = c->ev.e_old[k];
     double gap_max = fmin(t_limit - t_left, LF_EVENT_GAP_MAX * fmax(1.0, fabs(t_left)));
     int i, j;
     LfStatus st = lf_rhs(c, t_left, x_left, f);
@@ -194,16 +83,16 @@ static LfStatus cross_gap(LfInstance *c, int k, double t_left, const double *x_l
     for (i = 0; i < LF_EVENT_GAP_TRIES; i++, gap *= 4.0) {
         if (gap > gap_max) gap = gap_max;
         for (j = 0; j < LF_NX; j++) x[j] = x_left[j] + gap * f[j];
-        st = lf_eval_events(c, t_left + gap, x, c->e_new);
+        st = lf_eval_events(c, t_left + gap, x, c->unsaved.e_new);
         if (st != LF_OK) return st;
-        if (crossed(old, c->e_new[k])) {
+        if (crossed(old, c->unsaved.e_new[k])) {
             *crossed_out = 1;
             break;
         }
         if (gap >= gap_max) break;
     }
     lf_solver_reset(&c->solver, t_left + gap, x);
-    memcpy(c->e_old, c->e_new, sizeof(double) * LF_NE);
+    memcpy(c->ev.e_old, c->unsaved.e_new, sizeof(double) * LF_NE);
     return LF_OK;
 }
 
@@ -324,33 +213,6 @@ static LfStatus scan_events(LfInstance *c, double ta, const double *ga, double t
     return LF_OK;
 }
 
-/* The modes after event k at (t, x) without a solver: the event's own mode
- * (if it has one) chosen first, then every mode made consistent; x is
- * updated with the reinitialized states.  *changed (if not NULL): a mode
- * or a state changed. */
-LfStatus lf_event_update(LfInstance *c, int k, double t, double *x, int *changed) {
-    double q0[LF_DIM(LF_NQ)], x0[LF_DIM(LF_NX)];
-    int touched = k >= 0 && k < LF_NE ? lf_model.event_mode[k] : -1;
-    LfStatus st;
-    memcpy(q0, c->q, sizeof q0);
-    memcpy(x0, x, sizeof(double) * LF_NX);
-    if (changed) *changed = 0;
-    if (LF_NQ == 0) return LF_OK;
-    if (touched >= 0) st = choose_mode(c, touched, t, x);
-    else st = LF_OK;
-    if (st == LF_OK) st = lf_consistent_modes(c, t, x, touched);
-    if (st != LF_OK) { /* the modes and states as they were */
-        memcpy(c->q, q0, sizeof q0);
-        memcpy(x, x0, sizeof(double) * LF_NX);
-        c->wc_gen++;
-        return st;
-    }
-    if (changed)
-        *changed = memcmp(q0, c->q, sizeof(double) * LF_NQ) != 0 ||
-                   memcmp(x0, x, sizeof(double) * LF_NX) != 0;
-    return LF_OK;
-}
-
 /* Event `first` at the solver's point (the root's new side, where cross_gap
  * restarted it): modes, reinit, solver restart, the validity conditions at
  * the restart (t_ok, x_ok, q_ok: the last point before the event) and the
@@ -359,16 +221,16 @@ static LfStatus apply_event(LfInstance *c, int first, double t_ok, const double 
                             const double *q_ok, int *changed) {
     LfSolver *s = &c->solver;
     LfStatus st;
-    c->n_events++;
-    c->kb_ready = 0; /* states may be reinitialized: predict the known breaks again */
-    c->kb_dt = 0.0;  /* no chunk length to carry over the restart (lf_known_break) */
+    c->stats.n_events++;
+    c->kb.ready = 0; /* states may be reinitialized: predict the known breaks again */
+    c->kb.dt = 0.0;  /* no chunk length to carry over the restart (lf_known_break) */
     if (changed) *changed = 0;
     if (LF_NQ > 0) {
-        memcpy(c->x_tmp, s->x, sizeof(double) * LF_NX);
-        st = lf_event_update(c, first, s->t, c->x_tmp, changed);
+        memcpy(c->unsaved.x_tmp, s->x, sizeof(double) * LF_NX);
+        st = lf_event_update(c, first, s->t, c->unsaved.x_tmp, changed);
         if (st != LF_OK) return st;
-        lf_solver_reset(s, s->t, c->x_tmp);
-        st = lf_eval_events(c, s->t, s->x, c->e_old);
+        lf_solver_reset(s, s->t, c->unsaved.x_tmp);
+        st = lf_eval_events(c, s->t, s->x, c->ev.e_old);
         if (st != LF_OK) return st;
     }
     lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: event %s, solver restarted", s->t,
@@ -382,28 +244,28 @@ static LfStatus apply_event(LfInstance *c, int first, double t_ok, const double 
  * lf_apply_pending_event. */
 static LfStatus defer_event(LfInstance *c, int first, double t_ok, const double *x_ok,
                             const double *q_ok) {
-    c->event_pending = 1;
-    c->event_index = first;
-    c->t_event = c->solver.t;
-    c->ev_t_ok = t_ok;
-    memcpy(c->ev_x_ok, x_ok, sizeof(double) * LF_NX);
-    memcpy(c->ev_q_ok, q_ok, sizeof(double) * LF_NQ);
+    c->ev.pending = 1;
+    c->ev.index = first;
+    c->ev.t_event = c->solver.t;
+    c->ev.t_ok = t_ok;
+    memcpy(c->ev.x_ok, x_ok, sizeof(double) * LF_NX);
+    memcpy(c->ev.q_ok, q_ok, sizeof(double) * LF_NQ);
     lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: event %s, step ends here (early return)",
            c->solver.t, lf_model.event_names[first]);
     return LF_OK;
 }
 
 LfStatus lf_apply_pending_event(LfInstance *c, int *changed) {
-    int k = c->event_index;
+    int k = c->ev.index;
     if (changed) *changed = 0;
-    if (!c->event_pending) return LF_OK;
-    c->event_pending = 0;
-    c->event_index = -1;
-    return apply_event(c, k, c->ev_t_ok, c->ev_x_ok, c->ev_q_ok, changed);
+    if (!c->ev.pending) return LF_OK;
+    c->ev.pending = 0;
+    c->ev.index = -1;
+    return apply_event(c, k, c->ev.t_ok, c->ev.x_ok, c->ev.q_ok, changed);
 }
 
 /* Rule 2's bound left pending after a step the known-break scan vouched for
- * (c->kb_sure == -INFINITY; also after an FMU state is set, and at the
+ * (c->unsaved.kb_sure == -INFINITY; also after an FMU state is set, and at the
  * start): taken now, from the last step's samples as scan_events takes them
  * (its start from x_old, its midpoint on the dense output, its end e_old),
  * the indicators evaluated without solving for w (every one predicted: none
@@ -414,17 +276,17 @@ LfStatus lf_event_bound_pending(LfInstance *c) {
     LfSolver *s = &c->solver;
     double ga[LF_DIM(LF_NE)], gm[LF_DIM(LF_NE)], xm[LF_DIM(LF_NX)], hb = INFINITY;
     double tm = 0.5 * (s->t_old + s->t), h_step = s->t - s->t_old;
-    if (c->kb_sure != -INFINITY) return LF_OK;
-    c->kb_sure = s->t;
+    if (c->unsaved.kb_sure != -INFINITY) return LF_OK;
+    c->unsaved.kb_sure = s->t;
     if (!(tm > s->t_old && tm < s->t)) return LF_OK;
     s->method->dense(s, tm, xm);
-    if (lf_eval_fn1(c, LF_FN_EVT, s->t_old, s->x_old, c->w_cur, ga) != LF_OK ||
-        lf_eval_fn1(c, LF_FN_EVT, tm, xm, c->w_cur, gm) != LF_OK ||
+    if (lf_eval_fn1(c, LF_FN_EVT, s->t_old, s->x_old, c->val.w_cur, ga) != LF_OK ||
+        lf_eval_fn1(c, LF_FN_EVT, tm, xm, c->val.w_cur, gm) != LF_OK ||
         lf_first_nonfinite(ga, LF_NE) >= 0 || lf_first_nonfinite(gm, LF_NE) >= 0) {
         lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: event indicators not finite", tm);
         return LF_DISCARD;
     }
-    curvature_bound(ga, gm, c->e_old, h_step, &hb);
+    curvature_bound(ga, gm, c->ev.e_old, h_step, &hb);
     hb = fmax(hb, 0.25 * h_step);
     if (s->h > hb) s->h = hb;
     return LF_OK;
@@ -445,41 +307,41 @@ static LfStatus handle_events(LfInstance *c, double *h_bound) {
     if (st != LF_OK) return st;
     scan.found = 0;
     scan.h_bound = INFINITY;
-    if (c->kb_cert && !any_crossed(c->e_old, e_end)) {
+    if (c->unsaved.kb_cert && !any_crossed(c->ev.e_old, e_end)) {
         /* Every indicator is known ahead (a function of time, the
          * parameters, the held inputs and the clock states, not of w), and
          * the scan of their prediction (lf_breaks.c), which resolves them by
          * the same rules, found no root in this step: rule 1 has nothing to
          * add.  Rule 2's bound exists for the events' scan of the next step;
-         * it is left pending (c->kb_sure = -INFINITY) and taken before the
+         * it is left pending (c->unsaved.kb_sure = -INFINITY) and taken before the
          * next step only if that step is not vouched for in turn
          * (lf_event_bound_pending, from lf_known_break), while this step's
          * dense output is still there.  Taken now where the solver restarts
          * before the next step: a known break crossed here, a delay's
          * breakpoint (a restart loses the dense output). */
         double tm = 0.5 * (s->t_old + s->t), xm[LF_DIM(LF_NX)], gm[LF_DIM(LF_NE)];
-        if (LF_ND == 0 && !(c->kb_index >= 0 && s->t == c->kb_t_land)) {
-            memcpy(c->e_old, e_end, sizeof(double) * LF_NE);
-            c->kb_sure = -INFINITY;
+        if (LF_ND == 0 && !(c->kb.index >= 0 && s->t == c->kb.t_land)) {
+            memcpy(c->ev.e_old, e_end, sizeof(double) * LF_NE);
+            c->unsaved.kb_sure = -INFINITY;
             return LF_OK;
         }
-        c->kb_sure = s->t;
+        c->unsaved.kb_sure = s->t;
         if (tm > s->t_old && tm < s->t) {
             c->solver.method->dense(&c->solver, tm, xm);
-            if (lf_eval_fn1(c, LF_FN_EVT, tm, xm, c->w_cur, gm) != LF_OK ||
+            if (lf_eval_fn1(c, LF_FN_EVT, tm, xm, c->val.w_cur, gm) != LF_OK ||
                 lf_first_nonfinite(gm, LF_NE) >= 0) {
                 lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: event indicators not finite",
                        tm);
                 return LF_DISCARD;
             }
-            curvature_bound(c->e_old, gm, e_end, h_step, &scan.h_bound);
+            curvature_bound(c->ev.e_old, gm, e_end, h_step, &scan.h_bound);
         }
         *h_bound = fmax(scan.h_bound, 0.25 * h_step);
-        memcpy(c->e_old, e_end, sizeof(double) * LF_NE);
+        memcpy(c->ev.e_old, e_end, sizeof(double) * LF_NE);
         return LF_OK;
     }
-    c->kb_sure = s->t; /* rule 2's bound for this step: taken below */
-    st = scan_events(c, s->t_old, c->e_old, s->t, e_end, 0, &scan);
+    c->unsaved.kb_sure = s->t; /* rule 2's bound for this step: taken below */
+    st = scan_events(c, s->t_old, c->ev.e_old, s->t, e_end, 0, &scan);
     if (st != LF_OK) return st;
     /* rule 2: at most 4 times shorter than this step */
     *h_bound = fmax(scan.h_bound, 0.25 * h_step);
@@ -495,7 +357,7 @@ static LfStatus handle_events(LfInstance *c, double *h_bound) {
         }
     }
     if (first < 0) {
-        memcpy(c->e_old, e_end, sizeof(double) * LF_NE);
+        memcpy(c->ev.e_old, e_end, sizeof(double) * LF_NE);
         return LF_OK;
     }
     t_end_step = s->t;
@@ -503,8 +365,8 @@ static LfStatus handle_events(LfInstance *c, double *h_bound) {
      * not reach the model's switch, which rounding can move by a few ulps */
     margin = LF_EVENT_GAP * fmax(1.0, fabs(t_left));
     t_stop = fmax(t_left - margin, s->t_old);
-    memcpy(c->x_tmp, s->x_old, sizeof(double) * LF_NX);
-    lf_solver_reset(s, s->t_old, c->x_tmp);
+    memcpy(c->unsaved.x_tmp, s->x_old, sizeof(double) * LF_NX);
+    lf_solver_reset(s, s->t_old, c->unsaved.x_tmp);
     while (s->t < t_stop) {
         st = s->method->step(s, t_stop);
         if (st != LF_OK) return st;
@@ -516,7 +378,7 @@ static LfStatus handle_events(LfInstance *c, double *h_bound) {
     /* the last point before the event, where the conditions held */
     t_ok = s->t;
     memcpy(x_ok, s->x, sizeof x_ok);
-    memcpy(q_ok, c->q, sizeof q_ok);
+    memcpy(q_ok, c->val.q, sizeof q_ok);
     st = cross_gap(c, first, s->t, s->x, t_right - s->t + margin, t_end_step, &crossed_gap);
     if (st != LF_OK) return st;
     if (!crossed_gap) {
@@ -526,24 +388,24 @@ static LfStatus handle_events(LfInstance *c, double *h_bound) {
         if (st != LF_OK) return st;
         return lf_hist_push(c, s->t, s->x, 0);
     }
-    if (c->stop_at_events) return defer_event(c, first, t_ok, x_ok, q_ok);
+    if (c->unsaved.stop_at_events) return defer_event(c, first, t_ok, x_ok, q_ok);
     return apply_event(c, first, t_ok, x_ok, q_ok, NULL);
 }
 
 LfStatus lf_cross_known_break(LfInstance *c, double t_limit) {
     LfSolver *s = &c->solver;
     double t_ok, x_ok[LF_DIM(LF_NX)], q_ok[LF_DIM(LF_NQ)], margin;
-    int k = c->kb_index, crossed_gap;
+    int k = c->kb.index, crossed_gap;
     LfStatus st;
-    if (k < 0 || s->t != c->kb_t_land || !(s->t > s->t_old)) return LF_OK;
-    c->kb_index = -1;
+    if (k < 0 || s->t != c->kb.t_land || !(s->t > s->t_old)) return LF_OK;
+    c->kb.index = -1;
     t_ok = s->t;
     margin = LF_EVENT_GAP * fmax(1.0, fabs(t_ok));
     /* landed at the communication point: the next step finds the event */
-    if (c->kb_t_right + margin > t_limit) return LF_OK;
+    if (c->kb.t_right + margin > t_limit) return LF_OK;
     memcpy(x_ok, s->x, sizeof x_ok);
-    memcpy(q_ok, c->q, sizeof q_ok);
-    st = cross_gap(c, k, t_ok, x_ok, c->kb_t_right - t_ok + margin, t_limit, &crossed_gap);
+    memcpy(q_ok, c->val.q, sizeof q_ok);
+    st = cross_gap(c, k, t_ok, x_ok, c->kb.t_right - t_ok + margin, t_limit, &crossed_gap);
     if (st != LF_OK) return st;
     if (!crossed_gap) {
         lf_log(c, LF_OK, LF_LOG_EVENTS, "t = %.17g: indicator %s, predicted to cross zero, "
@@ -552,8 +414,8 @@ LfStatus lf_cross_known_break(LfInstance *c, double t_limit) {
         if (st != LF_OK) return st;
         return lf_hist_push(c, s->t, s->x, 0);
     }
-    c->n_known_breaks++;
-    if (c->stop_at_events) return defer_event(c, k, t_ok, x_ok, q_ok);
+    c->unsaved.n_known_breaks++;
+    if (c->unsaved.stop_at_events) return defer_event(c, k, t_ok, x_ok, q_ok);
     return apply_event(c, k, t_ok, x_ok, q_ok, NULL);
 }
 

@@ -64,13 +64,13 @@ LfStatus lf_setup_experiment(LfInstance *c, const char *fn, int tolerance_define
                lf_model.real_min[LF_SET_RTOL], lf_model.real_max[LF_SET_RTOL]);
         return LF_ERROR;
     }
-    c->t_start = c->t = c->last_successful_time = start_time;
-    for (k = 0; k < LF_NU; k++) c->u_t0[k] = start_time; /* input derivatives set before */
-    c->seen_t = start_time;
-    c->t_stop = stop_time_defined ? stop_time : INFINITY;
+    c->run.t_start = c->run.t = c->run.last_successful_time = start_time;
+    for (k = 0; k < LF_NU; k++) c->in.u_t0[k] = start_time; /* input derivatives set before */
+    c->in.seen_t = start_time;
+    c->run.t_stop = stop_time_defined ? stop_time : INFINITY;
     /* the importer's tolerance is the solvers' relative tolerance (it wins over
      * solver_rtol, which keeps its value); it is limited to solver_rtol's range */
-    c->rtol_importer = 0.0;
+    c->run.rtol_importer = 0.0;
     if (tolerance_defined) {
         double lo = lf_model.real_min[LF_SET_RTOL], hi = lf_model.real_max[LF_SET_RTOL];
         double tol = tolerance;
@@ -80,50 +80,50 @@ LfStatus lf_setup_experiment(LfInstance *c, const char *fn, int tolerance_define
                    "using %g", fn, tolerance, lo, hi, tol);
             status = LF_WARNING;
         }
-        c->rtol_importer = tol;
+        c->run.rtol_importer = tol;
     }
     return status;
 }
 
 int lf_log_rtol_override(LfInstance *c, int rtol_set, const char *fn) {
     const char *name = lf_model.real_names[LF_SET_RTOL];
-    if (!(c->rtol_importer > 0) || !rtol_set || c->r[LF_SET_RTOL] == c->rtol_importer)
+    if (!(c->run.rtol_importer > 0) || !rtol_set || c->val.r[LF_SET_RTOL] == c->run.rtol_importer)
         return 0;
     lf_log(c, LF_WARNING, LF_LOG_WARNING,
            "t = %.17g: %s = %g is overridden by the importer's tolerance = %g of %s; the "
-           "solvers use %g", c->t_start, name, c->r[LF_SET_RTOL], c->rtol_importer, fn,
-           c->rtol_importer);
+           "solvers use %g", c->run.t_start, name, c->val.r[LF_SET_RTOL], c->run.rtol_importer, fn,
+           c->run.rtol_importer);
     return 1;
 }
 
 /* ---- undo ------------------------------------------------------------------------- */
 
 void lf_undo_save(const LfInstance *c, LfSetUndo *u) {
-    memcpy(u->r, c->r, sizeof u->r);
-    memcpy(u->u_d1, c->u_d1, sizeof u->u_d1);
-    memcpy(u->u_d2, c->u_d2, sizeof u->u_d2);
-    memcpy(u->u_t0, c->u_t0, sizeof u->u_t0);
-    u->u_poly = c->u_poly;
-    memcpy(u->x_set, c->x_set, sizeof u->x_set);
-    u->inputs_changed = c->inputs_changed;
-    u->outputs_valid = c->outputs_valid;
-    u->solver_id = c->solver_id;
-    u->solver_index = c->solver_index;
-    u->delay_interp = c->delay_interp;
+    memcpy(u->r, c->val.r, sizeof u->r);
+    memcpy(u->u_d1, c->in.u_d1, sizeof u->u_d1);
+    memcpy(u->u_d2, c->in.u_d2, sizeof u->u_d2);
+    memcpy(u->u_t0, c->in.u_t0, sizeof u->u_t0);
+    u->u_poly = c->unsaved.u_poly;
+    memcpy(u->x_set, c->val.x_set, sizeof u->x_set);
+    u->inputs_changed = c->run.inputs_changed;
+    u->outputs_valid = c->run.outputs_valid;
+    u->solver_id = c->run.solver_id;
+    u->solver_index = c->run.solver_index;
+    u->delay_interp = c->dl.delay_interp;
 }
 
 void lf_undo_restore(LfInstance *c, const LfSetUndo *u) {
-    memcpy(c->r, u->r, sizeof u->r);
-    memcpy(c->u_d1, u->u_d1, sizeof u->u_d1);
-    memcpy(c->u_d2, u->u_d2, sizeof u->u_d2);
-    memcpy(c->u_t0, u->u_t0, sizeof u->u_t0);
-    c->u_poly = u->u_poly;
-    memcpy(c->x_set, u->x_set, sizeof u->x_set);
-    c->inputs_changed = u->inputs_changed;
-    c->outputs_valid = u->outputs_valid;
-    c->solver_id = u->solver_id;
-    c->solver_index = u->solver_index;
-    c->delay_interp = u->delay_interp;
+    memcpy(c->val.r, u->r, sizeof u->r);
+    memcpy(c->in.u_d1, u->u_d1, sizeof u->u_d1);
+    memcpy(c->in.u_d2, u->u_d2, sizeof u->u_d2);
+    memcpy(c->in.u_t0, u->u_t0, sizeof u->u_t0);
+    c->unsaved.u_poly = u->u_poly;
+    memcpy(c->val.x_set, u->x_set, sizeof u->x_set);
+    c->run.inputs_changed = u->inputs_changed;
+    c->run.outputs_valid = u->outputs_valid;
+    c->run.solver_id = u->solver_id;
+    c->run.solver_index = u->solver_index;
+    c->dl.delay_interp = u->delay_interp;
 }
 
 /* ---- FMU-state blobs ----------------------------------------------------------------- */
@@ -131,7 +131,7 @@ void lf_undo_restore(LfInstance *c, const LfSetUndo *u) {
 LfBlob *lf_blob_alloc(LfInstance *c, LfBlob **list, size_t n) {
     LfBlob *b = NULL;
     if (n <= (size_t)-1 - offsetof(LfBlob, data)) /* else the size wraps */
-        b = (LfBlob *)c->alloc.calloc(1, offsetof(LfBlob, data) + n);
+        b = (LfBlob *)c->unsaved.alloc.calloc(1, offsetof(LfBlob, data) + n);
     if (!b) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "FMU state: out of memory (%lu bytes)",
                (unsigned long)n);
@@ -148,14 +148,14 @@ LfBlob **lf_blob_find(LfInstance *c, LfBlob **list, const char *fn, const void *
     while (*p && (const void *)*p != s) p = &(*p)->next;
     if (*p) return p;
     lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: FMU state %p was not made by this "
-           "instance or was freed; nothing done", c->t, fn, s);
+           "instance or was freed; nothing done", c->run.t, fn, s);
     return NULL;
 }
 
 void lf_blob_free(LfInstance *c, LfBlob **at) {
     LfBlob *b = *at;
     *at = b->next;
-    c->alloc.free(b);
+    c->unsaved.alloc.free(b);
 }
 
 void lf_blobs_free(LfInstance *c, LfBlob **list) {
@@ -170,19 +170,19 @@ int lf_step_integrable(LfInstance *c, const char *fn, double t, double h) {
     if (!isfinite(t)) why = "currentCommunicationPoint is not finite";
     else if (!isfinite(h) || !(h > 0)) why = "communicationStepSize is not finite and > 0";
     else if (!isfinite(t + h)) why = "the end of the step is not finite";
-    else if (fabs(t - c->t) > 1e-9 * fmax(1.0, fabs(c->t))) { /* as lf_check_step */
+    else if (fabs(t - c->run.t) > 1e-9 * fmax(1.0, fabs(c->run.t))) { /* as lf_check_step */
         snprintf(buf, sizeof buf, "expected currentCommunicationPoint = t = %.17g (the end of "
                  "the last step, or the time of the FMU state set), got %.17g (%s the FMU's "
-                 "time)", c->t, t, t < c->t ? "behind" : "ahead of");
+                 "time)", c->run.t, t, t < c->run.t ? "behind" : "ahead of");
         why = buf;
-    } else if (!(t + h > c->t)) {
+    } else if (!(t + h > c->run.t)) {
         snprintf(buf, sizeof buf, "the step does not advance time (below the resolution of "
-                 "time here: %g s)", nextafter(c->t, INFINITY) - c->t);
+                 "time here: %g s)", nextafter(c->run.t, INFINITY) - c->run.t);
         why = buf;
     }
     if (!why) return 1;
     lf_log(c, LF_ERROR, LF_LOG_ERROR,
            "t = %.17g: %s(currentCommunicationPoint = %.17g, communicationStepSize = %g): %s; "
-           "step refused, nothing changed", c->t, fn, t, h, why);
+           "step refused, nothing changed", c->run.t, fn, t, h, why);
     return 0;
 }

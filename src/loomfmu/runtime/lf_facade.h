@@ -92,12 +92,12 @@ int lf_step_integrable(LfInstance *c, const char *fn, double t, double h);
  * the FMU's time (relative beyond 1); an end later than the FMU's time and
  * not past stopTime. */
 static inline int lf_step_args_ok(const LfInstance *c, double t, double h) {
-    double t_end = t + h, tc = c->t;
+    double t_end = t + h, tc = c->run.t;
     /* (a finite t + h has a finite t and h: an infinite or NaN term makes
      * the sum so; t == tc, the common case, is within any tolerance) */
     return isfinite(t_end) && h > 0 &&
            (t == tc || fabs(t - tc) <= 1e-9 * (fabs(tc) > 1.0 ? fabs(tc) : 1.0)) &&
-           t_end > tc && !(t_end > c->t_stop * (1 + 1e-12) + 1e-12);
+           t_end > tc && !(t_end > c->run.t_stop * (1 + 1e-12) + 1e-12);
 }
 
 #endif

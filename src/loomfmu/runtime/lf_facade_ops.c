@@ -32,7 +32,7 @@ int lf_check_state(LfInstance *c, const char *fn, int bits, int mask,
     lf_state_names(bits, names, n_names, now, sizeof now);
     lf_state_names(mask, names, n_names, allowed, sizeof allowed);
     lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s must not be called in state %s; allowed "
-           "in: %s", c->t, fn, now[0] ? now : "unknown", allowed);
+           "in: %s", c->run.t, fn, now[0] ? now : "unknown", allowed);
     return 0;
 }
 
@@ -48,7 +48,7 @@ LfStatus lf_set_debug_logging(LfInstance *c, const char *fn, int on, size_t n,
     size_t i;
     int k;
     if (n == 0) {
-        for (k = 0; k < LF_N_LOG; k++) c->log_on[k] = on;
+        for (k = 0; k < LF_N_LOG; k++) c->unsaved.log_on[k] = on;
         return LF_OK;
     }
     if (!categories) {
@@ -67,7 +67,7 @@ LfStatus lf_set_debug_logging(LfInstance *c, const char *fn, int on, size_t n,
                    categories[i] ? categories[i] : "(null)");
             return LF_ERROR;
         }
-    for (i = 0; i < n; i++) c->log_on[category_index(categories[i])] = on;
+    for (i = 0; i < n; i++) c->unsaved.log_on[category_index(categories[i])] = on;
     return LF_OK;
 }
 
@@ -94,7 +94,7 @@ LfStatus lf_set_reals(LfInstance *c, const unsigned vr[], size_t nvr, const doub
 /* ---- FMU states ------------------------------------------------------------------ */
 
 static LfStatus null_arg(LfInstance *c, const char *fn, const char *arg) {
-    lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: %s is NULL; nothing done", c->t, fn, arg);
+    lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: %s is NULL; nothing done", c->run.t, fn, arg);
     return LF_ERROR;
 }
 
@@ -148,7 +148,7 @@ LfStatus lf_fmustate_serialize(LfInstance *c, LfBlob **list, const char *fn, voi
     if (!(b = lf_blob_find(c, list, fn, state))) return LF_ERROR;
     if (size < (*b)->n) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: expected a buffer of %lu bytes but "
-               "was %lu", c->t, fn, (unsigned long)(*b)->n, (unsigned long)size);
+               "was %lu", c->run.t, fn, (unsigned long)(*b)->n, (unsigned long)size);
         return LF_ERROR;
     }
     memcpy(bytes, (*b)->data, (*b)->n);
@@ -169,14 +169,14 @@ LfStatus lf_fmustate_deserialize(LfInstance *c, LfBlob **list, const char *fn,
     if (size > lf_state_max_size()) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: size = %lu bytes, expected %lu ... "
                "%lu (the sizes of this FMU's states; the serialized size function gives a "
-               "state's size); nothing done", c->t, fn, (unsigned long)size,
+               "state's size); nothing done", c->run.t, fn, (unsigned long)size,
                (unsigned long)lf_state_min_size(), (unsigned long)lf_state_max_size());
         return LF_ERROR;
     }
     if (*state && !lf_blob_find(c, list, fn, *state)) return LF_ERROR;
     if (lf_state_check_bytes(c, bytes, size) != LF_OK) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: the %lu bytes are not a state of "
-               "this FMU (the line before says why); no FMU state made, nothing done", c->t,
+               "this FMU (the line before says why); no FMU state made, nothing done", c->run.t,
                fn, (unsigned long)size);
         return LF_ERROR;
     }

@@ -50,9 +50,9 @@ static const char *const state_names[] = {"Instantiated", "InitializationMode",
 #define N_STATE_NAMES ((int)(sizeof state_names / sizeof state_names[0]))
 
 int lf_fmi2_state_bits(const LfInstance *inst) {
-    if (ENV(inst)->me && inst->state == LF_ST_STEP_COMPLETE)
+    if (ENV(inst)->me && inst->run.state == LF_ST_STEP_COMPLETE)
         return ENV(inst)->me_cont ? M2_CONT : M2_EVENT;
-    return (int)inst->state;
+    return (int)inst->run.state;
 }
 
 int lf_fmi2_allowed(fmi2Component c, const char *fn, int mask) {
@@ -64,7 +64,7 @@ int lf_fmi2_allowed(fmi2Component c, const char *fn, int mask) {
 
 
 fmi2Status lf_fmi2_null_arg(LfInstance *c, const char *fn, const char *arg) {
-    lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: %s is NULL; nothing done", c->t, fn, arg);
+    lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: %s is NULL; nothing done", c->run.t, fn, arg);
     return fmi2Error;
 }
 
@@ -142,8 +142,8 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
                           "registry mismatch");
         return NULL;
     }
-    c->log_on_start = loggingOn;
-    for (k = 0; k < LF_N_LOG; k++) c->log_on[k] = loggingOn;
+    c->unsaved.log_on_start = loggingOn;
+    for (k = 0; k < LF_N_LOG; k++) c->unsaved.log_on[k] = loggingOn;
     return c;
 }
 
@@ -156,7 +156,7 @@ void fmi2FreeInstance(fmi2Component c) {
     void (*release)(void *);
     Fmi2Env *env;
     if (!inst || !lf_live_remove(inst)) return;
-    release = inst->alloc.free;
+    release = inst->unsaved.alloc.free;
     env = ENV(inst);
     lf_fmi2_free_states(inst);
     lf_free(inst);
@@ -174,7 +174,7 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
 
 fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
     CHECK("fmi2EnterInitializationMode", LF_ST_INSTANTIATED);
-    ((LfInstance *)c)->state = LF_ST_INIT;
+    ((LfInstance *)c)->run.state = LF_ST_INIT;
     return fmi2OK;
 }
 
@@ -184,18 +184,18 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     CHECK("fmi2ExitInitializationMode", LF_ST_INIT);
     warned = lf_log_rtol_override(inst, ENV(inst)->rtol_set, "fmi2SetupExperiment");
     if ((ENV(inst)->me ? lf_me_initialize(inst) : lf_initialize(inst)) != LF_OK) {
-        inst->state = LF_ST_ERROR;
+        inst->run.state = LF_ST_ERROR;
         return fmi2Error;
     }
     /* model exchange: to event mode (FMI 2.0, 3.2.3) */
-    inst->state = LF_ST_STEP_COMPLETE;
+    inst->run.state = LF_ST_STEP_COMPLETE;
     ENV(inst)->me_cont = 0;
     return warned ? fmi2Warning : fmi2OK;
 }
 
 fmi2Status fmi2Terminate(fmi2Component c) {
     CHECK("fmi2Terminate", RUNNING | ME_RUNNING);
-    ((LfInstance *)c)->state = LF_ST_TERMINATED;
+    ((LfInstance *)c)->run.state = LF_ST_TERMINATED;
     return fmi2OK;
 }
 

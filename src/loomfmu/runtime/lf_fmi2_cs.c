@@ -12,8 +12,8 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSet
         (!lf_step_integrable(inst, "fmi2DoStep", t, h) || lf_check_step(inst, t, h) != LF_OK))
         return fmi2Error;
     st = lf_do_checked_step(inst, t, h);
-    if (st == LF_DISCARD) inst->state = LF_ST_STEP_FAILED;
-    else if (st != LF_OK && st != LF_WARNING) inst->state = LF_ST_ERROR;
+    if (st == LF_DISCARD) inst->run.state = LF_ST_STEP_FAILED;
+    else if (st != LF_OK && st != LF_WARNING) inst->run.state = LF_ST_ERROR;
     return (fmi2Status)st;
 }
 
@@ -38,14 +38,14 @@ static fmi2Status status_kind_unknown(fmi2Component c, const char *fn, fmi2Statu
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
     STATUS_CHECK("fmi2GetStatus");
     if (s != fmi2DoStepStatus) return status_kind_unknown(c, "fmi2GetStatus", s);
-    *value = ((LfInstance *)c)->state == LF_ST_STEP_FAILED ? fmi2Discard : fmi2OK;
+    *value = ((LfInstance *)c)->run.state == LF_ST_STEP_FAILED ? fmi2Discard : fmi2OK;
     return fmi2OK;
 }
 
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
     STATUS_CHECK("fmi2GetRealStatus");
     if (s != fmi2LastSuccessfulTime) return status_kind_unknown(c, "fmi2GetRealStatus", s);
-    *value = ((LfInstance *)c)->last_successful_time;
+    *value = ((LfInstance *)c)->run.last_successful_time;
     return fmi2OK;
 }
 
@@ -58,7 +58,7 @@ fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boo
     STATUS_CHECK("fmi2GetBooleanStatus");
     if (s != fmi2Terminated) return status_kind_unknown(c, "fmi2GetBooleanStatus", s);
     /* true after a validity condition failed: the model cannot go on */
-    *value = ((LfInstance *)c)->wants_terminate ? fmi2True : fmi2False;
+    *value = ((LfInstance *)c)->run.wants_terminate ? fmi2True : fmi2False;
     return fmi2OK;
 }
 

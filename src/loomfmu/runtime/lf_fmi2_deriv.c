@@ -27,7 +27,7 @@
 static int cs_only(LfInstance *inst, const char *fn) {
     if (!ENV(inst)->me) return 1;
     lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s is a co-simulation function; this "
-           "instance was instantiated as fmi2ModelExchange", inst->t, fn);
+           "instance was instantiated as fmi2ModelExchange", inst->run.t, fn);
     return 0;
 }
 
@@ -64,7 +64,7 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
         LfKind kind = lf_model.real_kind[vr[i]];
         if (kind != LF_KIND_OUTPUT && kind != LF_KIND_LOCAL) {
             lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: fmi2GetRealOutputDerivatives: "
-                   "vr[%lu] = %u (%s) is not an output (outputs: %u ... %u)", inst->t,
+                   "vr[%lu] = %u (%s) is not an output (outputs: %u ... %u)", inst->run.t,
                    (unsigned long)i, (unsigned)vr[i], lf_model.real_names[vr[i]],
                    (unsigned)LF_VR_Y0, (unsigned)(LF_NREAL - 1));
             return fmi2Error;
@@ -72,7 +72,7 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
         if (order[i] != 1) {
             lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: fmi2GetRealOutputDerivatives: "
                    "order[%lu] = %d for %s; allowed 1 (maxOutputDerivativeOrder = 1; 0 is "
-                   "not allowed by FMI 2.0)", inst->t, (unsigned long)i, (int)order[i],
+                   "not allowed by FMI 2.0)", inst->run.t, (unsigned long)i, (int)order[i],
                    lf_model.real_names[vr[i]]);
             return fmi2Error;
         }
@@ -97,7 +97,7 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
     const char *fn = "fmi2GetDirectionalDerivative";
     LfStatus st;
     CHECK(fn, LF_ST_INIT | RUNNING | ME_RUNNING | LF_ST_TERMINATED);
-    if (ENV(inst)->me && (inst->state & LF_ST_STEP_COMPLETE) &&
+    if (ENV(inst)->me && (inst->run.state & LF_ST_STEP_COMPLETE) &&
         (st = lf_me_delays_known(inst, fn)) != LF_OK)
         return (fmi2Status)st;
     st = lf_directional_derivative(inst, vUnknown_ref, nUnknown, vKnown_ref, nKnown, dvKnown,

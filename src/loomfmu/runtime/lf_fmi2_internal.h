@@ -48,7 +48,7 @@ typedef struct {
     int me_cont;              /* model exchange: continuous-time mode (else event mode) */
 } Fmi2Env;
 
-#define ENV(inst) ((Fmi2Env *)(inst)->log_env)
+#define ENV(inst) ((Fmi2Env *)(inst)->unsaved.log_env)
 
 /* The instance if `c` is a live instance of this FMU, else NULL (never
  * dereferences a pointer it did not hand out). */
@@ -90,8 +90,8 @@ static inline int lf_fmi2_in_state(fmi2Component c, int mask) {
     const LfInstance *inst = lf_live(c);
     int bits;
     if (!inst) return 0;
-    bits = (int)inst->state;
-    if (ENV(inst)->me && inst->state == LF_ST_STEP_COMPLETE)
+    bits = (int)inst->run.state;
+    if (ENV(inst)->me && inst->run.state == LF_ST_STEP_COMPLETE)
         bits = ENV(inst)->me_cont ? M2_CONT : M2_EVENT;
     return (bits & mask) != 0;
 }

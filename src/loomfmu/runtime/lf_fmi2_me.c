@@ -19,7 +19,7 @@ static int is_me(fmi2Component c, const char *fn) {
     LfInstance *inst = (LfInstance *)c;
     if (ENV(inst)->me) return 1;
     lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s is a model-exchange function; this "
-           "instance was instantiated as fmi2CoSimulation", inst->t, fn);
+           "instance was instantiated as fmi2CoSimulation", inst->run.t, fn);
     return 0;
 }
 
@@ -31,7 +31,7 @@ static int is_me(fmi2Component c, const char *fn) {
 
 /* a failure of the model (not of the call's arguments) ends in state Error */
 static fmi2Status model_status(LfInstance *inst, LfStatus st) {
-    if (st == LF_ERROR || st == LF_FATAL) inst->state = LF_ST_ERROR;
+    if (st == LF_ERROR || st == LF_FATAL) inst->run.state = LF_ST_ERROR;
     return (fmi2Status)st;
 }
 

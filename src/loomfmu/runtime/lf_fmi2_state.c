@@ -25,8 +25,8 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
     LfStatus st;
     CHECK("fmi2SetFMUstate", RESTORE_STATES);
     st = lf_fmustate_set(inst, LIST(c), "fmi2SetFMUstate", state);
-    if (st == LF_OK && ENV(inst)->me && inst->state == LF_ST_STEP_FAILED)
-        inst->state = LF_ST_STEP_COMPLETE;
+    if (st == LF_OK && ENV(inst)->me && inst->run.state == LF_ST_STEP_FAILED)
+        inst->run.state = LF_ST_STEP_COMPLETE;
     return (fmi2Status)st;
 }
 

@@ -28,19 +28,19 @@ int lf_fmi2_check_vrs(LfInstance *c, const char *fn, const fmi2ValueReference vr
     }
     if (nvr > NVR_LIMIT(n_vars)) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: nvr = %lu, expected at most %lu (the "
-               "FMU has %u variables of this type); no value read or written", c->t, fn,
+               "FMU has %u variables of this type); no value read or written", c->run.t, fn,
                (unsigned long)nvr, (unsigned long)NVR_LIMIT(n_vars), n_vars);
         return 0;
     }
     if (n_vars == 0) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: vr[0] = %u, but the FMU has no "
-               "variable of this type; no value read or written", c->t, fn, (unsigned)vr[0]);
+               "variable of this type; no value read or written", c->run.t, fn, (unsigned)vr[0]);
         return 0;
     }
     for (i = 0; i < nvr; i++)
         if (vr[i] >= n_vars) {
             lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: vr[%lu] = %u is not a variable of "
-                   "this type (expected < %u); no value read or written", c->t, fn,
+                   "this type (expected < %u); no value read or written", c->run.t, fn,
                    (unsigned long)i, (unsigned)vr[i], n_vars);
             return 0;
         }
@@ -66,7 +66,7 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     /* the hot path (co-simulation, outputs up to date, solver started, every
      * reference a Real but an input, so the arrays pass lf_fmi2_check_vrs):
      * what lf_get_real gives, read directly once all are checked */
-    if (!ENV(inst)->me && inst->outputs_valid && inst->solver_ready && vr && value &&
+    if (!ENV(inst)->me && inst->run.outputs_valid && inst->run.solver_ready && vr && value &&
         nvr <= LF_FMI2_NVR_LIMIT(F2_N_REAL)) {
         for (i = 0; i < nvr; i++) {
             fmi2ValueReference v = vr[i];
@@ -74,7 +74,7 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
             if (v >= LF_NREAL || (v >= LF_VR_U0 && v < LF_VR_Y0)) break;
         }
         if (i == nvr) {
-            for (i = 0; i < nvr; i++) value[i] = inst->r[vr[i]];
+            for (i = 0; i < nvr; i++) value[i] = inst->val.r[vr[i]];
             return fmi2OK;
         }
     }
@@ -82,19 +82,19 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
         !lf_fmi2_check_vrs(inst, "fmi2GetReal", vr, nvr, value, F2_N_REAL))
         return fmi2Error;
     i = 0;
-    if (!ENV(inst)->me && inst->outputs_valid && inst->solver_ready) {
+    if (!ENV(inst)->me && inst->run.outputs_valid && inst->run.solver_ready) {
         /* as above, up to the first other reference, which goes on by the
          * loop below */
         for (; i < nvr; i++) {
             fmi2ValueReference v = vr[i];
             if (v >= LF_NREAL || (v >= LF_VR_U0 && v < LF_VR_Y0)) break;
-            value[i] = inst->r[v];
+            value[i] = inst->val.r[v];
         }
     }
     for (; i < nvr; i++) {
         LfStatus st;
         if (!checked && ENV(inst)->me && (vr[i] >= LF_VR_Y0) &&
-            (inst->state & LF_ST_STEP_COMPLETE)) {
+            (inst->run.state & LF_ST_STEP_COMPLETE)) {
             checked = 1; /* computed at the importer's (t, x) */
             st = lf_me_delays_known(inst, "fmi2GetReal");
             if (st != LF_OK) return (fmi2Status)st;
@@ -124,7 +124,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
         if (vr[i] >= LF_NREAL) {
             lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: fmi2SetReal: vr[%lu] = %u is "
                    "der(%s), which is calculated and cannot be set; no value written",
-                   inst->t, (unsigned long)i, (unsigned)vr[i],
+                   inst->run.t, (unsigned long)i, (unsigned)vr[i],
                    lf_model.real_names[LF_VR_X0 + vr[i] - LF_NREAL]);
             return fmi2Error;
         }

@@ -38,7 +38,7 @@ LfInstance *lf_fmi3_live(fmi3Instance c) {
 
 int lf_fmi3_state(LfInstance *inst) {
     const Fmi3Env *e = ENV3(inst);
-    switch (inst->state) {
+    switch (inst->run.state) {
     case LF_ST_INSTANTIATED: return F3_INSTANTIATED;
     case LF_ST_INIT: return F3_INIT;
     case LF_ST_STEP_COMPLETE:
@@ -64,13 +64,13 @@ int lf_fmi3_cs_instance(fmi3Instance c, const char *fn, int mask) {
 int lf_fmi3_interface(LfInstance *inst, const char *fn, F3Interface kind) {
     if (ENV3(inst)->kind == kind) return 1;
     lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s is a %s function, but the instance "
-           "was made by %s", inst->t, fn, kind == F3_CS ? "co-simulation" : "model exchange",
+           "was made by %s", inst->run.t, fn, kind == F3_CS ? "co-simulation" : "model exchange",
            kind == F3_CS ? "fmi3InstantiateModelExchange" : "fmi3InstantiateCoSimulation");
     return 0;
 }
 
 fmi3Status lf_fmi3_null_arg(LfInstance *c, const char *fn, const char *arg) {
-    lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: %s is NULL; nothing done", c->t, fn, arg);
+    lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: %s is NULL; nothing done", c->run.t, fn, arg);
     return fmi3Error;
 }
 
@@ -78,14 +78,14 @@ fmi3Status lf_fmi3_unsupported(fmi3Instance c, const char *fn, const char *why) 
     LfInstance *inst = lf_fmi3_live(c);
     if (inst)
         lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s is not supported by this FMU: %s "
-               "(see modelDescription.xml)", inst->t, fn, why);
+               "(see modelDescription.xml)", inst->run.t, fn, why);
     return fmi3Error;
 }
 
 fmi3Status lf_fmi3_fail(LfInstance *inst, LfStatus st) {
     if (st == LF_DISCARD) return fmi3Discard;
     if (st == LF_OK || st == LF_WARNING) return (fmi3Status)st;
-    inst->state = LF_ST_ERROR;
+    inst->run.state = LF_ST_ERROR;
     ENV3(inst)->in_event_mode = ENV3(inst)->in_cont_mode = 0;
     return st == LF_FATAL ? fmi3Fatal : fmi3Error;
 }
@@ -156,10 +156,12 @@ LfInstance *lf_fmi3_new(const char *fn, F3Interface kind, fmi3String name, fmi3S
                           : "out of memory or solver registry mismatch");
         return NULL;
     }
-    c->log_on_start = logging_on;
-    for (k = 0; k < LF_N_LOG; k++) c->log_on[k] = logging_on;
+    c->unsaved.log_on_start = logging_on;
+    for (k = 0; k < LF_N_LOG; k++) c->unsaved.log_on[k] = logging_on;
     return c;
 }
+
+void lf_fmi3_free_states(LfInstance *inst) { lf_blobs_free(inst, &ENV3(inst)->states); }
 
 /* Frees the instance and every FMU state it made.  A pointer that is not a
  * live instance (NULL, freed already) is ignored. */
@@ -197,7 +199,7 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean toleranceDefi
     st = lf_setup_experiment(inst, "fmi3EnterInitializationMode", toleranceDefined, tolerance,
                              startTime, stopTimeDefined, stopTime);
     if (st > LF_WARNING) return fmi3Error; /* nothing set, still instantiated */
-    inst->state = LF_ST_INIT;
+    inst->run.state = LF_ST_INIT;
     return (fmi3Status)st;
 }
 
@@ -210,8 +212,8 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance c) {
     warned = lf_log_rtol_override(inst, e->rtol_set, "fmi3EnterInitializationMode");
     if ((e->kind == F3_ME ? lf_me_initialize(inst) : lf_initialize(inst)) != LF_OK)
         return lf_fmi3_fail(inst, LF_ERROR);
-    inst->state = LF_ST_STEP_COMPLETE;
-    e->events_seen = inst->n_events;
+    inst->run.state = LF_ST_STEP_COMPLETE;
+    e->events_seen = inst->stats.n_events;
     /* FMI 3.0: model exchange and co-simulation with eventModeUsed go to
      * event mode, co-simulation without it to step mode */
     e->in_event_mode = e->kind == F3_ME || e->event_mode_used;
@@ -222,7 +224,7 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance c) {
 fmi3Status fmi3Terminate(fmi3Instance c) {
     LfInstance *inst = (LfInstance *)c;
     CHECK3("fmi3Terminate", F3_RUNNING);
-    inst->state = LF_ST_TERMINATED;
+    inst->run.state = LF_ST_TERMINATED;
     ENV3(inst)->in_event_mode = ENV3(inst)->in_cont_mode = 0;
     return fmi3OK;
 }
@@ -233,7 +235,7 @@ fmi3Status fmi3Reset(fmi3Instance c) {
     CHECK3("fmi3Reset", F3_ANY);
     e = ENV3(inst);
     lf_reset_values(inst);
-    inst->stop_at_events = e->event_mode_used && e->early_return_allowed; /* configuration */
+    inst->unsaved.stop_at_events = e->event_mode_used && e->early_return_allowed; /* configuration */
     e->rtol_set = 0;
     e->in_event_mode = e->in_cont_mode = 0;
     e->events_seen = 0;

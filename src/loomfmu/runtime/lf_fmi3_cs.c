@@ -54,7 +54,7 @@ fmi3Instance fmi3InstantiateCoSimulation(
     ENV3(c)->event_mode_used = eventModeUsed ? 1 : 0;
     ENV3(c)->early_return_allowed = earlyReturnAllowed ? 1 : 0;
     /* return early at events only to an importer that handles them in event mode */
-    c->stop_at_events = eventModeUsed && earlyReturnAllowed;
+    c->unsaved.stop_at_events = eventModeUsed && earlyReturnAllowed;
     return c;
 }
 
@@ -68,7 +68,7 @@ fmi3Status fmi3EnterEventMode(fmi3Instance c) {
     if (e->kind == F3_CS && !e->event_mode_used) {
         lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: fmi3EnterEventMode: the instance was "
                "made with eventModeUsed = false (fmi3InstantiateCoSimulation); event mode "
-               "cannot be entered", inst->t);
+               "cannot be entered", inst->run.t);
         return fmi3Error;
     }
     e->in_event_mode = 1;
@@ -85,13 +85,13 @@ static LfStatus settle_inputs(LfInstance *inst, int *changed) {
     double x[LF_DIM(LF_NX)];
     int ch = 0;
     LfStatus st;
-    if (LF_NQ == 0 || !inst->inputs_changed) return LF_OK;
-    memcpy(x, &inst->r[LF_VR_X0], sizeof(double) * LF_NX);
-    st = lf_event_update(inst, -1, inst->t, x, &ch);
+    if (LF_NQ == 0 || !inst->run.inputs_changed) return LF_OK;
+    memcpy(x, &inst->val.r[LF_VR_X0], sizeof(double) * LF_NX);
+    st = lf_event_update(inst, -1, inst->run.t, x, &ch);
     if (st != LF_OK || !ch) return st;
-    memcpy(&inst->r[LF_VR_X0], x, sizeof(double) * LF_NX);
-    lf_solver_reset(&inst->solver, inst->t, x);
-    inst->outputs_valid = 0;
+    memcpy(&inst->val.r[LF_VR_X0], x, sizeof(double) * LF_NX);
+    lf_solver_reset(&inst->solver, inst->run.t, x);
+    inst->run.outputs_valid = 0;
     *changed = 1;
     return LF_OK;
 }
@@ -110,12 +110,12 @@ static fmi3Status cs_update_discrete_states(LfInstance *inst, fmi3Boolean *need_
     LfStatus st = lf_handle_pending_event(inst, &changed);
     if (st == LF_OK) st = settle_inputs(inst, &changed);
     *need_update = fmi3False;
-    *terminate = inst->wants_terminate ? fmi3True : fmi3False;
+    *terminate = inst->run.wants_terminate ? fmi3True : fmi3False;
     *nominals_changed = fmi3False;
-    *values_changed = changed || inst->n_events > e->events_seen ? fmi3True : fmi3False;
+    *values_changed = changed || inst->stats.n_events > e->events_seen ? fmi3True : fmi3False;
     *next_defined = fmi3False;
     *next = 0.0;
-    e->events_seen = inst->n_events;
+    e->events_seen = inst->stats.n_events;
     if (st == LF_DISCARD) return fmi3Discard; /* validity failed: terminateSimulation */
     return st == LF_OK ? fmi3OK : lf_fmi3_fail(inst, st);
 }
@@ -175,25 +175,25 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h,
     /* an invalid call (bad step, past stopTime) is refused and changes nothing */
     if (!lf_step_integrable(inst, fn, t, h) || lf_check_step(inst, t, h) != LF_OK)
         return fmi3Error;
-    if (inst->event_pending && e->event_mode_used) {
+    if (inst->ev.pending && e->event_mode_used) {
         lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: the event at t = %.17g is not "
                "handled yet: call fmi3EnterEventMode and fmi3UpdateDiscreteStates first; step "
-               "refused, nothing changed", inst->t, fn, inst->t_event);
+               "refused, nothing changed", inst->run.t, fn, inst->ev.t_event);
         return fmi3Error;
     }
     st = lf_do_step(inst, t, h);
-    *lastSuccessfulTime = inst->last_successful_time;
-    *terminateSimulation = inst->wants_terminate ? fmi3True : fmi3False;
+    *lastSuccessfulTime = inst->run.last_successful_time;
+    *terminateSimulation = inst->run.wants_terminate ? fmi3True : fmi3False;
     /* an early return: at a pending event (a step that ends early because it
      * failed, e.g. a validity condition, is a Discard, not an early return:
      * fmi-standard #1845) */
-    *earlyReturn = st == LF_OK && inst->stop_at_events && inst->event_pending &&
-                   inst->last_successful_time < t + h ? fmi3True : fmi3False;
-    *eventHandlingNeeded = e->event_mode_used && (inst->event_pending ||
-                                                  inst->n_events > e->events_seen)
+    *earlyReturn = st == LF_OK && inst->unsaved.stop_at_events && inst->ev.pending &&
+                   inst->run.last_successful_time < t + h ? fmi3True : fmi3False;
+    *eventHandlingNeeded = e->event_mode_used && (inst->ev.pending ||
+                                                  inst->stats.n_events > e->events_seen)
                                ? fmi3True : fmi3False;
-    if (!e->event_mode_used) e->events_seen = inst->n_events;
-    if (st == LF_DISCARD) inst->state = LF_ST_STEP_FAILED;
+    if (!e->event_mode_used) e->events_seen = inst->stats.n_events;
+    if (st == LF_DISCARD) inst->run.state = LF_ST_STEP_FAILED;
     else if (st != LF_OK && st != LF_WARNING) return lf_fmi3_fail(inst, st);
     return (fmi3Status)st;
 }
@@ -215,14 +215,14 @@ fmi3Status fmi3GetOutputDerivatives(fmi3Instance c, const fmi3ValueReference vr[
         LfKind kind = lf_model.real_kind[vr[i]];
         if (kind != LF_KIND_OUTPUT && kind != LF_KIND_LOCAL) {
             lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: valueReferences[%lu] = %u "
-                   "(%s) is not an output (outputs: %u ... %u)", inst->t, fn, (unsigned long)i,
+                   "(%s) is not an output (outputs: %u ... %u)", inst->run.t, fn, (unsigned long)i,
                    (unsigned)vr[i], lf_model.real_names[vr[i]], (unsigned)LF_VR_Y0,
                    (unsigned)(LF_NREAL - 1));
             return fmi3Error;
         }
         if (orders[i] != 1) {
             lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: orders[%lu] = %d for %s; "
-                   "allowed 1 (maxOutputDerivativeOrder = 1)", inst->t, fn, (unsigned long)i,
+                   "allowed 1 (maxOutputDerivativeOrder = 1)", inst->run.t, fn, (unsigned long)i,
                    (int)orders[i], lf_model.real_names[vr[i]]);
             return fmi3Error;
         }

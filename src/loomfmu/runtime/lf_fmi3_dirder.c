@@ -23,7 +23,7 @@ fmi3Status fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference
     if (nSeed != nKnowns || nSensitivity != nUnknowns) {
         lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: nSeed = %lu, nSensitivity = %lu; "
                "expected nKnowns = %lu and nUnknowns = %lu (every variable is a scalar); "
-               "nothing computed", inst->t, fn, (unsigned long)nSeed,
+               "nothing computed", inst->run.t, fn, (unsigned long)nSeed,
                (unsigned long)nSensitivity, (unsigned long)nKnowns, (unsigned long)nUnknowns);
         return fmi3Error;
     }

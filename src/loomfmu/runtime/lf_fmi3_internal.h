@@ -62,7 +62,7 @@ typedef struct {
     LfBlob *states;          /* FMU states made by this instance, freed with it */
 } Fmi3Env;
 
-#define ENV3(inst) ((Fmi3Env *)(inst)->log_env)
+#define ENV3(inst) ((Fmi3Env *)(inst)->unsaved.log_env)
 
 /* lf_fmi3.c */
 /* The instance if `c` is a live FMI 3 instance of this FMU, else NULL
@@ -112,7 +112,7 @@ fmi3Status lf_fmi3_me_update_discrete_states(LfInstance *inst, fmi3Boolean *need
  * getters of values computed at that point check it first. */
 LfStatus lf_fmi3_me_delays_known(LfInstance *inst, const char *fn);
 
-/* lf_fmi3_state.c */
+/* lf_fmi3.c: frees the FMU states the instance made */
 void lf_fmi3_free_states(LfInstance *inst);
 
 #define CHECK3(fn, mask)                                                             \

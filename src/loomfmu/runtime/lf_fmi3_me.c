@@ -48,7 +48,7 @@ static LfInstance *me_instance(fmi3Instance c, const char *fn, int mask) {
 }
 
 LfStatus lf_fmi3_me_delays_known(LfInstance *inst, const char *fn) {
-    if (ENV3(inst)->kind != F3_ME || inst->state != LF_ST_STEP_COMPLETE) return LF_OK;
+    if (ENV3(inst)->kind != F3_ME || inst->run.state != LF_ST_STEP_COMPLETE) return LF_OK;
     return lf_me_delays_known(inst, fn);
 }
 

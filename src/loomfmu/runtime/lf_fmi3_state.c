@@ -2,6 +2,10 @@
  * on the version-independent operations of lf_facade_ops.h (blobs of the
  * runtime's state format in the instance's list).
  *
+ * The states an instance made are freed with it (lf_fmi3.c's
+ * lf_fmi3_free_states, as in FMI 2.0), so that this file only calls down
+ * into the facade's checks and the operations.
+ *
  * The facade's mode (event, step or continuous-time mode) is not part of a
  * state: fmi3SetFMUState restores the model's values and the solver, and a
  * running instance stays in its mode. */
@@ -16,8 +20,6 @@
 #define RESTORE_STATES (STATE_STATES | F3_ERROR)
 #define LIST(c) (&ENV3((LfInstance *)(c))->states)
 
-void lf_fmi3_free_states(LfInstance *inst) { lf_blobs_free(inst, LIST(inst)); }
-
 static fmi3Status status(LfStatus st) { return st == LF_OK ? fmi3OK : fmi3Error; }
 
 fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *state) {
@@ -31,22 +33,22 @@ fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState state) {
     int was_running;
     CHECK3("fmi3SetFMUState", RESTORE_STATES);
     e = ENV3(inst);
-    was_running = inst->state == LF_ST_STEP_COMPLETE;
+    was_running = inst->run.state == LF_ST_STEP_COMPLETE;
     if (lf_fmustate_set(inst, LIST(c), "fmi3SetFMUState", state) != LF_OK) return fmi3Error;
     /* A state of a co-simulation step that was discarded is, for model
      * exchange, a consistent point at the last accepted time (the runtime
      * keeps states and outputs there): event mode. */
-    if (e->kind == F3_ME && inst->state == LF_ST_STEP_FAILED) inst->state = LF_ST_STEP_COMPLETE;
+    if (e->kind == F3_ME && inst->run.state == LF_ST_STEP_FAILED) inst->run.state = LF_ST_STEP_COMPLETE;
     /* A running instance keeps its mode; one that was not running enters
      * event mode (model exchange, co-simulation with eventModeUsed) or step
      * mode, as after fmi3ExitInitializationMode. */
-    if (inst->state != LF_ST_STEP_COMPLETE) {
+    if (inst->run.state != LF_ST_STEP_COMPLETE) {
         e->in_event_mode = e->in_cont_mode = 0;
     } else if (!was_running) {
         e->in_event_mode = e->kind == F3_ME || e->event_mode_used;
         e->in_cont_mode = 0;
     }
-    e->events_seen = inst->n_events;
+    e->events_seen = inst->stats.n_events;
     return fmi3OK;
 }
 

@@ -30,7 +30,7 @@ int lf_fmi3_check_vrs(LfInstance *c, const char *fn, const fmi3ValueReference vr
     if (n_values != nvr) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: nValues = %lu, expected "
                "nValueReferences = %lu (every variable of this FMU is a scalar); no value "
-               "read or written", c->t, fn, (unsigned long)n_values, (unsigned long)nvr);
+               "read or written", c->run.t, fn, (unsigned long)n_values, (unsigned long)nvr);
         return 0;
     }
     if (nvr == 0) return 1;
@@ -42,7 +42,7 @@ int lf_fmi3_check_vrs(LfInstance *c, const char *fn, const fmi3ValueReference vr
     if (nvr > NVR_LIMIT(n_vars)) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: nValueReferences = %lu, expected at "
                "most %lu (the FMU has %u variables of this type); no value read or written",
-               c->t, fn, (unsigned long)nvr, (unsigned long)NVR_LIMIT(n_vars), n_vars);
+               c->run.t, fn, (unsigned long)nvr, (unsigned long)NVR_LIMIT(n_vars), n_vars);
         return 0;
     }
     for (i = 0; i < nvr; i++)
@@ -50,11 +50,11 @@ int lf_fmi3_check_vrs(LfInstance *c, const char *fn, const fmi3ValueReference vr
             if (n_vars == 0)
                 lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: valueReferences[%lu] = %u, "
                        "but the FMU has no variables of this type; no value read or written",
-                       c->t, fn, (unsigned long)i, (unsigned)vr[i]);
+                       c->run.t, fn, (unsigned long)i, (unsigned)vr[i]);
             else
                 lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: valueReferences[%lu] = %u is "
                        "not a variable of this type (expected %u ... %u); no value read or "
-                       "written", c->t, fn, (unsigned long)i, (unsigned)vr[i], vr0,
+                       "written", c->run.t, fn, (unsigned long)i, (unsigned)vr[i], vr0,
                        vr0 + n_vars - 1);
             return 0;
         }
@@ -74,7 +74,7 @@ static int float64_vrs(LfInstance *c, const char *fn, const fmi3ValueReference v
         if (vr[i] >= F3_VR_INT0 && vr[i] < F3_VR_TIME) {
             lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: valueReferences[%lu] = %u is not "
                    "a Float64 (Float64: 0 ... %u, and %u ... %u: time and the event indicators); "
-                   "no value read or written", c->t, fn, (unsigned long)i, (unsigned)vr[i],
+                   "no value read or written", c->run.t, fn, (unsigned long)i, (unsigned)vr[i],
                    F3_VR_INT0 - 1, F3_VR_TIME, F3_VR_EVT0 + LF_NE - 1);
             return 0;
         }
@@ -102,7 +102,7 @@ fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
         if (vr[i] < LF_NREAL) {
             if (lf_get_real(inst, vr[i], &values[i]) != LF_OK) return fmi3Error;
         } else if (vr[i] == F3_VR_TIME) {
-            values[i] = inst->t;
+            values[i] = inst->run.t;
         } else if (vr[i] >= F3_VR_EVT0) {
             if (!have_evt) { /* the indicators at the instance's time and states */
                 if (lf_me_event_indicators(inst, "fmi3GetFloat64", evt, LF_NE) != LF_OK)
@@ -132,7 +132,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
         if (vr[i] >= LF_NREAL) {
             lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: fmi3SetFloat64: "
                    "valueReferences[%lu] = %u is %s (cannot be set); no value written",
-                   inst->t, (unsigned long)i, (unsigned)vr[i],
+                   inst->run.t, (unsigned long)i, (unsigned)vr[i],
                    vr[i] == F3_VR_TIME ? "time, the independent variable"
                    : vr[i] >= F3_VR_EVT0 ? "an event indicator" : "a state derivative");
             return fmi3Error;
@@ -156,7 +156,7 @@ static int integer_kind(LfInstance *c, const char *fn, const fmi3ValueReference 
         unsigned ivr = (unsigned)vr[i] - F3_VR_INT0;
         if (is_enumeration(ivr) != enumeration) {
             lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: valueReferences[%lu] = %u is %s; "
-                   "use %s; no value read or written", c->t, fn, (unsigned long)i,
+                   "use %s; no value read or written", c->run.t, fn, (unsigned long)i,
                    (unsigned)vr[i], enumeration ? "an Int32" : "an Enumeration",
                    enumeration ? "fmi3GetInt32/fmi3SetInt32" : "fmi3GetInt64/fmi3SetInt64");
             return 0;
@@ -196,14 +196,14 @@ static fmi3Status set_integers(LfInstance *c, const char *fn, const fmi3ValueRef
         if (ivr >= LF_VR_Q0 && ivr < LF_VR_Q0 + LF_NQ) {
             lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: valueReferences[%lu] = %u (%s) is "
                    "a mode, an output chosen by the model, and cannot be set; no value written",
-                   c->t, fn, (unsigned long)i, (unsigned)vr[i],
+                   c->run.t, fn, (unsigned long)i, (unsigned)vr[i],
                    lf_model.mode_names[ivr - LF_VR_Q0]);
             lf_undo_restore(c, &u);
             return fmi3Error;
         }
         if (v < -2147483647LL || v > 2147483647LL) {
             lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: values[%lu] = %lld for %u is "
-                   "outside the range of the variable; no value written", c->t, fn,
+                   "outside the range of the variable; no value written", c->run.t, fn,
                    (unsigned long)i, v, (unsigned)vr[i]);
             lf_undo_restore(c, &u);
             return fmi3Error;
@@ -247,7 +247,7 @@ static fmi3Status none_of_type(fmi3Instance c, const char *fn, const char *type,
     LfInstance *inst = (LfInstance *)c;
     if (nvr == 0) return fmi3OK; /* nothing asked */
     lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: no variables of type %s in this FMU "
-           "(nValueReferences = %lu); no value read or written", inst->t, fn, type,
+           "(nValueReferences = %lu); no value read or written", inst->run.t, fn, type,
            (unsigned long)nvr);
     return fmi3Error;
 }

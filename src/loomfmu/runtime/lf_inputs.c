@@ -1,6 +1,6 @@
 /* loomfmu shared runtime: inputs interpolated inside the step (FMI 2.0
- * fmi2SetRealInputDerivatives, canInterpolateInputs) and the outputs' time
- * derivatives (fmi2GetRealOutputDerivatives, order 1).
+ * fmi2SetRealInputDerivatives, canInterpolateInputs); the outputs' time
+ * derivatives are lf_outputs.c's.  Calls only lf_base.c (logging).
  *
  * Input k is the polynomial
  *     u_k(t) = r[LF_VR_U0 + k] + u_d1[k] s + u_d2[k] s^2 / 2,  s = t - u_t0[k],
@@ -20,7 +20,6 @@
 #include <string.h>
 
 #include "lf_internal.h"
-#include "lf_linalg.h"
 
 #define LF_INPUT_ORDER_MAX 2
 
@@ -28,80 +27,80 @@ static int input_index(unsigned vr) { return (int)vr - (int)LF_VR_U0; }
 
 static void poly_flag(LfInstance *c) {
     int k;
-    c->u_poly = 0;
+    c->unsaved.u_poly = 0;
     for (k = 0; k < LF_NU; k++)
-        if (c->u_d1[k] != 0 || c->u_d2[k] != 0) c->u_poly = 1;
+        if (c->in.u_d1[k] != 0 || c->in.u_d2[k] != 0) c->unsaved.u_poly = 1;
 }
 
 /* value and slope of input k at t */
 static double input_at(const LfInstance *c, int k, double t, double *slope) {
-    double s = t - c->u_t0[k];
-    *slope = c->u_d1[k] + c->u_d2[k] * s;
-    return c->r[LF_VR_U0 + k] + s * (c->u_d1[k] + 0.5 * c->u_d2[k] * s);
+    double s = t - c->in.u_t0[k];
+    *slope = c->in.u_d1[k] + c->in.u_d2[k] * s;
+    return c->val.r[LF_VR_U0 + k] + s * (c->in.u_d1[k] + 0.5 * c->in.u_d2[k] * s);
 }
 
 void lf_inputs_reset(LfInstance *c, double t0) {
     int k;
     for (k = 0; k < LF_DIM(LF_NU); k++) {
-        c->u_d1[k] = c->u_d2[k] = c->u_zero[k] = c->u_rate[k] = 0.0;
-        c->u_t0[k] = t0;
+        c->in.u_d1[k] = c->in.u_d2[k] = c->unsaved.u_zero[k] = c->unsaved.u_rate[k] = 0.0;
+        c->in.u_t0[k] = t0;
     }
-    c->u_poly = 0;
+    c->unsaved.u_poly = 0;
     lf_inputs_seen(c);
 }
 
 void lf_inputs_at(LfInstance *c, double t, const double **u, const double **rate) {
     int k;
-    if (!c->u_poly) {
-        *u = &c->r[LF_VR_U0];
-        *rate = c->u_zero;
+    if (!c->unsaved.u_poly) {
+        *u = &c->val.r[LF_VR_U0];
+        *rate = c->unsaved.u_zero;
         return;
     }
-    for (k = 0; k < LF_NU; k++) c->u_now[k] = input_at(c, k, t, &c->u_rate[k]);
-    *u = c->u_now;
-    *rate = c->u_rate;
+    for (k = 0; k < LF_NU; k++) c->unsaved.u_now[k] = input_at(c, k, t, &c->unsaved.u_rate[k]);
+    *u = c->unsaved.u_now;
+    *rate = c->unsaved.u_rate;
 }
 
 double lf_input_now(const LfInstance *c, unsigned vr) {
     double slope;
-    return input_at(c, input_index(vr), c->t, &slope);
+    return input_at(c, input_index(vr), c->run.t, &slope);
 }
 
 /* Anchor input k at the current time (same polynomial, new origin). */
 static void rebase(LfInstance *c, int k) {
-    double slope, value = input_at(c, k, c->t, &slope);
-    c->r[LF_VR_U0 + k] = value;
-    c->u_d1[k] = slope;
-    c->u_t0[k] = c->t;
+    double slope, value = input_at(c, k, c->run.t, &slope);
+    c->val.r[LF_VR_U0 + k] = value;
+    c->in.u_d1[k] = slope;
+    c->in.u_t0[k] = c->run.t;
 }
 
 void lf_input_set(LfInstance *c, unsigned vr, double value) {
     int k = input_index(vr);
-    if (value != lf_input_now(c, vr)) c->inputs_changed = 1;
-    c->r[vr] = value;
-    c->u_d1[k] = c->u_d2[k] = 0.0;
-    c->u_t0[k] = c->t;
-    c->outputs_valid = 0;
+    if (value != lf_input_now(c, vr)) c->run.inputs_changed = 1;
+    c->val.r[vr] = value;
+    c->in.u_d1[k] = c->in.u_d2[k] = 0.0;
+    c->in.u_t0[k] = c->run.t;
+    c->run.outputs_valid = 0;
     poly_flag(c);
 }
 
 LfStatus lf_input_derivative_check(LfInstance *c, unsigned vr, int order, double value) {
     if (vr >= LF_NREAL || lf_model.real_kind[vr] != LF_KIND_INPUT) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: fmi2SetRealInputDerivatives: value "
-               "reference %u is not a Real input (inputs: %u ... %u); nothing set", c->t, vr,
+               "reference %u is not a Real input (inputs: %u ... %u); nothing set", c->run.t, vr,
                (unsigned)LF_VR_U0, (unsigned)(LF_VR_U0 + LF_NU - 1));
         return LF_ERROR;
     }
     if (order < 1 || order > LF_INPUT_ORDER_MAX) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: fmi2SetRealInputDerivatives: order = %d "
                "for input %s; allowed 1 ... %d (0 is not allowed by FMI 2.0; this FMU "
-               "interpolates inputs up to order %d); nothing set", c->t, order,
+               "interpolates inputs up to order %d); nothing set", c->run.t, order,
                lf_model.real_names[vr], LF_INPUT_ORDER_MAX, LF_INPUT_ORDER_MAX);
         return LF_ERROR;
     }
     if (!isfinite(value)) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: fmi2SetRealInputDerivatives: derivative "
-               "of order %d of input %s = %g, expected a finite value; nothing set", c->t,
+               "of order %d of input %s = %g, expected a finite value; nothing set", c->run.t,
                order, lf_model.real_names[vr], value);
         return LF_ERROR;
     }
@@ -111,9 +110,9 @@ LfStatus lf_input_derivative_check(LfInstance *c, unsigned vr, int order, double
 void lf_input_derivative_set(LfInstance *c, unsigned vr, int order, double value) {
     int k = input_index(vr);
     rebase(c, k);
-    if (order == 1) c->u_d1[k] = value;
-    else c->u_d2[k] = value;
-    c->outputs_valid = 0;
+    if (order == 1) c->in.u_d1[k] = value;
+    else c->in.u_d2[k] = value;
+    c->run.outputs_valid = 0;
     poly_flag(c);
 }
 
@@ -126,7 +125,7 @@ static int differ(double a, double b) {
     return fabs(a - b) > 4 * LF_EPS * (fa > fb ? fa : fb);
 }
 
-/* Did any input's value, slope or second derivative at c->t change since
+/* Did any input's value, slope or second derivative at c->run.t change since
  * the solver last started (lf_inputs_seen)?  Rounding-level differences (a
  * master that sets u(t_c) computed its own way) do not count.  An input
  * held now and then (no derivatives) has moved iff its value differs: the
@@ -135,17 +134,17 @@ int lf_inputs_moved(LfInstance *c) {
     int k;
     for (k = 0; k < LF_NU; k++) {
         double dt, slope, value, old;
-        if (!c->u_poly && c->seen_d1[k] == 0 && c->seen_d2[k] == 0) {
+        if (!c->unsaved.u_poly && c->in.seen_d1[k] == 0 && c->in.seen_d2[k] == 0) {
             /* (equal values: the common case, decided without differ) */
-            if (c->r[LF_VR_U0 + k] != c->seen_u[k] && differ(c->r[LF_VR_U0 + k], c->seen_u[k]))
+            if (c->val.r[LF_VR_U0 + k] != c->in.seen_u[k] && differ(c->val.r[LF_VR_U0 + k], c->in.seen_u[k]))
                 return 1;
             continue;
         }
-        dt = c->t - c->seen_t;
-        value = input_at(c, k, c->t, &slope);
-        old = c->seen_u[k] + dt * (c->seen_d1[k] + 0.5 * c->seen_d2[k] * dt);
-        if (differ(value, old) || differ(slope, c->seen_d1[k] + c->seen_d2[k] * dt) ||
-            c->u_d2[k] != c->seen_d2[k])
+        dt = c->run.t - c->in.seen_t;
+        value = input_at(c, k, c->run.t, &slope);
+        old = c->in.seen_u[k] + dt * (c->in.seen_d1[k] + 0.5 * c->in.seen_d2[k] * dt);
+        if (differ(value, old) || differ(slope, c->in.seen_d1[k] + c->in.seen_d2[k] * dt) ||
+            c->in.u_d2[k] != c->in.seen_d2[k])
             return 1;
     }
     return 0;
@@ -154,49 +153,9 @@ int lf_inputs_moved(LfInstance *c) {
 void lf_inputs_seen(LfInstance *c) {
     int k;
     for (k = 0; k < LF_NU; k++) {
-        c->seen_u[k] = input_at(c, k, c->t, &c->seen_d1[k]);
-        c->seen_d2[k] = c->u_d2[k];
+        c->in.seen_u[k] = input_at(c, k, c->run.t, &c->in.seen_d1[k]);
+        c->in.seen_d2[k] = c->in.u_d2[k];
     }
-    c->seen_t = c->t;
+    c->in.seen_t = c->run.t;
 }
 
-/* ---- output derivatives -------------------------------------------------- */
-
-/* The delayed values' time derivatives at (t, x): the history's slope at
- * t - tau, or for tau = 0 the total derivative of g now. */
-static LfStatus delayed_rates(LfInstance *c, double t, const double *x, const double *w) {
-    double g[LF_DIM(2 * LF_ND)];
-    int k;
-    if (LF_ND == 0) return LF_OK;
-    if (lf_delayed_rates(c, t, x, c->d_rate) != LF_OK) return LF_ERROR;
-    if (lf_eval_fn(c, LF_FN_HIST, t, x, w, g, &g[LF_ND], NULL) != LF_OK) return LF_ERROR;
-    for (k = 0; k < LF_ND; k++)
-        if (c->tau[k] == 0) c->d_rate[k] = g[LF_ND + k];
-    return LF_OK;
-}
-
-#define LF_NYZ LF_DIM(LF_NY + LF_NZ)
-
-LfStatus lf_output_derivative(LfInstance *c, unsigned vr, double *value) {
-    double rate[LF_NYZ], dydw[LF_IMPLICIT ? LF_NYZ * LF_DIM(LF_NW) : 1];
-    double wrate[LF_IMPLICIT ? LF_DIM(LF_NW) : 1], w[LF_DIM(LF_NW)];
-    const double *x = &c->r[LF_VR_X0];
-    int i = (int)vr - (int)LF_VR_Y0, j;
-    LfStatus st = lf_solve_w(c, c->t, x, w);
-    if (st == LF_OK) st = delayed_rates(c, c->t, x, w);
-    if (st == LF_OK)
-        st = lf_eval_fn(c, LF_FN_YDER, c->t, x, w, rate, dydw, wrate);
-    if (LF_IMPLICIT && st == LF_OK) {
-        st = lf_solve_dFdw(c, c->t, x, w, wrate);
-        for (j = 0; st == LF_OK && j < LF_NW; j++) rate[i] -= dydw[i + j * (LF_NY + LF_NZ)] * wrate[j];
-    }
-    memset(c->d_rate, 0, sizeof c->d_rate);
-    if (st != LF_OK || !isfinite(rate[i])) {
-        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: fmi2GetRealOutputDerivatives: the time "
-               "derivative of %s cannot be evaluated here (%s)", c->t, lf_model.real_names[vr],
-               st != LF_OK ? "model equations not solvable" : "not finite");
-        return LF_ERROR;
-    }
-    *value = rate[i];
-    return LF_OK;
-}

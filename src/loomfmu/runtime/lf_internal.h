@@ -1,6 +1,20 @@
-/* loomfmu shared runtime: functions shared between the runtime's own files
- * (lf_runtime.c, lf_newton.c, lf_delay.c, lf_events.c, lf_step.c).  Not part
- * of the interface the FMI facade uses (that is lf_runtime.h). */
+/* loomfmu shared runtime: functions shared between the runtime's own files.
+ * Not part of the interface the FMI facade uses (that is lf_runtime.h).
+ * The files are layered, each calling only files below it (docs/runtime.md):
+ *   lf_base.c      logging, the generated functions' work arrays
+ *   lf_inputs.c    inputs as polynomials of time
+ *   lf_eval.c      calls of the generated functions (inputs, delayed values,
+ *                  folded parameters passed)
+ *   lf_newton.c    the unknowns w (closed form or Newton), right-hand side
+ *   lf_delay.c     the delays' history: samples, refinement, breakpoints
+ *   lf_modes.c     event indicators at a point, discrete modes
+ *   lf_start.c     start values of states and modes
+ *   lf_validity.c  validity conditions after a step
+ *   lf_outputs.c   outputs and output derivatives
+ *   lf_events.c    event location in a step, crossing, early return
+ *   lf_breaks.c    known breaks predicted ahead
+ *   lf_step.c      initialization and the step loop
+ *   lf_runtime.c   the instance's life cycle, getting and setting values */
 #ifndef LF_INTERNAL_H
 #define LF_INTERNAL_H
 
@@ -12,7 +26,30 @@
 
 #define LF_EPS 2.220446049250313e-16
 
-/* lf_runtime.c: generated function `fn` at (t, x, w) with the instance's u,
+/* lf_base.c: size and allocate the CasADi work arrays (c->unsaved.arg, res, iw, w)
+ * for the largest generated function; 0 if out of memory */
+int lf_alloc_casadi_work(LfInstance *c);
+
+/* Generated function `fn` (an LfFunctionId, or LF_FN_HISTOUT). */
+static inline const LfFunction *lf_function_of(int fn) {
+#ifdef LF_HISTOUT_FN
+    if (fn == LF_FN_HISTOUT) return &LF_HISTOUT_FN;
+#endif
+    return &lf_model.fn[fn];
+}
+#ifdef LF_HISTOUT_FN
+#define LF_N_FN_ALL (LF_N_FN + 1)
+#else
+#define LF_N_FN_ALL LF_N_FN
+#endif
+
+/* The history of delay k: sample i (0: the oldest kept) in the ring, its
+ * time, value and slope (lf_delay.c writes it, lf_eval.c reads it) */
+#define LF_HT(c, k, i) (c)->dl.hist[(((size_t)(k) * LF_HIST_CAP + (size_t)(((c)->dl.hist_start[k] + (i)) % LF_HIST_CAP)) * 3)]
+#define LF_HG(c, k, i) (&LF_HT(c, k, i))[1]
+#define LF_HD(c, k, i) (&LF_HT(c, k, i))[2]
+
+/* lf_eval.c: generated function `fn` at (t, x, w) with the instance's u,
  * p, q and the delayed values at t; index of the first non-finite value. */
 LfStatus lf_eval_fn(LfInstance *c, int fn, double t, const double *x, const double *w,
                     double *out0, double *out1, double *out2);
@@ -24,15 +61,15 @@ LfStatus lf_eval_fn(LfInstance *c, int fn, double t, const double *x, const doub
  * outputs past res[0] are not set: a function with one output reads none. */
 static inline LfStatus lf_eval_fn1(LfInstance *c, int fn, double t, const double *x,
                                    const double *w, double *out0) {
-    if (LF_ND > 0 || (LF_NK > 0 && c->k_stale) || !c->args_set || c->u_poly)
+    if (LF_ND > 0 || (LF_NK > 0 && c->unsaved.k_stale) || !c->unsaved.args_set || c->unsaved.u_poly)
         return lf_eval_fn(c, fn, t, x, w, out0, NULL, NULL);
-    c->arg[0] = &t;
-    c->arg[1] = x;
-    c->arg[2] = w;
-    c->arg[3] = &c->r[LF_VR_U0];
-    c->arg[7] = c->u_zero;
-    c->res[0] = out0;
-    return lf_model.fn[fn].eval(c->arg, c->res, c->iw, c->w, 0) ? LF_ERROR : LF_OK;
+    c->unsaved.arg[0] = &t;
+    c->unsaved.arg[1] = x;
+    c->unsaved.arg[2] = w;
+    c->unsaved.arg[3] = &c->val.r[LF_VR_U0];
+    c->unsaved.arg[7] = c->unsaved.u_zero;
+    c->unsaved.res[0] = out0;
+    return lf_model.fn[fn].eval(c->unsaved.arg, c->unsaved.res, c->unsaved.iw, c->unsaved.w, 0) ? LF_ERROR : LF_OK;
 }
 static inline int lf_first_nonfinite(const double *v, size_t n) {
     size_t i;
@@ -43,7 +80,8 @@ static inline int lf_first_nonfinite(const double *v, size_t n) {
         if (!isfinite(v[i])) return (int)i;
     return -1;
 }
-/* before the solver starts: states and modes initialization starts from */
+/* lf_start.c: before the solver starts: states and modes initialization
+ * starts from */
 LfStatus lf_prepare_initial(LfInstance *c);
 
 /* lf_newton.c: the unknowns w = [der(x); z] at (t, x) (closed form or
@@ -51,10 +89,12 @@ LfStatus lf_prepare_initial(LfInstance *c);
 LfStatus lf_solve_w(LfInstance *c, double t, const double *x, double *w);
 LfStatus lf_rhs(void *ctx, double t, const double *x, double *dx);
 
-/* lf_delay.c: history of the delayed expressions and its breakpoints. */
+/* lf_eval.c: the delayed values at t, from the history (c->dl.dval) */
 LfStatus lf_delayed_values(LfInstance *c, double t, const double *x);
 /* the same, and d/dt of each delayed value with tau > 0 (0 for tau = 0) */
 LfStatus lf_delayed_rates(LfInstance *c, double t, const double *x, double *rate);
+
+/* lf_delay.c: history of the delayed expressions and its breakpoints. */
 double lf_next_breakpoint(LfInstance *c, double t, double t_end, int *is_bp);
 LfStatus lf_hist_push(LfInstance *c, double t, const double *x, int jump);
 LfStatus lf_hist_step(LfInstance *c);
@@ -64,22 +104,23 @@ LfStatus lf_hist_sample_end(LfInstance *c, double t, const double *x, double *g)
 int lf_hist_outputs(LfInstance *c, const double *w, double *y);
 LfStatus lf_init_delays(LfInstance *c, LfSolverOptions *opt);
 
-/* lf_events.c: event indicators, modes, event location after a step. */
+/* lf_modes.c: event indicators at a point, modes. */
 LfStatus lf_eval_events(LfInstance *c, double t, const double *x, double *e);
 LfStatus lf_consistent_modes(LfInstance *c, double t, double *x, int touched);
 LfStatus lf_initial_modes(LfInstance *c);
+/* lf_events.c: event location after a step. */
 LfStatus lf_handle_events(LfInstance *c);
 /* early return (lf_step.h): perform the event located and deferred by
- * lf_handle_events when c->stop_at_events is set (nothing pending: LF_OK) */
+ * lf_handle_events when c->unsaved.stop_at_events is set (nothing pending: LF_OK) */
 LfStatus lf_apply_pending_event(LfInstance *c, int *changed);
 /* lf_breaks.c: t_bound, or earlier: where the next step is to land, a
  * margin before the predicted zero of an indicator known ahead (sets
- * c->kb_index); lf_events.c: after a step that landed there, cross it as
+ * c->kb.index); lf_events.c: after a step that landed there, cross it as
  * an event (the gap may reach up to t_limit) */
 double lf_known_break(LfInstance *c, double t_bound);
 LfStatus lf_cross_known_break(LfInstance *c, double t_limit);
 /* lf_events.c: rule 2's bound on the next step, left pending after a step
- * the known-break scan vouched for (c->kb_sure == -INFINITY), taken from the
+ * the known-break scan vouched for (c->unsaved.kb_sure == -INFINITY), taken from the
  * last step's samples (every indicator predicted; lf_known_break) */
 LfStatus lf_event_bound_pending(LfInstance *c);
 /* Scanning a function of time between samples (event indicators, validity
@@ -119,9 +160,9 @@ int lf_inputs_moved(LfInstance *c);
  * lf_inputs_moved. */
 static inline int lf_inputs_still(const LfInstance *c) {
     int k;
-    if (c->u_poly) return 0;
+    if (c->unsaved.u_poly) return 0;
     for (k = 0; k < LF_NU; k++)
-        if (c->r[LF_VR_U0 + k] != c->seen_u[k] || c->seen_d1[k] != 0 || c->seen_d2[k] != 0)
+        if (c->val.r[LF_VR_U0 + k] != c->in.seen_u[k] || c->in.seen_d1[k] != 0 || c->in.seen_d2[k] != 0)
             return 0;
     return 1;
 }
@@ -140,7 +181,7 @@ LfStatus lf_validity_restart(LfInstance *c, double t_ok, const double *x_ok,
 /* lf_newton.c: solve dF/dw v = b at (t, x, w) in place (implicit models). */
 LfStatus lf_solve_dFdw(LfInstance *c, double t, const double *x, const double *w, double *b);
 
-/* lf_step.c: start values of the states from the parameters. */
+/* lf_start.c: start values of the states from the parameters. */
 LfStatus lf_initial_states(LfInstance *c);
 
 #endif

@@ -6,7 +6,7 @@
  * lf_me_completed_step after every accepted step and lf_me_event_update in
  * event mode.  The instance's interface state stays LF_ST_STEP_COMPLETE
  * after initialization (event mode / continuous-time mode are the facade's
- * business); the instance's time is c->t, its states c->r[LF_VR_X0 ..].
+ * business); the instance's time is c->run.t, its states c->val.r[LF_VR_X0 ..].
  *
  * Every function takes the calling FMI function's name `fn` for its log
  * lines.  Bad arguments (NULL, a size other than the model's, non-finite

@@ -12,11 +12,11 @@
 #define LF_NEWTON_RTOL 1e-10
 #define LF_NEWTON_ATOL 1e-12
 
-/* Factor dF/dw at (t, x, w) into c->jac_ww (implicit models). */
+/* Factor dF/dw at (t, x, w) into c->unsaved.jac_ww (implicit models). */
 static LfStatus factor_dFdw(LfInstance *c, double t, const double *x, const double *w) {
-    if (lf_eval_fn(c, LF_FN_RJAC, t, x, w, c->jac_ww, c->jac_wx, c->jac_wt) != LF_OK)
+    if (lf_eval_fn(c, LF_FN_RJAC, t, x, w, c->unsaved.jac_ww, c->unsaved.jac_wx, c->unsaved.jac_wt) != LF_OK)
         return LF_ERROR;
-    if (lf_lu_factor(c->jac_ww, LF_NW, c->piv) != 0) {
+    if (lf_lu_factor(c->unsaved.jac_ww, LF_NW, c->unsaved.piv) != 0) {
         lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
                "t = %.17g: algebraic loop has no unique solution (dF/dw singular)", t);
         return LF_DISCARD;
@@ -24,7 +24,7 @@ static LfStatus factor_dFdw(LfInstance *c, double t, const double *x, const doub
     return LF_OK;
 }
 
-/* -DLF_NEWTON_STATS: counts of the solves in steps (c->wc_on), printed to
+/* -DLF_NEWTON_STATS: counts of the solves in steps (c->unsaved.wc_on), printed to
  * stderr at exit (tests/test_newton_predictor.py; one instance at a time) */
 #ifdef LF_NEWTON_STATS
 #include <stdio.h>
@@ -34,7 +34,7 @@ static void __attribute__((destructor)) st_print(void) {
             "simplified_it %ld fallbacks %ld\n", st_solves, st_hits, st_full, st_full_it,
             st_simp, st_simp_it, st_fallback);
 }
-#define STAT(x) (c->wc_on ? (void)(x) : (void)0)
+#define STAT(x) (c->unsaved.wc_on ? (void)(x) : (void)0)
 #else
 #define STAT(x) ((void)0)
 #endif
@@ -46,17 +46,17 @@ static void __attribute__((destructor)) st_print(void) {
 #endif
 
 /* Newton's memory (lf_newton_mem.h) is kept and used while a step runs */
-static inline int nm_on(const LfInstance *c) { return LF_NEWTON_MEMORY && LF_IMPLICIT && c->wc_on; }
+static inline int nm_on(const LfInstance *c) { return LF_NEWTON_MEMORY && LF_IMPLICIT && c->unsaved.wc_on; }
 
-/* keep the factorization in c->jac_ww, c->piv and dF/dx, dF/dt in
- * c->jac_wx, c->jac_wt (just evaluated together) for this generation */
+/* keep the factorization in c->unsaved.jac_ww, c->unsaved.piv and dF/dx, dF/dt in
+ * c->unsaved.jac_wx, c->unsaved.jac_wt (just evaluated together) for this generation */
 static void nm_keep_lu(LfInstance *c) {
-    LfNewtonMem *m = &c->nm;
-    memcpy(m->lu, c->jac_ww, sizeof(double) * LF_NW * LF_NW);
-    memcpy(m->piv, c->piv, sizeof(size_t) * LF_NW);
-    memcpy(m->fx, c->jac_wx, sizeof(double) * LF_NW * LF_NX);
-    memcpy(m->ft, c->jac_wt, sizeof(double) * LF_NW);
-    m->lu_gen = c->wc_gen;
+    LfNewtonMem *m = &c->unsaved.nm;
+    memcpy(m->lu, c->unsaved.jac_ww, sizeof(double) * LF_NW * LF_NW);
+    memcpy(m->piv, c->unsaved.piv, sizeof(size_t) * LF_NW);
+    memcpy(m->fx, c->unsaved.jac_wx, sizeof(double) * LF_NW * LF_NX);
+    memcpy(m->ft, c->unsaved.jac_wt, sizeof(double) * LF_NW);
+    m->lu_gen = c->unsaved.wc_gen;
     m->stale = 0;
     m->tan_ok = 0;
 }
@@ -77,28 +77,28 @@ static LfStatus newton(LfInstance *c, double t, const double *x, double *w) {
         int done = 1;
         double size = 0.0;
         STAT(st_full_it++);
-        if (lf_eval_fn1(c, LF_FN_RES, t, x, w, c->res_F) != LF_OK) return LF_ERROR;
-        if (lf_first_nonfinite(c->res_F, LF_NW) >= 0) {
+        if (lf_eval_fn1(c, LF_FN_RES, t, x, w, c->unsaved.res_F) != LF_OK) return LF_ERROR;
+        if (lf_first_nonfinite(c->unsaved.res_F, LF_NW) >= 0) {
             lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: algebraic loop: residual of "
                    "equation %d is not finite at Newton iteration %d", t,
-                   lf_first_nonfinite(c->res_F, LF_NW), it);
+                   lf_first_nonfinite(c->unsaved.res_F, LF_NW), it);
             return LF_DISCARD;
         }
         st = factor_dFdw(c, t, x, w);
         if (st != LF_OK) return st;
         if (nm_on(c)) nm_keep_lu(c);
-        lf_lu_solve(c->jac_ww, LF_NW, c->piv, c->res_F);
+        lf_lu_solve(c->unsaved.jac_ww, LF_NW, c->unsaved.piv, c->unsaved.res_F);
         for (i = 0; i < LF_NW; i++) {
             double scale = fmax(fabs(w[i]), fabs(w0[i]));
-            w[i] -= c->res_F[i];
-            if (fabs(c->res_F[i]) > LF_NEWTON_ATOL + LF_NEWTON_RTOL * scale) done = 0;
-            size = fmax(size, fabs(c->res_F[i]) / (LF_NEWTON_ATOL + scale));
+            w[i] -= c->unsaved.res_F[i];
+            if (fabs(c->unsaved.res_F[i]) > LF_NEWTON_ATOL + LF_NEWTON_RTOL * scale) done = 0;
+            size = fmax(size, fabs(c->unsaved.res_F[i]) / (LF_NEWTON_ATOL + scale));
         }
         if (lf_first_nonfinite(w, LF_NW) >= 0) break;
         if (done || (size < 1e-8 && size >= 0.5 * prev)) return LF_OK;
         prev = size;
     }
-    c->n_newton_fail++;
+    c->stats.n_newton_fail++;
     lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
            "t = %.17g: algebraic loop: Newton did not converge in %d iterations", t,
            LF_NEWTON_MAX_ITER);
@@ -144,7 +144,7 @@ static inline void nm_apply(const LfNewtonMem *m, const double *f, double *dw) {
  * solution (tb, xb, wb): w ~ wb + dw/dx (x - xb) + dw/dt (t - tb) with the
  * tangent where the kept LU was factored. */
 static void nm_predict(LfInstance *c, double t, const double *x, double *w) {
-    LfNewtonMem *m = &c->nm;
+    LfNewtonMem *m = &c->unsaved.nm;
     double p[LF_DIM(LF_NW)], dt = t - m->tb;
     int i, j;
     if (!m->tan_ok) nm_tangent(m);
@@ -175,9 +175,9 @@ static int simplified(LfInstance *c, double t, const double *x, double *w) {
     for (it = 0; it < LF_SIMPLE_MAX_ITER; it++) {
         double q = 0.0, theta;
         STAT(st_simp_it++);
-        if (lf_eval_fn1(c, LF_FN_RES, t, x, w1, c->res_F) != LF_OK) return -1;
-        if (lf_first_nonfinite(c->res_F, LF_NW) >= 0) break;
-        nm_apply(&c->nm, c->res_F, dw);
+        if (lf_eval_fn1(c, LF_FN_RES, t, x, w1, c->unsaved.res_F) != LF_OK) return -1;
+        if (lf_first_nonfinite(c->unsaved.res_F, LF_NW) >= 0) break;
+        nm_apply(&c->unsaved.nm, c->unsaved.res_F, dw);
         for (i = 0; i < LF_NW; i++) {
             double a = fabs(w1[i]), b = fabs(w[i]), d = fabs(dw[i]);
             w1[i] -= dw[i];
@@ -188,13 +188,13 @@ static int simplified(LfInstance *c, double t, const double *x, double *w) {
         if (!(theta <= LF_SIMPLE_RATE) || lf_first_nonfinite(w1, LF_NW) >= 0) break;
         if (q <= 1.0 || (it > 0 && theta * q <= 1.0 - theta)) {
             memcpy(w, w1, sizeof w1);
-            if (it >= 3) c->nm.stale = 1;
+            if (it >= 3) c->unsaved.nm.stale = 1;
             return 1;
         }
         prev = q;
     }
     STAT(st_fallback++);
-    c->nm.stale = 1;
+    c->unsaved.nm.stale = 1;
     return 0;
 }
 
@@ -210,22 +210,22 @@ static inline LF_ALWAYS_INLINE LfStatus solve_w(LfInstance *c, double t, const d
     LfStatus st;
     int bad;
     STAT(st_solves++);
-    if (LF_WC_USED && c->wc_on && lf_wc_take(c, t, x, w)) {
+    if (LF_WC_USED && c->unsaved.wc_on && lf_wc_take(c, t, x, w)) {
         STAT(st_hits++);
         return LF_OK;
     }
-    if (LF_WK_USED && c->wc_on && lf_wk_take(c, t, x, w)) return LF_OK;
+    if (LF_WK_USED && c->unsaved.wc_on && lf_wk_take(c, t, x, w)) return LF_OK;
     if (LF_IMPLICIT) {
         int done = 0;
-        if (nm_on(c) && c->nm.lu_gen == c->wc_gen && c->nm.b_gen == c->wc_gen) {
+        if (nm_on(c) && c->unsaved.nm.lu_gen == c->unsaved.wc_gen && c->unsaved.nm.b_gen == c->unsaved.wc_gen) {
             nm_predict(c, t, x, w);
-            if (lf_first_nonfinite(w, LF_NW) >= 0) memcpy(w, c->w_cur, sizeof(double) * LF_NW);
-            if (!c->nm.stale) {
+            if (lf_first_nonfinite(w, LF_NW) >= 0) memcpy(w, c->val.w_cur, sizeof(double) * LF_NW);
+            if (!c->unsaved.nm.stale) {
                 done = simplified(c, t, x, w);
                 if (done < 0) return LF_ERROR;
             }
         } else {
-            memcpy(w, c->w_cur, sizeof(double) * LF_NW);
+            memcpy(w, c->val.w_cur, sizeof(double) * LF_NW);
         }
         if (!done) {
             st = newton(c, t, x, w);
@@ -240,15 +240,15 @@ static inline LF_ALWAYS_INLINE LfStatus solve_w(LfInstance *c, double t, const d
                "(derivative or algebraic variable) is %g", t, bad, w[bad]);
         return LF_DISCARD;
     }
-    memcpy(c->w_cur, w, sizeof(double) * LF_NW);
+    memcpy(c->val.w_cur, w, sizeof(double) * LF_NW);
     if (nm_on(c)) {
-        c->nm.b_gen = c->wc_gen;
-        c->nm.tb = t;
-        memcpy(c->nm.xb, x, sizeof(double) * LF_NX);
-        memcpy(c->nm.wb, w, sizeof(double) * LF_NW);
+        c->unsaved.nm.b_gen = c->unsaved.wc_gen;
+        c->unsaved.nm.tb = t;
+        memcpy(c->unsaved.nm.xb, x, sizeof(double) * LF_NX);
+        memcpy(c->unsaved.nm.wb, w, sizeof(double) * LF_NW);
     }
-    if (LF_WC_USED && c->wc_on) lf_wc_keep(c, t, x, w);
-    if (LF_WK_USED && c->wc_on) lf_wk_keep(c, t, x);
+    if (LF_WC_USED && c->unsaved.wc_on) lf_wc_keep(c, t, x, w);
+    if (LF_WK_USED && c->unsaved.wc_on) lf_wk_keep(c, t, x);
     return LF_OK;
 }
 
@@ -258,15 +258,15 @@ LfStatus lf_solve_w(LfInstance *c, double t, const double *x, double *w) {
 
 LfStatus lf_rhs(void *ctx, double t, const double *x, double *dx) {
     LfInstance *c = (LfInstance *)ctx;
-    LfStatus st = solve_w(c, t, x, c->w_tmp);
+    LfStatus st = solve_w(c, t, x, c->unsaved.w_tmp);
     if (st != LF_OK) return st;
-    memcpy(dx, c->w_tmp, sizeof(double) * LF_NX);
+    memcpy(dx, c->unsaved.w_tmp, sizeof(double) * LF_NX);
     return LF_OK;
 }
 
-/* The delayed values' part of df/dx and df/dt, added to c->jac_wx and
- * c->jac_wt through dw/dd (for implicit models dw/dd = -(dF/dw)^-1 dF/dd,
- * with dF/dw factored in c->jac_ww):
+/* The delayed values' part of df/dx and df/dt, added to c->unsaved.jac_wx and
+ * c->unsaved.jac_wt through dw/dd (for implicit models dw/dd = -(dF/dw)^-1 dF/dd,
+ * with dF/dw factored in c->unsaved.jac_ww):
  *  - a zero delay reads d = g(t, x) now: dd/dx = dg/dx, dd/dt = dg/dt;
  *  - a delay tau > 0 reads d = g(t - tau) from the history: dd/dx = 0,
  *    dd/dt = the history's dg/dt at t - tau (its interpolant's slope).
@@ -277,17 +277,17 @@ static LfStatus delay_jacobian(LfInstance *c, double t, const double *x) {
     double rate[LF_DIM(LF_ND)];
     int i, j, k;
     if (lf_delayed_rates(c, t, x, rate) != LF_OK) return LF_ERROR;
-    if (lf_eval_fn(c, LF_FN_DJAC, t, x, c->w_cur, wd, gx, gt) != LF_OK) return LF_ERROR;
+    if (lf_eval_fn(c, LF_FN_DJAC, t, x, c->val.w_cur, wd, gx, gt) != LF_OK) return LF_ERROR;
     for (k = 0; k < LF_ND; k++) {
-        double *col = &wd[k * LF_NW], dd_dt = c->tau[k] == 0 ? gt[k] : rate[k];
+        double *col = &wd[k * LF_NW], dd_dt = c->dl.tau[k] == 0 ? gt[k] : rate[k];
         if (LF_IMPLICIT) {
-            lf_lu_solve(c->jac_ww, LF_NW, c->piv, col);
+            lf_lu_solve(c->unsaved.jac_ww, LF_NW, c->unsaved.piv, col);
             for (i = 0; i < LF_NW; i++) col[i] = -col[i];
         }
-        if (c->tau[k] == 0)
+        if (c->dl.tau[k] == 0)
             for (j = 0; j < LF_NX; j++)
-                for (i = 0; i < LF_NW; i++) c->jac_wx[i + j * LF_NW] += col[i] * gx[k + j * LF_ND];
-        for (i = 0; i < LF_NW; i++) c->jac_wt[i] += col[i] * dd_dt;
+                for (i = 0; i < LF_NW; i++) c->unsaved.jac_wx[i + j * LF_NW] += col[i] * gx[k + j * LF_ND];
+        for (i = 0; i < LF_NW; i++) c->unsaved.jac_wt[i] += col[i] * dd_dt;
     }
     return LF_OK;
 }
@@ -299,15 +299,15 @@ static LfStatus jac_cb(void *ctx, double t, const double *x, double *J, double *
     int i, j;
     LfStatus st;
     if (LF_IMPLICIT) {
-        st = lf_solve_w(c, t, x, c->w_tmp);
-        if (st == LF_OK) st = factor_dFdw(c, t, x, c->w_tmp);
+        st = lf_solve_w(c, t, x, c->unsaved.w_tmp);
+        if (st == LF_OK) st = factor_dFdw(c, t, x, c->unsaved.w_tmp);
         if (st != LF_OK) return st;
         if (nm_on(c)) nm_keep_lu(c); /* at the solution: the stages' simplified Newton */
-        for (j = 0; j < LF_NX; j++) lf_lu_solve(c->jac_ww, LF_NW, c->piv, &c->jac_wx[j * LF_NW]);
-        lf_lu_solve(c->jac_ww, LF_NW, c->piv, c->jac_wt);
-        for (i = 0; i < LF_NW * LF_NX; i++) c->jac_wx[i] = -c->jac_wx[i];
-        for (i = 0; i < LF_NW; i++) c->jac_wt[i] = -c->jac_wt[i];
-    } else if (lf_eval_fn(c, LF_FN_WJAC, t, x, c->w_cur, c->jac_wx, c->jac_wt, NULL) != LF_OK) {
+        for (j = 0; j < LF_NX; j++) lf_lu_solve(c->unsaved.jac_ww, LF_NW, c->unsaved.piv, &c->unsaved.jac_wx[j * LF_NW]);
+        lf_lu_solve(c->unsaved.jac_ww, LF_NW, c->unsaved.piv, c->unsaved.jac_wt);
+        for (i = 0; i < LF_NW * LF_NX; i++) c->unsaved.jac_wx[i] = -c->unsaved.jac_wx[i];
+        for (i = 0; i < LF_NW; i++) c->unsaved.jac_wt[i] = -c->unsaved.jac_wt[i];
+    } else if (lf_eval_fn(c, LF_FN_WJAC, t, x, c->val.w_cur, c->unsaved.jac_wx, c->unsaved.jac_wt, NULL) != LF_OK) {
         return LF_ERROR;
     }
     if (LF_ND > 0) {
@@ -315,8 +315,8 @@ static LfStatus jac_cb(void *ctx, double t, const double *x, double *J, double *
         if (st != LF_OK) return st;
     }
     for (j = 0; j < LF_NX; j++)
-        for (i = 0; i < LF_NX; i++) J[i + j * LF_NX] = c->jac_wx[i + j * LF_NW];
-    memcpy(dfdt, c->jac_wt, sizeof(double) * LF_NX);
+        for (i = 0; i < LF_NX; i++) J[i + j * LF_NX] = c->unsaved.jac_wx[i + j * LF_NW];
+    memcpy(dfdt, c->unsaved.jac_wt, sizeof(double) * LF_NX);
     if (lf_first_nonfinite(J, (size_t)LF_NX * LF_NX) >= 0 || lf_first_nonfinite(dfdt, LF_NX) >= 0) {
         lf_log(c, LF_DISCARD, LF_LOG_DISCARD, "t = %.17g: Jacobian is not finite", t);
         return LF_DISCARD;
@@ -337,6 +337,6 @@ LfOde lf_ode_of(LfInstance *c) {
 LfStatus lf_solve_dFdw(LfInstance *c, double t, const double *x, const double *w, double *b) {
     LfStatus st = factor_dFdw(c, t, x, w);
     if (st != LF_OK) return st;
-    lf_lu_solve(c->jac_ww, LF_NW, c->piv, b);
+    lf_lu_solve(c->unsaved.jac_ww, LF_NW, c->unsaved.piv, b);
     return LF_OK;
 }

@@ -2,10 +2,10 @@
  * (lf_newton.c), a field of LfInstance (lf_runtime.h includes this header
  * after LF_DIM).
  *
- * While a step runs (c->wc_on), the solves of the unknowns w at the
+ * While a step runs (c->unsaved.wc_on), the solves of the unknowns w at the
  * solver's stages, the event and validity scans' points and the outputs
  * are close to each other.  Newton's memory keeps, from the solves of the
- * current generation (the solve cache's c->wc_gen: advanced when a step
+ * current generation (the solve cache's c->unsaved.wc_gen: advanced when a step
  * starts and wherever a mode is set, so parameters, inputs and modes are
  * the same for every solve that uses it):
  *  - dF/dw where it was last factored (its LU and inverse) and the

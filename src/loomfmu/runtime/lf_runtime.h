@@ -1,5 +1,7 @@
-/* loomfmu shared runtime: the model instance and the co-simulation step
- * loop, independent of the FMI version (lf_fmi2.c is the FMI 2.0 facade). */
+/* loomfmu shared runtime: the model instance (LfInstance, grouped by
+ * concern; the fields not saved with the FMU state in its member `unsaved`)
+ * and the interface the FMI facades use, independent of the FMI version
+ * (lf_fmi2*.c and lf_fmi3*.c are the facades). */
 #ifndef LF_RUNTIME_H
 #define LF_RUNTIME_H
 
@@ -51,18 +53,16 @@ extern const char *const lf_log_category_names[LF_N_LOG];
 typedef void (*LfLogFn)(void *env, const char *instance, LfStatus status,
                         const char *category, const char *message);
 
-typedef struct {
-    char *name;
-    void *log_env;
-    LfLogFn log;
-    LfAllocator alloc;
-    int log_on[LF_N_LOG];
-    int log_on_start;        /* loggingOn of fmi2Instantiate, restored by reset */
-    LfState state;
+/* The instance, grouped by concern.  Every member but `unsaved` is saved
+ * with the FMU state (lf_state.c writes it field by field into its own
+ * layout, LfStateValues: the grouping here is the memory's, not the
+ * state's); `unsaved` holds everything that is not: the importer's
+ * environment, work arrays, scratch and caches, each rebuilt or reset when
+ * a state is set. */
 
-    double r[LF_NREAL];      /* every Real by value reference */
-    int solver_id;           /* 1-based index into lf_methods[] */
-    int solver_index;        /* `solver_index`: 0, or the solver that wins over `solver` */
+/* the interface: FMI state, times, solver choice (saved) */
+typedef struct {
+    LfState state;
     double t;                /* current communication time */
     double t_start;
     double t_stop;           /* stopTime of fmi2SetupExperiment (INFINITY: none) */
@@ -70,110 +70,150 @@ typedef struct {
     double last_successful_time;
     int outputs_valid;       /* r[] outputs/locals match t, x, u, p */
     int inputs_changed;      /* an input was set since the last step */
+    int wants_terminate;     /* fmi2Terminated: a validity condition failed */
+    int solver_id;           /* 1-based index into lf_methods[] */
+    int solver_index;        /* `solver_index`: 0, or the solver that wins over `solver` */
+    int solver_ready;        /* the solver is made (after initialization) */
+    long max_steps;          /* internal steps per communication step */
+} LfRun;
 
-    /* CasADi work, sized for the largest generated function */
-    const double **arg;
-    double **res;
-    long long *iw;
-    double *w;
-
+/* the model's values (saved) */
+typedef struct {
+    double r[LF_NREAL];           /* every Real by value reference */
     double q[LF_DIM(LF_NQ)];      /* discrete modes */
-    double w_cur[LF_DIM(LF_NW)];  /* unknowns at the last solve: Newton's start */
-    double w_tmp[LF_DIM(LF_NW)];
-    /* exact Jacobians: dw/dx (explicit) or dF/dw, dF/dx (implicit) */
-    double jac_wx[LF_DIM(LF_NW * LF_NX)];
-    double jac_ww[LF_IMPLICIT ? LF_DIM(LF_NW * LF_NW) : 1];
-    double jac_wt[LF_DIM(LF_NW)];
-    double res_F[LF_DIM(LF_NW)];
-    size_t piv[LF_DIM(LF_NW)];
-    long n_newton_fail;
-    int quiet;                    /* > 0: trial solves, do not log their failures */
     int x_set[LF_DIM(LF_NX)];     /* state set by the importer before initialization */
+    double w_cur[LF_DIM(LF_NW)];  /* unknowns at the last solve: Newton's start */
+} LfValues;
 
-    /* delays: per delayed expression a ring of accepted samples (t, g, dg/dt),
-     * interpolated by cubic Hermite (or linearly, for comparison) */
+/* events (saved): the indicators at the last accepted point and an early
+ * return's pending event (lf_step.h): with stop_at_events set (by the
+ * facade) lf_do_step ends at the first event located in the step, on the
+ * root's new side with the modes before the event, and defers its
+ * handling to lf_handle_pending_event */
+typedef struct {
+    double e_old[LF_DIM(LF_NE)];  /* indicators at the last accepted point */
+    int pending;                  /* an event located, its handling deferred */
+    int index;                    /* its indicator (-1: none pending) */
+    double t_event;               /* its time (the solver's, on the new side) */
+    /* the last point before the event, where the validity conditions held
+     * (the step ends there if one fails across the event) */
+    double t_ok;
+    double x_ok[LF_DIM(LF_NX)];
+    double q_ok[LF_DIM(LF_NQ)];
+} LfEvents;
+
+/* known breaks (lf_breaks.c; saved, so that a restored state steps as the
+ * original did): ready: xdot holds der(x) of the clock states (0
+ * elsewhere); index >= 0: the steps land at t_land, a margin before the
+ * predicted root of that indicator, whose bracket ends at t_right; no
+ * predicted root before clear, where the prediction is e; the next chunk
+ * of the scan is dt long */
+typedef struct {
+    int ready;
+    double xdot[LF_DIM(LF_NX)];
+    int index;
+    double t_land, t_right;
+    double clear, dt;
+    double e[LF_DIM(LF_NE)];
+} LfKnownBreaks;
+
+/* delays (saved): per delayed expression a ring of accepted samples (t, g,
+ * dg/dt), interpolated by cubic Hermite (or linearly, for comparison), and
+ * the pending breakpoints */
+typedef struct {
     double dval[LF_DIM(LF_ND)];   /* delayed values passed to the functions */
     double tau[LF_DIM(LF_ND)];
-    double *hist;                 /* LF_ND x LF_HIST_CAP x 3 */
+    double *hist;                 /* LF_ND x LF_HIST_CAP x 3 (the samples in use are saved) */
     long hist_start[LF_DIM(LF_ND)];
     long hist_count[LF_DIM(LF_ND)];
     int delay_interp;
     double bp[LF_DIM(LF_BP_CAP)];
     int n_bp;
-    double t_bp_step;   /* end of the step being taken, if a breakpoint; else inf */
+} LfDelays;
 
-    /* inputs as polynomials of time (fmi2SetRealInputDerivatives): input k
-     * is r[LF_VR_U0 + k] + u_d1[k] s + u_d2[k] s^2 / 2, s = t - u_t0[k]
-     * (lf_inputs.c); held constant while both derivatives are 0 */
+/* inputs as polynomials of time (fmi2SetRealInputDerivatives; saved):
+ * input k is r[LF_VR_U0 + k] + u_d1[k] s + u_d2[k] s^2 / 2, s = t - u_t0[k]
+ * (lf_inputs.c); held constant while both derivatives are 0.  seen_*: the
+ * polynomials the solver last started a step with, at seen_t (value,
+ * slope, second derivative): a change restarts the solver */
+typedef struct {
     double u_d1[LF_DIM(LF_NU)], u_d2[LF_DIM(LF_NU)], u_t0[LF_DIM(LF_NU)];
-    int u_poly;                   /* some input derivative is nonzero */
-    /* the input polynomials the solver last started a step with, at seen_t
-     * (value, slope, second derivative): a change restarts the solver */
     double seen_u[LF_DIM(LF_NU)], seen_d1[LF_DIM(LF_NU)], seen_d2[LF_DIM(LF_NU)];
     double seen_t;
-    double u_now[LF_DIM(LF_NU)], u_rate[LF_DIM(LF_NU)], u_zero[LF_DIM(LF_NU)];
-    double d_rate[LF_DIM(LF_ND)]; /* delayed values' rates (output derivatives) */
-    int wants_terminate;          /* fmi2Terminated: a validity condition failed */
-    /* validity conditions at time vld_t (the start of the next step; set at
-     * every step's start and end, not part of the FMU state) */
-    double vld_t, vld_v[LF_DIM(LF_NV)];
+} LfInputs;
 
-    LfSolver solver;
-    int solver_ready;
-    double e_old[LF_DIM(LF_NE)];
-    double e_new[LF_DIM(LF_NE)];
-    double x_tmp[LF_DIM(LF_NX)];
-    long max_steps;          /* internal steps per communication step */
+/* statistics (saved) */
+typedef struct {
     long n_events;
+    long n_newton_fail;
+} LfStats;
 
-    /* Fields added by one concern each (append only, inside your block). */
-    /* -- codegen: parameter folding, directional derivatives -- */
+/* Not saved with the FMU state. */
+typedef struct {
+    /* -- the importer's environment and settings of the facade -- */
+    char *name;
+    void *log_env;
+    LfLogFn log;
+    LfAllocator alloc;
+    int log_on[LF_N_LOG];
+    int log_on_start;        /* loggingOn of fmi2Instantiate, restored by reset */
+    int quiet;               /* > 0: trial solves, do not log their failures */
+    int stop_at_events;      /* early return at events (lf_step.h) */
+    /* -- calls of the generated functions (lf_eval.c) -- */
+    /* CasADi work, sized for the largest generated function */
+    const double **arg;
+    double **res;
+    long long *iw;
+    double *w;
+    int args_set;                 /* arg[4..6, 8, 9] point at p, q, d, d_rate, k */
     double k[LF_DIM(LF_NK)];      /* parameter-only subexpressions: `pre` of r[LF_VR_P0..] */
     int k_stale;                  /* k does not match the parameters: lf_eval_fn recomputes */
-    /* -- step loop: early return at events, known breaks -- */
-    /* early return (lf_step.h): with stop_at_events set (by the facade; not
-     * part of the FMU state) lf_do_step ends at the first event located in
-     * the step, on the root's new side with the modes before the event, and
-     * defers its handling to lf_handle_pending_event */
-    int stop_at_events;
-    int event_pending;              /* an event located, its handling deferred */
-    int event_index;                /* its indicator (-1: none pending) */
-    double t_event;                 /* its time (the solver's, on the new side) */
-    /* the last point before the event, where the validity conditions held
-     * (the step ends there if one fails across the event) */
-    double ev_t_ok;
-    double ev_x_ok[LF_DIM(LF_NX)];
-    double ev_q_ok[LF_DIM(LF_NQ)];
-    /* delays: where the last history lookup of each delay ended (a hint for
-     * the next one, checked before use; not part of the FMU state) */
+    /* -- inputs: derived from the saved polynomials, and scratch -- */
+    int u_poly;                   /* some input derivative is nonzero */
+    double u_now[LF_DIM(LF_NU)], u_rate[LF_DIM(LF_NU)], u_zero[LF_DIM(LF_NU)];
+    double d_rate[LF_DIM(LF_ND)]; /* delayed values' rates (output derivatives) */
+    /* -- the unknowns: scratch of the solves and the exact Jacobians:
+     * dw/dx (explicit) or dF/dw, dF/dx (implicit) -- */
+    double w_tmp[LF_DIM(LF_NW)];
+    double jac_wx[LF_DIM(LF_NW * LF_NX)];
+    double jac_ww[LF_IMPLICIT ? LF_DIM(LF_NW * LF_NW) : 1];
+    double jac_wt[LF_DIM(LF_NW)];
+    double res_F[LF_DIM(LF_NW)];
+    size_t piv[LF_DIM(LF_NW)];
+    /* -- the step loop's scratch -- */
+    double e_new[LF_DIM(LF_NE)];
+    double x_tmp[LF_DIM(LF_NX)];
+    /* validity conditions at time vld_t (the start of the next step; set at
+     * every step's start and end) */
+    double vld_t, vld_v[LF_DIM(LF_NV)];
+    /* -- delays -- */
+    double t_bp_step;   /* end of the step being taken, if a breakpoint; else inf */
+    /* where the last history lookup of each delay ended (a hint for the
+     * next one, checked before use) */
     long hist_cursor[LF_DIM(LF_ND)];
-    /* known breaks (lf_breaks.c; a cache that lf_state.c saves with the FMU
-     * state, so that a restored state steps as the original did; kb_cert
-     * and kb_sure below are not saved):
-     * kb_ready: kb_xdot holds der(x) of the clock states (0 elsewhere);
-     * kb_index >= 0: the steps land at kb_t_land, a margin before the
-     * predicted root of that indicator, whose bracket ends at kb_t_right */
-    int kb_ready;
-    double kb_xdot[LF_DIM(LF_NX)];
-    int kb_index;
-    double kb_t_land, kb_t_right;
-    /* no predicted root before kb_clear, where the prediction is kb_e; the
-     * next chunk of the scan is kb_dt long */
-    double kb_clear, kb_dt;
-    double kb_e[LF_DIM(LF_NE)];
-    /* kb_cert: set by lf_known_break before each step, read by
-     * lf_handle_events after it: every indicator is predicted and the scan
-     * vouches for no root of the prediction in the step about to be taken
-     * (lf_breaks.c; it vouches up to kb_clear while kb_ready).  kb_sure:
-     * -INFINITY while rule 2's bound on the step after the solver's last one
-     * is pending (left so after a vouched step, and unknown when an FMU state
-     * is set or at the start: taken if the next step is not vouched,
-     * lf_event_bound_pending); otherwise the time it was taken at */
+    /* the outputs of the last history sample at a step's end (lf_delay.c,
+     * models with LF_HISTOUT_FN): y at the point (t, x, u, u_rate, p, q, d,
+     * w) they were computed at, taken by lf_update_outputs where every one
+     * of these matches bit for bit */
+    int ho_valid;
+    double ho_t;
+    double ho_x[LF_DIM(LF_NX)], ho_u[LF_DIM(LF_NU)], ho_ur[LF_DIM(LF_NU)];
+    double ho_p[LF_DIM(LF_NP)], ho_q[LF_DIM(LF_NQ)], ho_d[LF_DIM(LF_ND)];
+    double ho_w[LF_DIM(LF_NW)], ho_y[LF_DIM(LF_NY + LF_NZ)];
+    /* -- known breaks: kb_cert: set by lf_known_break before each step,
+     * read by lf_handle_events after it: every indicator is predicted and
+     * the scan vouches for no root of the prediction in the step about to
+     * be taken (lf_breaks.c; it vouches up to kb.clear while kb.ready).
+     * kb_sure: -INFINITY while rule 2's bound on the step after the
+     * solver's last one is pending (left so after a vouched step, and
+     * unknown when an FMU state is set or at the start: taken if the next
+     * step is not vouched, lf_event_bound_pending); otherwise the time it
+     * was taken at -- */
     int kb_cert;
     double kb_sure;
     long n_known_breaks;            /* known breaks crossed (statistics) */
-    /* the solve cache (lf_wcache.h; not part of the FMU state): on while a
-     * step runs; entry j holds w of (wc_t[j], wc_x[j]) of generation wc_g[j] */
+    /* -- the solve cache (lf_wcache.h): on while a step runs; entry j
+     * holds w of (wc_t[j], wc_x[j]) of generation wc_g[j] -- */
     int wc_on, wc_last;
     unsigned long wc_gen, wc_g[2];
     double wc_t[2];
@@ -182,28 +222,27 @@ typedef struct {
     unsigned long wk_g;             /* explicit models: w_cur is w of (wk_t, wk_x) */
     double wk_t;
     double wk_x[LF_DIM(LF_NX)];
-    int args_set;                   /* arg[4..6, 8, 9] point at p, q, d, d_rate, k */
-    /* -- delays: the outputs of the last history sample at a step's end
-     * (lf_delay.c, models with LF_HISTOUT_FN; a cache, not part of the FMU
-     * state): y at the point (t, x, u, u_rate, p, q, d, w) they were computed
-     * at, taken by lf_update_outputs where every one of these matches bit for
-     * bit -- */
-    int ho_valid;
-    double ho_t;
-    double ho_x[LF_DIM(LF_NX)], ho_u[LF_DIM(LF_NU)], ho_ur[LF_DIM(LF_NU)];
-    double ho_p[LF_DIM(LF_NP)], ho_q[LF_DIM(LF_NQ)], ho_d[LF_DIM(LF_ND)];
-    double ho_w[LF_DIM(LF_NW)], ho_y[LF_DIM(LF_NY + LF_NZ)];
-    /* -- model exchange -- */
-    /* -- FMI 3.0 facade -- */
-    /* -- solvers and statistics -- */
     /* -- algebraic loops: Newton's memory (lf_newton_mem.h) -- */
     LfNewtonMem nm;
+} LfUnsaved;
+
+typedef struct {
+    LfRun run;               /* interface state, times, solver choice */
+    LfValues val;            /* Reals, modes, unknowns */
+    LfSolver solver;         /* the solver: its fields and work buffer */
+    LfEvents ev;             /* indicators, pending event */
+    LfKnownBreaks kb;        /* known breaks' prediction */
+    LfDelays dl;             /* delays' history and breakpoints */
+    LfInputs in;             /* input polynomials */
+    LfStats stats;           /* counters */
+    LfUnsaved unsaved;       /* everything not saved with the FMU state */
 } LfInstance;
 
 LfInstance *lf_instantiate(const char *name, LfLogFn log, void *log_env,
                            LfAllocator alloc);
 void lf_free(LfInstance *c);
 void lf_reset_values(LfInstance *c);
+/* lf_base.c */
 void lf_log(LfInstance *c, LfStatus status, LfLogCategory cat, const char *fmt, ...);
 
 LfStatus lf_set_real(LfInstance *c, unsigned vr, double value);
@@ -212,31 +251,33 @@ LfStatus lf_set_solver(LfInstance *c, int id);
 LfStatus lf_get_integer(LfInstance *c, unsigned vr, int *value);
 LfStatus lf_set_integer(LfInstance *c, unsigned vr, int value);
 
-/* The ODE the solvers integrate (right-hand side and Jacobian of c). */
+/* lf_newton.c: the ODE the solvers integrate (right-hand side and Jacobian of c). */
 LfOde lf_ode_of(LfInstance *c);
-/* Start the solver at t_start with the current states (exit initialization). */
+/* lf_step.c: start the solver at t_start with the current states (exit initialization). */
 LfStatus lf_initialize(LfInstance *c);
 /* Is fmi2DoStep(t0, h) a valid call here?  (logs why not) */
 LfStatus lf_check_step(LfInstance *c, double t0, double h);
-/* Advance from c->t by h: integrate, locate events, update outputs. */
+/* Advance from c->run.t by h: integrate, locate events, update outputs. */
 LfStatus lf_do_step(LfInstance *c, double t0, double h);
 /* The same after the caller checked the call with lf_check_step (the FMI
  * facades do, to refuse it before anything changes). */
 LfStatus lf_do_checked_step(LfInstance *c, double t0, double h);
+/* lf_outputs.c: the outputs and locals at the current point */
 LfStatus lf_update_outputs(LfInstance *c);
 
 /* lf_inputs.c: inputs interpolated by their time derivatives. */
 void lf_inputs_reset(LfInstance *c, double t0);
-/* Input vr (an input's value reference) at the current time c->t. */
+/* Input vr (an input's value reference) at the current time c->run.t. */
 double lf_input_now(const LfInstance *c, unsigned vr);
-/* fmi2SetReal of input vr: the new value holds from c->t on, its
+/* fmi2SetReal of input vr: the new value holds from c->run.t on, its
  * derivatives are reset to 0 (FMI 2.0: set with respect to the
  * communication point where they are set). */
 void lf_input_set(LfInstance *c, unsigned vr, double value);
 /* Is (vr, order, value) a valid input derivative? (logs why not) */
 LfStatus lf_input_derivative_check(LfInstance *c, unsigned vr, int order, double value);
 void lf_input_derivative_set(LfInstance *c, unsigned vr, int order, double value);
-/* Output derivative of order 1 of output/local vr at the current time. */
+/* lf_outputs.c: output derivative of order 1 of output/local vr at the
+ * current time. */
 LfStatus lf_output_derivative(LfInstance *c, unsigned vr, double *value);
 
 #endif

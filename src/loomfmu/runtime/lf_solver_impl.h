@@ -1,4 +1,4 @@
-/* loomfmu runtime: what the solver files (lf_solvers.c: helpers, rk4,
+/* loomfmu runtime: what the solver files (lf_solver_common.c: helpers; lf_solvers.c: rk4,
  * registry and life cycle; lf_dopri5.c; lf_rodas4.c; lf_wmethod.c) share.  Not part of
  * the solver contract, which is lf_solver.h. */
 #ifndef LF_SOLVER_IMPL_H

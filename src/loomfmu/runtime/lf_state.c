@@ -39,7 +39,7 @@ static unsigned long long fnv1a(const unsigned char *p, size_t n) {
 
 static int method_index(const LfInstance *c) {
     size_t k;
-    if (!c->solver_ready) return -1;
+    if (!c->run.solver_ready) return -1;
     for (k = 0; k < lf_n_methods; k++)
         if (lf_methods[k] == c->solver.method) return (int)k;
     return -1;
@@ -48,77 +48,77 @@ static int method_index(const LfInstance *c) {
 static size_t hist_doubles(const LfInstance *c) {
     size_t n = 0;
     int k;
-    for (k = 0; k < LF_ND; k++) n += 3 * (size_t)c->hist_count[k];
+    for (k = 0; k < LF_ND; k++) n += 3 * (size_t)c->dl.hist_count[k];
     return n;
 }
 
 static size_t fixed_bytes(void) { return LF_STATE_FIXED_BYTES; }
 
 size_t lf_state_size(const LfInstance *c) {
-    size_t work = c->solver_ready ? c->solver.work_len : 0;
-    return fixed_bytes() + sizeof(double) * (work + hist_doubles(c) + (size_t)c->n_bp);
+    size_t work = c->run.solver_ready ? c->solver.work_len : 0;
+    return fixed_bytes() + sizeof(double) * (work + hist_doubles(c) + (size_t)c->dl.n_bp);
 }
 
 static double *hist_at(const LfInstance *c, int k, long i) {
-    return &c->hist[((size_t)k * LF_HIST_CAP + (size_t)((c->hist_start[k] + i) % LF_HIST_CAP)) * 3];
+    return &c->dl.hist[((size_t)k * LF_HIST_CAP + (size_t)((c->dl.hist_start[k] + i) % LF_HIST_CAP)) * 3];
 }
 
 static void write_values(const LfInstance *c, LfStateValues *v) {
     const LfSolver *s = &c->solver;
     memset(v, 0, sizeof *v);
-    memcpy(v->r, c->r, sizeof v->r);
-    memcpy(v->q, c->q, sizeof v->q);
-    memcpy(v->w_cur, c->w_cur, sizeof v->w_cur);
-    memcpy(v->e_old, c->e_old, sizeof v->e_old);
-    memcpy(v->dval, c->dval, sizeof v->dval);
-    memcpy(v->tau, c->tau, sizeof v->tau);
-    memcpy(v->hist_count, c->hist_count, sizeof v->hist_count);
-    memcpy(v->x_set, c->x_set, sizeof v->x_set);
-    memcpy(v->u_d1, c->u_d1, sizeof v->u_d1);
-    memcpy(v->u_d2, c->u_d2, sizeof v->u_d2);
-    memcpy(v->u_t0, c->u_t0, sizeof v->u_t0);
-    memcpy(v->seen_u, c->seen_u, sizeof v->seen_u);
-    memcpy(v->seen_d1, c->seen_d1, sizeof v->seen_d1);
-    memcpy(v->seen_d2, c->seen_d2, sizeof v->seen_d2);
-    v->seen_t = c->seen_t;
-    v->wants_terminate = c->wants_terminate;
-    v->solver_index = c->solver_index;
-    v->event_pending = c->solver_ready && c->event_pending;
-    v->event_index = v->event_pending ? c->event_index : -1;
+    memcpy(v->r, c->val.r, sizeof v->r);
+    memcpy(v->q, c->val.q, sizeof v->q);
+    memcpy(v->w_cur, c->val.w_cur, sizeof v->w_cur);
+    memcpy(v->e_old, c->ev.e_old, sizeof v->e_old);
+    memcpy(v->dval, c->dl.dval, sizeof v->dval);
+    memcpy(v->tau, c->dl.tau, sizeof v->tau);
+    memcpy(v->hist_count, c->dl.hist_count, sizeof v->hist_count);
+    memcpy(v->x_set, c->val.x_set, sizeof v->x_set);
+    memcpy(v->u_d1, c->in.u_d1, sizeof v->u_d1);
+    memcpy(v->u_d2, c->in.u_d2, sizeof v->u_d2);
+    memcpy(v->u_t0, c->in.u_t0, sizeof v->u_t0);
+    memcpy(v->seen_u, c->in.seen_u, sizeof v->seen_u);
+    memcpy(v->seen_d1, c->in.seen_d1, sizeof v->seen_d1);
+    memcpy(v->seen_d2, c->in.seen_d2, sizeof v->seen_d2);
+    v->seen_t = c->in.seen_t;
+    v->wants_terminate = c->run.wants_terminate;
+    v->solver_index = c->run.solver_index;
+    v->event_pending = c->run.solver_ready && c->ev.pending;
+    v->event_index = v->event_pending ? c->ev.index : -1;
     if (v->event_pending) {
-        v->t_event = c->t_event;
-        v->ev_t_ok = c->ev_t_ok;
-        memcpy(v->ev_x_ok, c->ev_x_ok, sizeof v->ev_x_ok);
-        memcpy(v->ev_q_ok, c->ev_q_ok, sizeof v->ev_q_ok);
+        v->t_event = c->ev.t_event;
+        v->ev_t_ok = c->ev.t_ok;
+        memcpy(v->ev_x_ok, c->ev.x_ok, sizeof v->ev_x_ok);
+        memcpy(v->ev_q_ok, c->ev.q_ok, sizeof v->ev_q_ok);
     }
-    v->kb_ready = c->solver_ready && c->kb_ready;
-    v->kb_index = v->kb_ready ? c->kb_index : -1;
+    v->kb_ready = c->run.solver_ready && c->kb.ready;
+    v->kb_index = v->kb_ready ? c->kb.index : -1;
     if (v->kb_ready) {
-        v->kb_clear = c->kb_clear;
-        v->kb_dt = c->kb_dt;
-        memcpy(v->kb_xdot, c->kb_xdot, sizeof v->kb_xdot);
-        memcpy(v->kb_e, c->kb_e, sizeof v->kb_e);
+        v->kb_clear = c->kb.clear;
+        v->kb_dt = c->kb.dt;
+        memcpy(v->kb_xdot, c->kb.xdot, sizeof v->kb_xdot);
+        memcpy(v->kb_e, c->kb.e, sizeof v->kb_e);
     }
     if (v->kb_index >= 0) {
-        v->kb_t_land = c->kb_t_land;
-        v->kb_t_right = c->kb_t_right;
+        v->kb_t_land = c->kb.t_land;
+        v->kb_t_right = c->kb.t_right;
     }
-    v->t = c->t;
-    v->t_start = c->t_start;
-    v->t_stop = c->t_stop;
-    v->rtol_importer = c->rtol_importer;
-    v->last_successful_time = c->last_successful_time;
-    v->max_steps = c->max_steps;
-    v->n_events = c->n_events;
-    v->n_newton_fail = c->n_newton_fail;
-    v->solver_id = c->solver_id;
-    v->outputs_valid = c->outputs_valid;
-    v->inputs_changed = c->inputs_changed;
-    v->delay_interp = c->delay_interp;
-    v->n_bp = c->n_bp;
-    v->solver_ready = c->solver_ready;
-    v->state = (int)c->state;
-    if (!c->solver_ready) return;
+    v->t = c->run.t;
+    v->t_start = c->run.t_start;
+    v->t_stop = c->run.t_stop;
+    v->rtol_importer = c->run.rtol_importer;
+    v->last_successful_time = c->run.last_successful_time;
+    v->max_steps = c->run.max_steps;
+    v->n_events = c->stats.n_events;
+    v->n_newton_fail = c->stats.n_newton_fail;
+    v->solver_id = c->run.solver_id;
+    v->outputs_valid = c->run.outputs_valid;
+    v->inputs_changed = c->run.inputs_changed;
+    v->delay_interp = c->dl.delay_interp;
+    v->n_bp = c->dl.n_bp;
+    v->solver_ready = c->run.solver_ready;
+    v->state = (int)c->run.state;
+    if (!c->run.solver_ready) return;
     v->s_t = s->t;
     v->s_t_old = s->t_old;
     v->s_h = s->h;
@@ -148,7 +148,7 @@ void lf_state_write(const LfInstance *c, unsigned char *buf) {
     h.ne = LF_NE;
     h.nw = LF_NW;
     h.size = lf_state_size(c);
-    h.work_len = c->solver_ready ? c->solver.work_len : 0;
+    h.work_len = c->run.solver_ready ? c->solver.work_len : 0;
     h.method = method_index(c);
     strncpy(h.guid, lf_model.guid, sizeof h.guid - 1);
     write_values(c, &v);
@@ -156,17 +156,17 @@ void lf_state_write(const LfInstance *c, unsigned char *buf) {
     p += sizeof h;
     memcpy(p, &v, sizeof v);
     p += sizeof v;
-    if (c->solver_ready) {
+    if (c->run.solver_ready) {
         memcpy(p, c->solver.work, sizeof(double) * c->solver.work_len);
         p += sizeof(double) * c->solver.work_len;
     }
     for (k = 0; k < LF_ND; k++)
-        for (i = 0; i < c->hist_count[k]; i++) {
+        for (i = 0; i < c->dl.hist_count[k]; i++) {
             memcpy(p, hist_at(c, k, i), 3 * sizeof(double));
             p += 3 * sizeof(double);
         }
-    memcpy(p, c->bp, sizeof(double) * (size_t)c->n_bp);
-    p += sizeof(double) * (size_t)c->n_bp;
+    memcpy(p, c->dl.bp, sizeof(double) * (size_t)c->dl.n_bp);
+    p += sizeof(double) * (size_t)c->dl.n_bp;
     sum = fnv1a(buf, (size_t)(p - buf));
     memcpy(p, &sum, sizeof sum);
 }
@@ -176,7 +176,7 @@ void lf_state_write(const LfInstance *c, unsigned char *buf) {
 static int refuse(LfInstance *c, const char *what, double value, const char *expected) {
     lf_log(c, LF_ERROR, LF_LOG_ERROR,
            "t = %.17g: FMU state refused: %s = %.17g, expected %s; the instance keeps its "
-           "state", c->t, what, value, expected);
+           "state", c->run.t, what, value, expected);
     return 0;
 }
 
@@ -196,7 +196,7 @@ static int check_header(LfInstance *c, const unsigned char *buf, size_t n, LfSta
     if (sum != fnv1a(buf, n - sizeof sum)) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR,
                "t = %.17g: FMU state refused: its checksum does not match its %lu bytes "
-               "(corrupted or truncated); the instance keeps its state", c->t,
+               "(corrupted or truncated); the instance keeps its state", c->run.t,
                (unsigned long)n);
         return 0;
     }
@@ -211,7 +211,7 @@ static int check_header(LfInstance *c, const unsigned char *buf, size_t n, LfSta
     if (memcmp(guid, h->guid, sizeof guid) != 0) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR,
                "t = %.17g: FMU state refused: it is a state of another FMU (GUID differs "
-               "from %s); the instance keeps its state", c->t, lf_model.guid);
+               "from %s); the instance keeps its state", c->run.t, lf_model.guid);
         return 0;
     }
     REQUIRE(h->n_real == LF_NREAL, "number of Reals", h->n_real, "this FMU's");
@@ -443,19 +443,19 @@ static int check_history(LfInstance *c, const LfStateValues *v, const double *hi
 static int prepare_solver(LfInstance *c, const LfStateHeader *h, const LfStateValues *v,
                           LfSolver *fresh) {
     const LfMethod *m = lf_methods[h->method];
-    if (c->solver_ready && c->solver.method == m && c->solver.work_len == h->work_len) {
+    if (c->run.solver_ready && c->solver.method == m && c->solver.work_len == h->work_len) {
         *fresh = c->solver;
         return 1;
     }
     if (lf_solver_init(fresh, m, lf_ode_of(c), v->s_opt, v->s_t, &v->r[LF_VR_X0],
-                       &c->alloc) != LF_OK || fresh->work_len != h->work_len) {
+                       &c->unsaved.alloc) != LF_OK || fresh->work_len != h->work_len) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR,
                "t = %.17g: FMU state refused: cannot make its solver (%s); the instance "
-               "keeps its state", c->t, fresh->message);
-        if (fresh->work) lf_solver_free(fresh, &c->alloc);
+               "keeps its state", c->run.t, fresh->message);
+        if (fresh->work) lf_solver_free(fresh, &c->unsaved.alloc);
         return 0;
     }
-    if (c->solver_ready) lf_solver_free(&c->solver, &c->alloc);
+    if (c->run.solver_ready) lf_solver_free(&c->solver, &c->unsaved.alloc);
     return 1;
 }
 
@@ -479,67 +479,67 @@ static void apply_solver(LfSolver *s, const LfStateValues *v, const double *work
 static void apply_values(LfInstance *c, const LfStateValues *v, const double *hist) {
     int k;
     long i;
-    memcpy(c->r, v->r, sizeof v->r);
-    c->k_stale = 1; /* k is a function of the parameters just restored (parameter folding) */
-    memcpy(c->q, v->q, sizeof v->q);
-    memcpy(c->w_cur, v->w_cur, sizeof v->w_cur);
-    memcpy(c->e_old, v->e_old, sizeof v->e_old);
-    memcpy(c->dval, v->dval, sizeof v->dval);
-    memcpy(c->tau, v->tau, sizeof v->tau);
-    memcpy(c->x_set, v->x_set, sizeof v->x_set);
-    memcpy(c->u_d1, v->u_d1, sizeof v->u_d1);
-    memcpy(c->u_d2, v->u_d2, sizeof v->u_d2);
-    memcpy(c->u_t0, v->u_t0, sizeof v->u_t0);
-    memcpy(c->seen_u, v->seen_u, sizeof v->seen_u);
-    memcpy(c->seen_d1, v->seen_d1, sizeof v->seen_d1);
-    memcpy(c->seen_d2, v->seen_d2, sizeof v->seen_d2);
-    c->seen_t = v->seen_t;
-    c->wants_terminate = v->wants_terminate;
-    c->solver_index = v->solver_index;
-    c->event_pending = v->event_pending;
-    c->event_index = v->event_index;
-    c->t_event = v->t_event;
-    c->ev_t_ok = v->ev_t_ok;
-    memcpy(c->ev_x_ok, v->ev_x_ok, sizeof v->ev_x_ok);
-    memcpy(c->ev_q_ok, v->ev_q_ok, sizeof v->ev_q_ok);
-    c->u_poly = 0;
+    memcpy(c->val.r, v->r, sizeof v->r);
+    c->unsaved.k_stale = 1; /* k is a function of the parameters just restored (parameter folding) */
+    memcpy(c->val.q, v->q, sizeof v->q);
+    memcpy(c->val.w_cur, v->w_cur, sizeof v->w_cur);
+    memcpy(c->ev.e_old, v->e_old, sizeof v->e_old);
+    memcpy(c->dl.dval, v->dval, sizeof v->dval);
+    memcpy(c->dl.tau, v->tau, sizeof v->tau);
+    memcpy(c->val.x_set, v->x_set, sizeof v->x_set);
+    memcpy(c->in.u_d1, v->u_d1, sizeof v->u_d1);
+    memcpy(c->in.u_d2, v->u_d2, sizeof v->u_d2);
+    memcpy(c->in.u_t0, v->u_t0, sizeof v->u_t0);
+    memcpy(c->in.seen_u, v->seen_u, sizeof v->seen_u);
+    memcpy(c->in.seen_d1, v->seen_d1, sizeof v->seen_d1);
+    memcpy(c->in.seen_d2, v->seen_d2, sizeof v->seen_d2);
+    c->in.seen_t = v->seen_t;
+    c->run.wants_terminate = v->wants_terminate;
+    c->run.solver_index = v->solver_index;
+    c->ev.pending = v->event_pending;
+    c->ev.index = v->event_index;
+    c->ev.t_event = v->t_event;
+    c->ev.t_ok = v->ev_t_ok;
+    memcpy(c->ev.x_ok, v->ev_x_ok, sizeof v->ev_x_ok);
+    memcpy(c->ev.q_ok, v->ev_q_ok, sizeof v->ev_q_ok);
+    c->unsaved.u_poly = 0;
     for (k = 0; k < LF_NU; k++)
-        if (c->u_d1[k] != 0 || c->u_d2[k] != 0) c->u_poly = 1;
-    c->t = v->t;
-    c->t_start = v->t_start;
-    c->t_stop = v->t_stop;
-    c->rtol_importer = v->rtol_importer;
-    c->last_successful_time = v->last_successful_time;
-    c->max_steps = v->max_steps;
-    c->n_events = v->n_events;
-    c->n_newton_fail = v->n_newton_fail;
-    c->solver_id = v->solver_id;
+        if (c->in.u_d1[k] != 0 || c->in.u_d2[k] != 0) c->unsaved.u_poly = 1;
+    c->run.t = v->t;
+    c->run.t_start = v->t_start;
+    c->run.t_stop = v->t_stop;
+    c->run.rtol_importer = v->rtol_importer;
+    c->run.last_successful_time = v->last_successful_time;
+    c->run.max_steps = v->max_steps;
+    c->stats.n_events = v->n_events;
+    c->stats.n_newton_fail = v->n_newton_fail;
+    c->run.solver_id = v->solver_id;
     /* the outputs were saved with the other Reals: valid if they were, so a
      * read after the restore returns them instead of solving again (an
      * implicit model's Newton from the restored w_cur moves w by rounding,
      * and the continuation with it) */
-    c->outputs_valid = v->outputs_valid;
-    c->ho_valid = 0; /* the outputs a history sample kept (a cache, not state) */
-    c->inputs_changed = v->inputs_changed;
-    c->delay_interp = v->delay_interp;
-    c->n_bp = v->n_bp;
-    c->t_bp_step = INFINITY;
-    c->kb_ready = v->kb_ready;
-    c->kb_index = v->kb_index;
-    c->kb_t_land = v->kb_t_land;
-    c->kb_t_right = v->kb_t_right;
-    c->kb_clear = v->kb_clear;
-    c->kb_dt = v->kb_dt;
-    memcpy(c->kb_xdot, v->kb_xdot, sizeof v->kb_xdot);
-    memcpy(c->kb_e, v->kb_e, sizeof v->kb_e);
-    c->kb_sure = -INFINITY; /* not part of the state: vouch again from a new scan */
-    c->state = (LfState)v->state;
+    c->run.outputs_valid = v->outputs_valid;
+    c->unsaved.ho_valid = 0; /* the outputs a history sample kept (a cache, not state) */
+    c->run.inputs_changed = v->inputs_changed;
+    c->dl.delay_interp = v->delay_interp;
+    c->dl.n_bp = v->n_bp;
+    c->unsaved.t_bp_step = INFINITY;
+    c->kb.ready = v->kb_ready;
+    c->kb.index = v->kb_index;
+    c->kb.t_land = v->kb_t_land;
+    c->kb.t_right = v->kb_t_right;
+    c->kb.clear = v->kb_clear;
+    c->kb.dt = v->kb_dt;
+    memcpy(c->kb.xdot, v->kb_xdot, sizeof v->kb_xdot);
+    memcpy(c->kb.e, v->kb_e, sizeof v->kb_e);
+    c->unsaved.kb_sure = -INFINITY; /* not part of the state: vouch again from a new scan */
+    c->run.state = (LfState)v->state;
     for (k = 0; k < LF_ND; k++) {
-        c->hist_start[k] = 0;
-        c->hist_count[k] = v->hist_count[k];
+        c->dl.hist_start[k] = 0;
+        c->dl.hist_count[k] = v->hist_count[k];
         for (i = 0; i < v->hist_count[k]; i++, hist += 3) memcpy(hist_at(c, k, i), hist, 3 * sizeof(double));
     }
-    memcpy(c->bp, hist, sizeof(double) * (size_t)v->n_bp); /* after the history */
+    memcpy(c->dl.bp, hist, sizeof(double) * (size_t)v->n_bp); /* after the history */
 }
 
 LfStatus lf_state_check_bytes(LfInstance *c, const unsigned char *buf, size_t n) {
@@ -568,26 +568,26 @@ LfStatus lf_state_read(LfInstance *c, const unsigned char *buf, size_t n) {
         return LF_ERROR;
     }
     /* the doubles are copied out: the bytes need not be aligned */
-    work = (const double *)c->alloc.calloc((size_t)h.work_len + hist_len + 1, sizeof(double));
+    work = (const double *)c->unsaved.alloc.calloc((size_t)h.work_len + hist_len + 1, sizeof(double));
     if (!work) {
-        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: FMU state: out of memory", c->t);
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: FMU state: out of memory", c->run.t);
         return LF_ERROR;
     }
     memcpy((void *)work, buf + sizeof h + sizeof v, sizeof(double) * ((size_t)h.work_len + hist_len));
     hist = work + h.work_len;
     if (!check_reals(c, &v) || !check_solver(c, &h, &v, work) || !check_history(c, &v, hist) ||
         (v.solver_ready && !prepare_solver(c, &h, &v, &fresh))) {
-        c->alloc.free((void *)work);
+        c->unsaved.alloc.free((void *)work);
         return LF_ERROR;
     }
     if (v.solver_ready) {
         c->solver = fresh;
         apply_solver(&c->solver, &v, work);
-    } else if (c->solver_ready) {
-        lf_solver_free(&c->solver, &c->alloc);
+    } else if (c->run.solver_ready) {
+        lf_solver_free(&c->solver, &c->unsaved.alloc);
     }
-    c->solver_ready = v.solver_ready;
+    c->run.solver_ready = v.solver_ready;
     apply_values(c, &v, hist);
-    c->alloc.free((void *)work);
+    c->unsaved.alloc.free((void *)work);
     return LF_OK;
 }

@@ -1,4 +1,7 @@
-/* loomfmu shared runtime: initialization and the co-simulation step loop.
+/* loomfmu shared runtime: initialization and the co-simulation step loop,
+ * the top of the runtime's layers: it calls the files below (events,
+ * validity, known breaks, delays, the unknowns, inputs, outputs, start
+ * values) and none of them calls it.
  *
  * Inputs are held constant over a communication step (zero-order hold), or
  * follow their polynomials where the importer set input derivatives
@@ -16,7 +19,7 @@ static LfStatus check_constraints(LfInstance *c) {
     double v[LF_DIM(LF_NC)];
     int k, ok = 1;
     if (LF_NC == 0) return LF_OK;
-    if (lf_eval_fn(c, LF_FN_CONS, c->t, &c->r[LF_VR_X0], c->w_cur, v, NULL, NULL) != LF_OK)
+    if (lf_eval_fn(c, LF_FN_CONS, c->run.t, &c->val.r[LF_VR_X0], c->val.w_cur, v, NULL, NULL) != LF_OK)
         return LF_ERROR;
     for (k = 0; k < LF_NC; k++)
         if (!(v[k] >= 0)) {
@@ -27,72 +30,51 @@ static LfStatus check_constraints(LfInstance *c) {
     return ok ? LF_OK : LF_ERROR;
 }
 
-/* States declared with a start expression (e.g. a static equilibrium) start
- * there for the parameters actually set, unless the importer set them. */
-LfStatus lf_initial_states(LfInstance *c) {
-    double x0[LF_DIM(LF_NX)];
-    int i;
-    if (lf_eval_fn(c, LF_FN_INIT, c->t, &c->r[LF_VR_X0], c->w_cur, x0, NULL, NULL) != LF_OK) {
-        lf_log(c, LF_ERROR, LF_LOG_ERROR, "initial states cannot be evaluated");
-        return LF_ERROR;
-    }
-    for (i = 0; i < LF_NX; i++) {
-        if (c->x_set[i]) continue;
-        if (!isfinite(x0[i])) {
-            lf_log(c, LF_ERROR, LF_LOG_ERROR, "initial value of %s is %g for these parameters",
-                   lf_model.real_names[LF_VR_X0 + i], x0[i]);
-            return LF_ERROR;
-        }
-        c->r[LF_VR_X0 + i] = x0[i];
-    }
-    return LF_OK;
-}
-
 LfStatus lf_initialize(LfInstance *c) {
     LfOde ode = lf_ode_of(c);
     LfSolverOptions opt;
     LfStatus st;
-    opt.rtol = c->rtol_importer > 0 ? c->rtol_importer : c->r[LF_SET_RTOL];
-    opt.atol = c->r[LF_SET_ATOL];
-    opt.h_max = c->r[LF_SET_H_MAX];
-    opt.h_fixed = c->r[LF_SET_H_FIXED];
-    c->max_steps = (long)c->r[LF_SET_MAX_STEPS];
-    opt.max_steps = c->max_steps;
-    c->t = c->last_successful_time = c->t_start;
-    if (c->solver_index > 0) c->solver_id = c->solver_index; /* set after `solver`: it wins */
+    opt.rtol = c->run.rtol_importer > 0 ? c->run.rtol_importer : c->val.r[LF_SET_RTOL];
+    opt.atol = c->val.r[LF_SET_ATOL];
+    opt.h_max = c->val.r[LF_SET_H_MAX];
+    opt.h_fixed = c->val.r[LF_SET_H_FIXED];
+    c->run.max_steps = (long)c->val.r[LF_SET_MAX_STEPS];
+    opt.max_steps = c->run.max_steps;
+    c->run.t = c->run.last_successful_time = c->run.t_start;
+    if (c->run.solver_index > 0) c->run.solver_id = c->run.solver_index; /* set after `solver`: it wins */
     if (check_constraints(c) != LF_OK) return LF_ERROR;
     if (lf_initial_states(c) != LF_OK) return LF_ERROR;
     if (lf_init_delays(c, &opt) != LF_OK) return LF_ERROR;
     if (LF_NQ > 0 && lf_initial_modes(c) != LF_OK) return LF_ERROR;
-    st = lf_solver_init(&c->solver, lf_methods[c->solver_id - 1], ode, opt, c->t_start,
-                        &c->r[LF_VR_X0], &c->alloc);
+    st = lf_solver_init(&c->solver, lf_methods[c->run.solver_id - 1], ode, opt, c->run.t_start,
+                        &c->val.r[LF_VR_X0], &c->unsaved.alloc);
     if (st != LF_OK) {
-        lf_log(c, LF_ERROR, LF_LOG_ERROR, "solver %s: %s", lf_methods[c->solver_id - 1]->name,
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "solver %s: %s", lf_methods[c->run.solver_id - 1]->name,
                c->solver.message);
         return LF_ERROR;
     }
     c->solver.dense_unused = LF_DENSE_UNUSED;
     c->solver.rhs_finite = 1;
-    c->solver_ready = 1;
-    c->kb_ready = 0;
-    c->kb_index = -1;
-    c->kb_sure = -INFINITY;
-    c->event_pending = 0;
-    c->event_index = -1;
-    c->inputs_changed = 0;
+    c->run.solver_ready = 1;
+    c->kb.ready = 0;
+    c->kb.index = -1;
+    c->unsaved.kb_sure = -INFINITY;
+    c->ev.pending = 0;
+    c->ev.index = -1;
+    c->run.inputs_changed = 0;
     lf_inputs_seen(c);
-    c->outputs_valid = 0;
-    if (lf_hist_push(c, c->t, &c->r[LF_VR_X0], 1) != LF_OK) return LF_ERROR;
-    st = lf_eval_events(c, c->t, &c->r[LF_VR_X0], c->e_old);
+    c->run.outputs_valid = 0;
+    if (lf_hist_push(c, c->run.t, &c->val.r[LF_VR_X0], 1) != LF_OK) return LF_ERROR;
+    st = lf_eval_events(c, c->run.t, &c->val.r[LF_VR_X0], c->ev.e_old);
     if (st != LF_OK) return LF_ERROR;
     return lf_update_outputs(c);
 }
 
 static LfStatus fail_step(LfInstance *c, LfStatus st, const char *what) {
     LfSolver *s = &c->solver;
-    memcpy(&c->r[LF_VR_X0], s->x, sizeof(double) * LF_NX);
-    c->t = c->last_successful_time = s->t;
-    c->outputs_valid = 0;
+    memcpy(&c->val.r[LF_VR_X0], s->x, sizeof(double) * LF_NX);
+    c->run.t = c->run.last_successful_time = s->t;
+    c->run.outputs_valid = 0;
     lf_log(c, st, st == LF_DISCARD ? LF_LOG_DISCARD : LF_LOG_ERROR,
            "t = %.17g: step not completed (solver %s): %s; state and outputs kept at the last "
            "accepted time t = %.17g", s->t, s->method->name, what, s->t);
@@ -105,15 +87,15 @@ LfStatus lf_check_step(LfInstance *c, double t0, double h) {
                "fmi2DoStep: communicationStepSize = %g, expected a finite value > 0", h);
         return LF_ERROR;
     }
-    if (t0 + h > c->t_stop * (1 + 1e-12) + 1e-12) {
+    if (t0 + h > c->run.t_stop * (1 + 1e-12) + 1e-12) {
         lf_log(c, LF_ERROR, LF_LOG_ERROR,
                "fmi2DoStep: step to %.17g goes past stopTime = %.17g of fmi2SetupExperiment",
-               t0 + h, c->t_stop);
+               t0 + h, c->run.t_stop);
         return LF_ERROR;
     }
-    if (fabs(t0 - c->t) > 1e-9 * (fabs(c->t) > 1.0 ? fabs(c->t) : 1.0)) { /* no fmax call */
+    if (fabs(t0 - c->run.t) > 1e-9 * (fabs(c->run.t) > 1.0 ? fabs(c->run.t) : 1.0)) { /* no fmax call */
         lf_log(c, LF_ERROR, LF_LOG_ERROR,
-               "fmi2DoStep: currentCommunicationPoint = %.17g, expected %.17g", t0, c->t);
+               "fmi2DoStep: currentCommunicationPoint = %.17g, expected %.17g", t0, c->run.t);
         return LF_ERROR;
     }
     return LF_OK;
@@ -161,8 +143,8 @@ static LfStatus refuse_runaway(LfInstance *c, int i) {
         snprintf(why, sizeof why, "state %s = %g at t = %.17g is not finite or beyond %g in "
                  "magnitude (a runaway input or parameter?)", lf_model.real_names[vr],
                  s->x[i], s->t, LF_HUGE);
-    memcpy(c->x_tmp, s->x_old, sizeof(double) * LF_NX);
-    lf_solver_reset(s, s->t_old, c->x_tmp);
+    memcpy(c->unsaved.x_tmp, s->x_old, sizeof(double) * LF_NX);
+    lf_solver_reset(s, s->t_old, c->unsaved.x_tmp);
     return fail_step(c, LF_DISCARD, why);
 }
 
@@ -185,12 +167,12 @@ static LfStatus run_pending_event(LfInstance *c, int *changed) {
 LfStatus lf_handle_pending_event(LfInstance *c, int *values_changed) {
     LfStatus st;
     if (values_changed) *values_changed = 0;
-    if (!c->event_pending) return LF_OK;
+    if (!c->ev.pending) return LF_OK;
     st = run_pending_event(c, values_changed);
     if (st != LF_OK)
-        return c->wants_terminate ? st : fail_step(c, st, "event handling failed");
-    memcpy(&c->r[LF_VR_X0], c->solver.x, sizeof(double) * LF_NX);
-    c->outputs_valid = 0;
+        return c->run.wants_terminate ? st : fail_step(c, st, "event handling failed");
+    memcpy(&c->val.r[LF_VR_X0], c->solver.x, sizeof(double) * LF_NX);
+    c->run.outputs_valid = 0;
     return lf_update_outputs(c);
 }
 
@@ -199,16 +181,16 @@ LfStatus lf_handle_pending_event(LfInstance *c, int *values_changed) {
 static LfStatus return_at_event(LfInstance *c) {
     double w_keep[LF_DIM(LF_NW)];
     LfStatus st;
-    memcpy(&c->r[LF_VR_X0], c->solver.x, sizeof(double) * LF_NX);
-    c->t = c->solver.t;
-    c->outputs_valid = 0;
+    memcpy(&c->val.r[LF_VR_X0], c->solver.x, sizeof(double) * LF_NX);
+    c->run.t = c->solver.t;
+    c->run.outputs_valid = 0;
     /* Newton's start stays that of the step loop (as without early return) */
-    memcpy(w_keep, c->w_cur, sizeof w_keep);
+    memcpy(w_keep, c->val.w_cur, sizeof w_keep);
     st = lf_update_outputs(c);
-    memcpy(c->w_cur, w_keep, sizeof w_keep);
-    c->wk_g = 0; /* w_cur is no longer the last solve's (lf_wcache.h) */
+    memcpy(c->val.w_cur, w_keep, sizeof w_keep);
+    c->unsaved.wk_g = 0; /* w_cur is no longer the last solve's (lf_wcache.h) */
     if (st != LF_OK) return st;
-    c->last_successful_time = c->t;
+    c->run.last_successful_time = c->run.t;
     return LF_OK;
 }
 
@@ -219,31 +201,31 @@ static LfStatus return_at_event(LfInstance *c) {
 static LfStatus restart_for_inputs(LfInstance *c, const char **what) {
     LfSolver *s = &c->solver;
     LfStatus st;
-    memcpy(c->x_tmp, s->x, sizeof(double) * LF_NX);
+    memcpy(c->unsaved.x_tmp, s->x, sizeof(double) * LF_NX);
     if (LF_NQ > 0) {
         double q0[LF_DIM(LF_NQ)];
-        memcpy(q0, c->q, sizeof q0);
-        st = lf_consistent_modes(c, s->t, c->x_tmp, -1);
+        memcpy(q0, c->val.q, sizeof q0);
+        st = lf_consistent_modes(c, s->t, c->unsaved.x_tmp, -1);
         if (st != LF_OK) { /* the modes as they were: the step is not done */
-            memcpy(c->q, q0, sizeof q0);
-            c->wc_gen++;
+            memcpy(c->val.q, q0, sizeof q0);
+            c->unsaved.wc_gen++;
             *what = "no consistent mode after the input change";
             return st;
         }
     }
-    lf_solver_reset(s, s->t, c->x_tmp);
+    lf_solver_reset(s, s->t, c->unsaved.x_tmp);
     st = lf_hist_push(c, s->t, s->x, 1);
     if (st != LF_OK) {
         *what = "history update failed";
         return st;
     }
-    st = lf_eval_events(c, s->t, s->x, c->e_old);
+    st = lf_eval_events(c, s->t, s->x, c->ev.e_old);
     if (st != LF_OK) {
         *what = "event indicators not finite";
         return st;
     }
-    c->inputs_changed = 0;
-    c->kb_ready = 0; /* the clock states' rates may change with the inputs */
+    c->run.inputs_changed = 0;
+    c->kb.ready = 0; /* the clock states' rates may change with the inputs */
     lf_inputs_seen(c);
     return LF_OK;
 }
@@ -251,16 +233,16 @@ static LfStatus restart_for_inputs(LfInstance *c, const char **what) {
 LfStatus lf_settle_inputs(LfInstance *c) {
     const char *what = "";
     LfStatus st;
-    if (!c->solver_ready || c->event_pending || !(c->inputs_changed || lf_inputs_moved(c)))
+    if (!c->run.solver_ready || c->ev.pending || !(c->run.inputs_changed || lf_inputs_moved(c)))
         return LF_OK;
     st = restart_for_inputs(c, &what);
     if (st != LF_OK) {
         lf_log(c, st, st == LF_DISCARD ? LF_LOG_DISCARD : LF_LOG_ERROR,
-               "t = %.17g: inputs set: %s", c->t, what);
+               "t = %.17g: inputs set: %s", c->run.t, what);
         return st;
     }
-    memcpy(&c->r[LF_VR_X0], c->solver.x, sizeof(double) * LF_NX);
-    c->outputs_valid = 0;
+    memcpy(&c->val.r[LF_VR_X0], c->solver.x, sizeof(double) * LF_NX);
+    c->run.outputs_valid = 0;
     return LF_OK;
 }
 
@@ -275,10 +257,10 @@ static LfStatus step_loop(LfInstance *c, double t0, double h);
 /* the step loop with the solve cache on (lf_wcache.h), empty at the start */
 LfStatus lf_do_checked_step(LfInstance *c, double t0, double h) {
     LfStatus st;
-    c->wc_gen++;
-    c->wc_on = 1;
+    c->unsaved.wc_gen++;
+    c->unsaved.wc_on = 1;
     st = step_loop(c, t0, h);
-    c->wc_on = 0;
+    c->unsaved.wc_on = 0;
     return st;
 }
 
@@ -288,20 +270,20 @@ static LfStatus step_loop(LfInstance *c, double t0, double h) {
     long work0 = solver_work(s);
     int bad;
     LfStatus st;
-    c->wants_terminate = 0;
-    if (c->event_pending) { /* returned early, the importer did not handle it */
+    c->run.wants_terminate = 0;
+    if (c->ev.pending) { /* returned early, the importer did not handle it */
         st = run_pending_event(c, NULL);
         if (st != LF_OK)
-            return c->wants_terminate ? st : fail_step(c, st, "event handling failed");
+            return c->run.wants_terminate ? st : fail_step(c, st, "event handling failed");
     }
-    if (c->inputs_changed || (!lf_inputs_still(c) && lf_inputs_moved(c))) {
+    if (c->run.inputs_changed || (!lf_inputs_still(c) && lf_inputs_moved(c))) {
         const char *what = "";
         st = restart_for_inputs(c, &what);
         if (st != LF_OK) return fail_step(c, st, what);
     }
     st = LF_NV > 0 ? lf_validity_at_start(c) : LF_OK;
     if (st != LF_OK)
-        return c->wants_terminate ? st : fail_step(c, st, "validity conditions not evaluable");
+        return c->run.wants_terminate ? st : fail_step(c, st, "validity conditions not evaluable");
     while (s->t < t_end) {
         int is_bp = 0;
         double t_bound = LF_ND > 0 ? lf_next_breakpoint(c, s->t, t_end, &is_bp) : t_end;
@@ -313,22 +295,22 @@ static LfStatus step_loop(LfInstance *c, double t0, double h) {
             }
         }
         s->message[0] = '\0';
-        c->t_bp_step = is_bp ? t_bound : INFINITY;
+        c->unsaved.t_bp_step = is_bp ? t_bound : INFINITY;
         st = s->method->step(s, t_bound);
-        c->t_bp_step = INFINITY;
+        c->unsaved.t_bp_step = INFINITY;
         if (st != LF_OK) return fail_step(c, st, s->message);
         bad = runaway_state(s->x);
         if (bad >= 0) return refuse_runaway(c, bad);
         if (LF_NE > 0) {
             st = lf_handle_events(c);
             if (st != LF_OK)
-                return c->wants_terminate ? st : fail_step(c, st, "event handling failed");
-            if (c->event_pending) return return_at_event(c);
+                return c->run.wants_terminate ? st : fail_step(c, st, "event handling failed");
+            if (c->ev.pending) return return_at_event(c);
         }
         if (LF_NV > 0) {
             st = lf_check_validity(c);
             if (st != LF_OK)
-                return c->wants_terminate ? st
+                return c->run.wants_terminate ? st
                                           : fail_step(c, st, "validity conditions not evaluable");
         }
         if (LF_ND > 0) {
@@ -337,26 +319,26 @@ static LfStatus step_loop(LfInstance *c, double t0, double h) {
             if (st != LF_OK) return fail_step(c, st, "history update failed");
             if (at_bp) lf_solver_reset(s, s->t, s->x); /* a delayed value jumps here */
         }
-        if (LF_NE > 0 && c->kb_index >= 0) { /* landed before a known break: cross it */
+        if (LF_NE > 0 && c->kb.index >= 0) { /* landed before a known break: cross it */
             st = lf_cross_known_break(c, t_end);
             if (st != LF_OK)
-                return c->wants_terminate ? st : fail_step(c, st, "event handling failed");
-            if (c->event_pending) return return_at_event(c);
+                return c->run.wants_terminate ? st : fail_step(c, st, "event handling failed");
+            if (c->ev.pending) return return_at_event(c);
         }
-        if (s->t < t_end && solver_work(s) - work0 >= c->max_steps) {
+        if (s->t < t_end && solver_work(s) - work0 >= c->run.max_steps) {
             char why[256];
             snprintf(why, sizeof why, "solver_max_steps = %ld steps spent in this doStep call "
                      "at t = %.17g of its end %.17g (step size now %g s); raise "
                      "solver_max_steps, or check the tolerances, solver_h_max and the delays",
-                     c->max_steps, s->t, t_end, s->h > 0 ? s->h : s->t - s->t_old);
+                     c->run.max_steps, s->t, t_end, s->h > 0 ? s->h : s->t - s->t_old);
             return fail_step(c, LF_DISCARD, why);
         }
     }
-    memcpy(&c->r[LF_VR_X0], s->x, sizeof(double) * LF_NX);
-    c->t = t_end;
-    c->outputs_valid = 0;
+    memcpy(&c->val.r[LF_VR_X0], s->x, sizeof(double) * LF_NX);
+    c->run.t = t_end;
+    c->run.outputs_valid = 0;
     st = lf_update_outputs(c);
     if (st != LF_OK) return st;
-    c->last_successful_time = t_end;
+    c->run.last_successful_time = t_end;
     return LF_OK;
 }

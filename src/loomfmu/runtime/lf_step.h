@@ -2,11 +2,11 @@
  * beyond lf_runtime.h: early return at events (FMI 3.0 co-simulation) and
  * the event update without a solver (model exchange).
  *
- * Early return.  With c->stop_at_events = 1 (set by the facade, e.g. from
+ * Early return.  With c->unsaved.stop_at_events = 1 (set by the facade, e.g. from
  * earlyReturnAllowed; not part of the FMU state), lf_do_step ends the step
  * at the first event located inside it and returns LF_OK with
- * c->event_pending = 1, c->event_index = its indicator and c->t =
- * c->last_successful_time = c->t_event: the solver's point on the root's
+ * c->ev.pending = 1, c->ev.index = its indicator and c->run.t =
+ * c->run.last_successful_time = c->ev.t_event: the solver's point on the root's
  * new side (the indicator shows its new sign there, at most a gap of about
  * 1e-12 * max(1, |t|) past the root), the states there, and the outputs
  * there with the modes before the event.  lf_handle_pending_event then
@@ -22,12 +22,12 @@
 #include "lf_runtime.h"
 
 /* Perform the pending event (none: LF_OK, *values_changed = 0) and update
- * the outputs at c->t.  *values_changed (may be NULL): a mode or a state
+ * the outputs at c->run.t.  *values_changed (may be NULL): a mode or a state
  * changed.  LF_ERROR: no consistent mode (logged; the instance stays at
  * t_event, the event still pending is dropped).  LF_DISCARD with
- * c->wants_terminate = 1: a validity condition fails across the event; as
+ * c->run.wants_terminate = 1: a validity condition fails across the event; as
  * inside a step, the instance goes back to the last valid point before the
- * event (c->t = c->last_successful_time = c->ev_t_ok, at most ~1e-12
+ * event (c->run.t = c->run.last_successful_time = c->ev.t_ok, at most ~1e-12
  * relative before t_event) and the simulation cannot go on. */
 LfStatus lf_handle_pending_event(LfInstance *c, int *values_changed);
 
@@ -44,8 +44,9 @@ LfStatus lf_settle_inputs(LfInstance *c);
 
 /* The modes after the event of indicator k (-1: none, e.g. an input jump)
  * at (t, x), without a solver (model exchange): the event's own mode first,
- * then every mode made consistent (lf_events.c); x is updated with the
- * reinitialized states; *changed (may be NULL): a mode or a state changed.
+ * then every mode made consistent; x is updated with the
+ * reinitialized states; *changed (may be NULL): a mode or a state changed
+ * (lf_modes.c).
  * LF_ERROR (logged) if no value of some mode is consistent. */
 LfStatus lf_event_update(LfInstance *c, int k, double t, double *x, int *changed);
 

@@ -40,9 +40,9 @@ static int first_bad(const double *v) {
 
 /* the conditions at (t, x); *bad: the first violated (or NaN), -1 if none */
 static LfStatus eval_validity(LfInstance *c, double t, const double *x, double *v, int *bad) {
-    LfStatus st = lf_solve_w(c, t, x, c->w_tmp);
+    LfStatus st = lf_solve_w(c, t, x, c->unsaved.w_tmp);
     if (st != LF_OK) return st;
-    if (lf_eval_fn(c, LF_FN_VLD, t, x, c->w_tmp, v, NULL, NULL) != LF_OK) return LF_ERROR;
+    if (lf_eval_fn(c, LF_FN_VLD, t, x, c->unsaved.w_tmp, v, NULL, NULL) != LF_OK) return LF_ERROR;
     *bad = first_bad(v);
     return LF_OK;
 }
@@ -54,9 +54,9 @@ static LfStatus violated(LfInstance *c, int k, double value, double t_bad, doubl
            "valid time t = %.17g s (fmi2Discard; fmi2Terminated is true)",
            lf_model.validity_names[k], lf_model.validity_messages[k], value, t_bad, where,
            t_ok);
-    c->wants_terminate = 1;
-    c->t = c->last_successful_time = t_ok;
-    c->outputs_valid = 0;
+    c->run.wants_terminate = 1;
+    c->run.t = c->run.last_successful_time = t_ok;
+    c->run.outputs_valid = 0;
     return LF_DISCARD;
 }
 
@@ -66,20 +66,20 @@ static LfStatus violated(LfInstance *c, int k, double value, double t_bad, doubl
 static LfStatus end_at(LfInstance *c, double t_ok, const double *x_ok, int k, double value,
                        double t_bad, const char *where) {
     LfSolver *s = &c->solver;
-    memcpy(c->x_tmp, x_ok, sizeof(double) * LF_NX);
-    memcpy(&c->r[LF_VR_X0], c->x_tmp, sizeof(double) * LF_NX);
-    lf_solver_reset(s, t_ok, c->x_tmp);
-    c->vld_t = NAN;
-    c->kb_ready = 0;
-    if (LF_NE > 0 && lf_eval_events(c, t_ok, s->x, c->e_old) != LF_OK) return LF_DISCARD;
+    memcpy(c->unsaved.x_tmp, x_ok, sizeof(double) * LF_NX);
+    memcpy(&c->val.r[LF_VR_X0], c->unsaved.x_tmp, sizeof(double) * LF_NX);
+    lf_solver_reset(s, t_ok, c->unsaved.x_tmp);
+    c->unsaved.vld_t = NAN;
+    c->kb.ready = 0;
+    if (LF_NE > 0 && lf_eval_events(c, t_ok, s->x, c->ev.e_old) != LF_OK) return LF_DISCARD;
     if (lf_hist_push(c, t_ok, s->x, 0) != LF_OK) return LF_DISCARD;
     return violated(c, k, value, t_bad, t_ok, where);
 }
 
 /* the conditions vld_v hold at time t */
 static void keep(LfInstance *c, double t, const double *v) {
-    c->vld_t = t;
-    memcpy(c->vld_v, v, sizeof(double) * LF_NV);
+    c->unsaved.vld_t = t;
+    memcpy(c->unsaved.vld_v, v, sizeof(double) * LF_NV);
 }
 
 LfStatus lf_validity_at_start(LfInstance *c) {
@@ -113,8 +113,8 @@ LfStatus lf_validity_restart(LfInstance *c, double t_ok, const double *x_ok,
         return LF_OK;
     }
     if (LF_NQ > 0) { /* the modes before */
-        memcpy(c->q, q_ok, sizeof(double) * LF_NQ);
-        c->wc_gen++;
+        memcpy(c->val.q, q_ok, sizeof(double) * LF_NQ);
+        c->unsaved.wc_gen++;
     }
     return end_at(c, t_ok, x_ok, bad, v[bad], c->solver.t,
                   "fails across the event where the solver restarted; the step ends before "
@@ -186,8 +186,8 @@ LfStatus lf_check_validity(LfInstance *c) {
     VldScan sc;
     LfStatus st;
     if (LF_NV == 0 || !(s->t > s->t_old)) return LF_OK;
-    if (c->vld_t == s->t_old) {
-        memcpy(va, c->vld_v, sizeof va);
+    if (c->unsaved.vld_t == s->t_old) {
+        memcpy(va, c->unsaved.vld_v, sizeof va);
     } else { /* not kept (cannot happen after a checked step): evaluate */
         st = eval_validity(c, s->t_old, s->x_old, va, &bad);
         if (st != LF_OK) return st;

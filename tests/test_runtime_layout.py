@@ -1,0 +1,301 @@
+"""The C runtime's layout: no dependency cycle between its files outside the
+documented units, and no source file longer than MAX_LINES.
+
+A file depends on another when it refers (a call, or the address of a
+function or table) to a global lf_ symbol the other defines.  The
+references are read from the file's text and from the static inline
+functions of the runtime headers it includes; declarations (prototypes,
+extern) are not references.  Files that call each other on purpose form a
+unit, listed in UNITS and described in docs/runtime.md and in their
+headers; a cycle inside one unit is allowed, any other fails.
+
+Run against another runtime folder (e.g. to see the check fail on an older
+tree):
+
+    python tests/test_runtime_layout.py PATH/TO/runtime
+"""
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+
+RUNTIME_DIR = Path(__file__).resolve().parents[1] / "src" / "loomfmu" / "runtime"
+
+MAX_LINES = 600
+
+#: Files that may call each other (each a unit of one concern, documented
+#: as such in docs/runtime.md and in the files' headers).
+#: None today: the runtime's files are layered (docs/runtime.md).
+UNITS: tuple[frozenset[str], ...] = ()
+
+# a global definition at file scope (the runtime's style: column 0, not
+# static), as runtime_files.RUNTIME_SYMBOLS reads them
+_GLOBAL_DEF = re.compile(r"^(?!static\b|typedef\b|extern\b|return\b)[A-Za-z_][^;(=]*?"
+                         r"\b(lf_\w+)\s*[\(\[=]", re.M)
+_COMMENT = re.compile(r"/\*.*?\*/|//[^\n]*", re.S)
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
+_IDENT = re.compile(r"\blf_\w+\b")
+
+
+_DEFINE = re.compile(r"^[ \t]*#[ \t]*define[ \t]+(\w+)((?:[^\n]*\\\n)*[^\n]*)", re.M)
+
+
+def _strip(text: str) -> str:
+    """Without comments and preprocessor lines (macros: _macros)."""
+    text = _COMMENT.sub(" ", text)
+    text = _DEFINE.sub(" ", text)
+    return re.sub(r"^[ \t]*#[^\n]*", " ", text, flags=re.M)
+
+
+def _macros(text: str) -> dict[str, set[str]]:
+    """The lf_ identifiers each macro of a file refers to."""
+    return {m.group(1): set(_IDENT.findall(m.group(2)))
+            for m in _DEFINE.finditer(_COMMENT.sub(" ", text))}
+
+
+def _definitions(text: str) -> set[str]:
+    """Global functions and tables defined by a .c file (with a body or an
+    initializer: not a prototype)."""
+    names = set()
+    for m in _GLOBAL_DEF.finditer(text):
+        rest = text[m.end() - 1:]
+        if rest[0] == "(":  # a function: a body follows, not a ';'
+            depth, i = 0, 0
+            for i, ch in enumerate(rest):
+                depth += ch == "("
+                depth -= ch == ")"
+                if depth == 0:
+                    break
+            if rest[i + 1:].lstrip().startswith("{"):
+                names.add(m.group(1))
+        else:
+            names.add(m.group(1))
+    return names
+
+
+def _references(text: str, macros: dict[str, set[str]]) -> set[str]:
+    """lf_ identifiers used in bodies and initializers (also through the
+    macros used there); top-level declarations without an initializer
+    (prototypes, extern) do not count."""
+    used = _direct_references(text)
+    names = set(re.findall(r"\b\w+\b", text)) & set(macros)
+    seen: set[str] = set()
+    while names:
+        name = names.pop()
+        seen.add(name)
+        used |= macros[name]
+        names |= (macros[name] & set(macros)) - seen
+    return used
+
+
+def _direct_references(text: str) -> set[str]:
+    used, depth, stmt = set(), 0, []
+    for ch in text:
+        if depth == 0:
+            stmt.append(ch)
+            if ch == ";":
+                s = "".join(stmt)
+                if "=" in s:  # a table or variable with its initializer
+                    used.update(_IDENT.findall(s.split("=", 1)[1]))
+                stmt = []
+            elif ch == "{":
+                s = "".join(stmt)
+                if "=" in s:  # an initializer in braces
+                    used.update(_IDENT.findall(s.split("=", 1)[1]))
+                stmt = []
+                depth = 1
+            continue
+        if ch == "{":
+            depth += 1
+        elif ch == "}":
+            depth -= 1
+            if depth == 0:
+                stmt = []
+                continue
+        stmt.append(ch)
+        if depth > 0 and ch in ";{}":
+            used.update(_IDENT.findall("".join(stmt)))
+            stmt = []
+    used.update(_IDENT.findall("".join(stmt)))
+    return used
+
+
+def _inline_functions(text: str) -> dict[str, str]:
+    """The static inline functions of a header by name, with their bodies
+    (they refer to symbols on behalf of the files that call them)."""
+    out = {}
+    for m in re.finditer(r"^static\s+inline\b[^{;]*?\b(\w+)\s*\([^{;]*\{", text, re.M):
+        i = m.end() - 1
+        depth = 0
+        for j in range(i, len(text)):
+            depth += text[j] == "{"
+            depth -= text[j] == "}"
+            if depth == 0:
+                out[m.group(1)] = text[i:j + 1]
+                break
+    return out
+
+
+def dependencies(runtime_dir: Path) -> dict[str, set[str]]:
+    """For each lf_*.c file: the other runtime files whose global symbols it
+    refers to."""
+    runtime_dir = Path(runtime_dir)
+    raw = {p.name: p.read_text() for p in runtime_dir.glob("lf_*.[ch]")}
+    stripped = {name: _strip(t) for name, t in raw.items()}
+    owner: dict[str, str] = {}
+    for name, text in stripped.items():
+        if name.endswith(".c"):
+            for sym in _definitions(text):
+                owner[sym] = name
+
+    def headers(name: str, seen: set[str]) -> set[str]:
+        for inc in _INCLUDE.findall(_COMMENT.sub(" ", raw[name])):
+            if inc in raw and inc not in seen and inc.endswith(".h"):
+                seen.add(inc)
+                headers(inc, seen)
+        return seen
+
+    deps = {}
+    for name in sorted(raw):
+        if not name.endswith(".c"):
+            continue
+        included = headers(name, set())
+        macros = _macros(raw[name])
+        inline: dict[str, str] = {}
+        for h in included:
+            macros.update(_macros(raw[h]))
+            inline.update(_inline_functions(stripped[h]))
+        # the header's inline functions count where they are used
+        used = set(re.findall(r"\b\w+\b", stripped[name])) & set(inline)
+        todo = set(used)
+        while todo:
+            more = set(re.findall(r"\b\w+\b", inline[todo.pop()])) & set(inline)
+            todo |= more - used
+            used |= more
+        refs = _references(stripped[name], macros)
+        for f in used:
+            refs |= _references(inline[f], macros)
+        deps[name] = {owner[s] for s in refs if s in owner and owner[s] != name}
+    return deps
+
+
+def _unit_of(name: str) -> frozenset[str]:
+    for unit in UNITS:
+        if name in unit:
+            return unit
+    return frozenset({name})
+
+
+def cycles(deps: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components of more than one file that are not
+    inside one documented unit."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    comps: list[list[str]] = []
+    counter = [0]
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in sorted(deps.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                comps.append(sorted(comp))
+
+    sys.setrecursionlimit(10000)
+    for v in sorted(deps):
+        if v not in index:
+            visit(v)
+    return [c for c in comps if not set(c) <= _unit_of(c[0])]
+
+
+def long_files(runtime_dir: Path) -> dict[str, int]:
+    return {p.name: n for p in sorted(Path(runtime_dir).glob("lf_*.c"))
+            if (n := len(p.read_text().splitlines())) > MAX_LINES}
+
+
+def _describe(comp: list[str], deps: dict[str, set[str]]) -> str:
+    edges = [f"{a} -> {b}" for a in comp for b in sorted(deps[a]) if b in comp]
+    return f"{', '.join(comp)}: " + "; ".join(edges)
+
+
+def test_no_call_cycle_between_runtime_files():
+    deps = dependencies(RUNTIME_DIR)
+    found = cycles(deps)
+    assert not found, "dependency cycles between runtime files outside a documented unit:\n" + \
+        "\n".join(_describe(c, deps) for c in found)
+
+
+def test_runtime_files_are_short():
+    assert not long_files(RUNTIME_DIR), f"runtime files past {MAX_LINES} lines"
+
+
+def test_units_are_documented():
+    doc = (RUNTIME_DIR.parents[2] / "docs" / "runtime.md").read_text()
+    for unit in UNITS:
+        for name in unit:
+            assert name in doc
+            head = (RUNTIME_DIR / name).read_text()[:1500]
+            others = sorted(unit - {name})
+            assert all(o in head for o in others), f"{name}'s header names its unit {others}"
+
+
+def test_the_check_sees_a_cycle(tmp_path):
+    (tmp_path / "lf_a.c").write_text("int lf_a(void) {\n    return lf_b();\n}\n")
+    (tmp_path / "lf_b.c").write_text("int lf_b(void) {\n    return lf_c() + 1;\n}\n")
+    (tmp_path / "lf_c.c").write_text('#include "lf_c.h"\nint lf_c(void) {\n    return 2;\n}\n'
+                                     "int lf_c2(void) {\n    return lf_d();\n}\n")
+    # a header's inline function counts only in the files that call it
+    (tmp_path / "lf_g.c").write_text('#include "lf_c.h"\nint lf_g(void) {\n    return 3;\n}\n')
+    (tmp_path / "lf_c.h").write_text("int lf_a(void);\nstatic inline int lf_d(void) "
+                                     "{ return lf_a(); }\n")
+    (tmp_path / "lf_e.c").write_text('#include "lf_e.h"\nint lf_e(void) {\n    return 0;\n}\n')
+    (tmp_path / "lf_e.h").write_text("#define CALL_F() \\\n    lf_f()\nint lf_f(void);\n")
+    (tmp_path / "lf_f.c").write_text('#include "lf_e.h"\nint lf_f(void) {\n    return 1;\n}\n'
+                                     "int lf_g(void) {\n    return lf_e() + CALL_F();\n}\n")
+    deps = dependencies(tmp_path)
+    assert deps == {"lf_a.c": {"lf_b.c"}, "lf_b.c": {"lf_c.c"}, "lf_c.c": {"lf_a.c"},
+                    "lf_e.c": set(), "lf_f.c": {"lf_e.c"}, "lf_g.c": set()}
+    assert cycles(deps) == [["lf_a.c", "lf_b.c", "lf_c.c"]]
+    (tmp_path / "lf_e.c").write_text('#include "lf_e.h"\nint lf_e(void) {\n    return CALL_F();\n}\n')
+    assert sorted(cycles(dependencies(tmp_path))) == [["lf_a.c", "lf_b.c", "lf_c.c"],
+                                                       ["lf_e.c", "lf_f.c"]]
+
+
+def main(argv: list[str]) -> int:
+    paths = [a for a in argv[1:] if not a.startswith("-")]
+    runtime_dir = Path(paths[0]) if paths else RUNTIME_DIR
+    deps = dependencies(runtime_dir)
+    if "-v" in argv:
+        for name, ds in sorted(deps.items()):
+            print(f"{name}: {' '.join(sorted(ds))}")
+    bad = 0
+    for comp in cycles(deps):
+        print("cycle:", _describe(comp, deps))
+        bad = 1
+    for name, n in long_files(runtime_dir).items():
+        print(f"too long: {name} has {n} lines (at most {MAX_LINES})")
+        bad = 1
+    print("runtime layout:", "problems found" if bad else "ok")
+    return bad
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
