@@ -17,8 +17,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-pytestmark = pytest.mark.slow  # its fixture builds the heald frame FMU
-
 from loomfmu import load_model
 from loomfmu.declare.checks import (
     check_array,
@@ -33,6 +31,8 @@ from loomfmu.heald.hinge import KINETOSTATIC_PARAMETERS
 from loomfmu.registry import MODELS, build_options
 from loomfmu.verification.reference import reference
 from loomfmu.verification.verify import simulate
+
+pytestmark = pytest.mark.slow  # its fixture builds the heald frame FMU
 
 ROOT = Path(__file__).resolve().parents[1]
 _spec = importlib.util.spec_from_file_location("api_misuse", ROOT / "benchmarks" /

@@ -51,15 +51,9 @@ LINKED_PAGES = [ROOT / "README.md", ROOT / "CHANGELOG.md",
 
 #: links of docs/guides/runtime.md that still point at the places before docs/
 #: was split (edited on its own branch); the test fails on any other
-RUNTIME_OLD_LINKS = {"models/heald_frame.md", "spindle_runup_counters.json",
-                     "spindle_runup_counters_before.json"}
-
-
 @pytest.mark.parametrize("page", LINKED_PAGES, ids=lambda p: str(p.relative_to(ROOT)))
 def test_relative_links_lead_to_files(page):
     missing = [t for t in relative_links(page) if not (page.parent / t).exists()]
-    if page == ROOT / "docs" / "guides" / "runtime.md":
-        missing = [t for t in missing if t not in RUNTIME_OLD_LINKS]
     assert not missing, f"{page.relative_to(ROOT)} links to missing files: {missing}"
 
 
@@ -207,7 +201,7 @@ COMMIT_ID = re.compile(r"(?<![\w.#/-])(?=[0-9a-f]*[a-f])(?=[0-9a-f]*[0-9])[0-9a-
 HISTORY = re.compile(r"\bissues? ?#?\d+|\b(this|that|the|previous|last|a) session\b|"
                      r"\bsession'?s\b|\b(until|at|since|before|after) commit\b", re.I)
 #: docs/guides/runtime.md is edited on its own branch; CHANGELOG.md keeps the history
-HISTORY_EXEMPT = {ROOT / "CHANGELOG.md", ROOT / "docs" / "guides" / "runtime.md"}
+HISTORY_EXEMPT = {ROOT / "CHANGELOG.md"}
 
 
 def history_files() -> list[Path]:

@@ -6,7 +6,7 @@ function or table) to a global lf_ symbol the other defines.  The
 references are read from the file's text and from the static inline
 functions of the runtime headers it includes; declarations (prototypes,
 extern) are not references.  Files that call each other on purpose form a
-unit, listed in UNITS and described in docs/runtime.md and in their
+unit, listed in UNITS and described in docs/guides/runtime.md and in their
 headers; a cycle inside one unit is allowed, any other fails.
 
 Run against another runtime folder (e.g. to see the check fail on an older
@@ -25,8 +25,8 @@ RUNTIME_DIR = Path(__file__).resolve().parents[1] / "src" / "loomfmu" / "runtime
 MAX_LINES = 600
 
 #: Files that may call each other (each a unit of one concern, documented
-#: as such in docs/runtime.md and in the files' headers).
-#: None today: the runtime's files are layered (docs/runtime.md).
+#: as such in docs/guides/runtime.md and in the files' headers).
+#: None today: the runtime's files are layered (docs/guides/runtime.md).
 UNITS: tuple[frozenset[str], ...] = ()
 
 # a global definition at file scope (the runtime's style: column 0, not
@@ -62,7 +62,7 @@ def _definitions(text: str) -> set[str]:
         rest = text[m.end() - 1:]
         if rest[0] == "(":  # a function: a body follows, not a ';'
             depth, i = 0, 0
-            for i, ch in enumerate(rest):
+            for i, ch in enumerate(rest):  # noqa: B007 (i is read after the loop)
                 depth += ch == "("
                 depth -= ch == ")"
                 if depth == 0:
@@ -248,7 +248,7 @@ def test_runtime_files_are_short():
 
 
 def test_units_are_documented():
-    doc = (RUNTIME_DIR.parents[2] / "docs" / "runtime.md").read_text()
+    doc = (RUNTIME_DIR.parents[2] / "docs" / "guides" / "runtime.md").read_text()
     for unit in UNITS:
         for name in unit:
             assert name in doc

@@ -14,6 +14,9 @@
     loomfmu heald fidelity   # docs/guides/heald_fidelity.md
     loomfmu heald design --gap 0.004
     loomfmu heald tension-input   # docs/guides/heald_tension_input.md
+
+May import: every layer below the mechanism packages; not another
+mechanism's package.
 """
 from loomfmu.heald.hinge import PHASES, hinge_load_kinetostatic, hinge_load_phases
 from loomfmu.mechanics.heald_presets import MAKERS, WIDTHS_CM, YARNS, preset_names, preset_values
