@@ -35,6 +35,8 @@ from loomfmu.declare.model import Model
 from loomfmu.export.codegen import casadi_functions
 from loomfmu.export.dae import dae_form
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 DOPRI5, RODAS4, RK4 = 1, 2, 3
 
 

@@ -14,6 +14,8 @@ from loomfmu.export.dae import dae_form
 from loomfmu.mechanics.friction import BACKWARD, FORWARD
 from loomfmu.verification.reference import _Dae, reference
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 G = 9.81
 
 

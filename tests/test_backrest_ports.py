@@ -170,6 +170,7 @@ def _shed_schedule(comm, t_end, amplitude, picks_per_s=4.0, phase=0.0):
             for t in ts]
 
 
+@pytest.mark.slow
 def test_two_equal_halves_are_the_whole_sheet(fmus):
     """Both frames' ends stretched alike: the two-front backrest moves as the
     one-front backrest under the same elongation (S2a + S2b = S2)."""
@@ -194,6 +195,7 @@ def test_two_equal_halves_are_the_whole_sheet(fmus):
 
 
 @pytest.mark.parametrize("solver", [1, 2])
+@pytest.mark.slow
 def test_two_fronts_against_the_reference(fmus, solver):
     """Frames A and B in opposition stretch their own ends at different times:
     the FMU against the scipy reference with the same input steps."""
@@ -225,6 +227,7 @@ def test_two_fronts_against_the_reference(fmus, solver):
     (1, "warp_pull", "warp_front_taut", "(upper branch)"),
     (2, "warp_pull_a", "warp_front_a_taut", "(upper branch, frame A's ends)"),
     (1, "letoff", "warp_back_taut", "(lower branch)")])
+@pytest.mark.slow
 def test_slack_warp_is_discarded_with_a_log_line(fmus, fronts, inp, cond, text):
     """An elongation input that releases the branch past its static tension
     (tension < 0) ends the step with fmi2Discard; the log names the
@@ -244,6 +247,7 @@ def test_slack_warp_is_discarded_with_a_log_line(fmus, fronts, inp, cond, text):
     assert "t = 0.1" in hits[0] or "t = 0.09999" in hits[0]
 
 
+@pytest.mark.slow
 def test_a_small_release_stays_valid(fmus):
     """The same input at a third of the static tension keeps the warp taut:
     the condition does not fire on a valid state."""

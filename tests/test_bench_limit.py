@@ -15,6 +15,8 @@ from loomfmu.bench import limit as L
 from loomfmu.bench import main
 from loomfmu.declare.solvers import SOLVERS
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 MODEL = "loom_shaft"
 
 

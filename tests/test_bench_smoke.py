@@ -13,6 +13,7 @@ from loomfmu.bench import main
 from loomfmu.bench.scenes import BENCH
 
 
+@pytest.mark.slow
 def test_charts_command_runs_on_one_model(tmp_path):
     assert main(["charts", "--quick", "--models", "drive", "--out", str(tmp_path)]) == 0
     rows = list(csv.DictReader((tmp_path / "points.csv").open()))
@@ -51,6 +52,7 @@ def test_every_scene_names_outputs_of_its_model():
         assert 2 <= len(scene.outputs) <= 4, name
 
 
+@pytest.mark.slow
 def test_fmu_runner_reuses_one_instance_and_matches_a_fresh_run(tmp_path):
     """The charts time our FMU on one kept instance, reset before each run:
     the results are those of a new instance bit for bit, a run that fails
@@ -82,6 +84,7 @@ def test_fmu_runner_reuses_one_instance_and_matches_a_fresh_run(tmp_path):
     assert np.array_equal(again.y["theta_out"], fresh.y["theta_out"])
 
 
+@pytest.mark.slow
 def test_fmu_runner_shared_by_two_threads_takes_turns(tmp_path):
     """Two threads running one Fmu (one kept instance) take turns: every run
     equals a fresh one bit for bit (without the lock the heap was corrupted

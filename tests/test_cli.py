@@ -57,6 +57,7 @@ def test_python_dash_m_is_the_same_command():
     assert set(json.loads(res.stdout)["models"]) == set(MODELS)
 
 
+@pytest.mark.slow
 def test_list_names_every_model_option_and_fidelity_level():
     res = run("list")
     assert res.returncode == 0, res.stderr
@@ -98,6 +99,7 @@ def test_list_names_every_model_option_and_fidelity_level():
     (["rotor", "nope"], "invalid choice"),
     (["nope"], "invalid choice"),
 ])
+@pytest.mark.slow
 def test_usage_errors_say_what_is_allowed_in_one_line_and_exit_2(args, needle):
     res = run(*args)
     assert res.returncode == 2, (res.returncode, res.stdout, res.stderr)

@@ -161,6 +161,7 @@ def _run(s, a: float | None, t_end: float = 0.5) -> float:
     return s.get("x_out")[0]
 
 
+@pytest.mark.slow
 def test_parameter_set_after_evaluation_recomputes_k(decay_fmu, slave_factory):
     s = slave_factory(decay_fmu)
     x = _run(s, 2.0)
@@ -171,6 +172,7 @@ def test_parameter_set_after_evaluation_recomputes_k(decay_fmu, slave_factory):
     assert _run(s, 0.5) == pytest.approx(math.exp(-1.25 * 0.5), rel=1e-5)
 
 
+@pytest.mark.slow
 def test_fmpy_start_values_reach_the_folded_terms(decay_fmu):
     for a in (0.0, 3.0):
         r = simulate_fmu(str(decay_fmu), stop_time=0.5, output_interval=0.05,
@@ -178,6 +180,7 @@ def test_fmpy_start_values_reach_the_folded_terms(decay_fmu):
         assert r["x_out"][-1] == pytest.approx(math.exp(-(a * a + 1) * 0.5), rel=1e-5)
 
 
+@pytest.mark.slow
 def test_fmu_state_from_other_parameters_recomputes_k(decay_fmu, slave_factory):
     """A state serialized by an instance with a = 2, set into one that ran with
     a = 0.5: the restored parameters' folded terms drive the rest of the run."""

@@ -20,6 +20,8 @@ import pytest
 
 from loomfmu import MODELS, build_fmu, load_model
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 #: communication steps, as divisors of the horizon
 DIVISORS = (1000, 100, 10, 1)
 #: outputs of two runs may differ by K_TOL * rtol times the output's size

@@ -16,6 +16,7 @@ def _binary(fmu):
         return z.read("binaries/linux64/two_mass_force.so")
 
 
+@pytest.mark.slow
 def test_second_build_reuses_every_object_and_links_the_same_binary(tmp_path, monkeypatch):
     monkeypatch.setenv("LOOMFMU_BUILD_CACHE", str(tmp_path / "cache"))
     model = load_model("two_mass_force")
@@ -33,6 +34,7 @@ def test_second_build_reuses_every_object_and_links_the_same_binary(tmp_path, mo
     assert len(res) > 1
 
 
+@pytest.mark.slow
 def test_corrupted_entries_are_compiled_again(tmp_path, monkeypatch):
     cache = tmp_path / "cache"
     monkeypatch.setenv("LOOMFMU_BUILD_CACHE", str(cache))
@@ -57,6 +59,7 @@ def test_cache_off(tmp_path, monkeypatch, value):
     assert cache_dir() is None
 
 
+@pytest.mark.slow
 def test_unwritable_cache_is_no_cache(tmp_path, monkeypatch):
     blocker = tmp_path / "a_file"
     blocker.write_text("not a folder")
@@ -104,6 +107,7 @@ def test_prune_keeps_the_most_recently_used(tmp_path):
     assert sorted(p.name for p in tmp_path.glob("*.o")) == ["3.o", "4.o"]
 
 
+@pytest.mark.slow
 def test_a_poisoned_entry_is_compiled_again_when_the_objects_do_not_link(tmp_path,
                                                                           monkeypatch):
     """An entry replaced by another file's valid object (its SHA-256 right): the
@@ -122,6 +126,7 @@ def test_a_poisoned_entry_is_compiled_again_when_the_objects_do_not_link(tmp_pat
     assert third.compile_stats.compiled == 0 and _binary(third.path) == _binary(first.path)
 
 
+@pytest.mark.slow
 def test_a_read_only_cache_is_still_read(tmp_path, monkeypatch):
     import loomfmu.fmu.compile_cache as cc
     monkeypatch.setenv("LOOMFMU_BUILD_CACHE", str(tmp_path / "cache"))
@@ -138,6 +143,7 @@ def test_a_read_only_cache_is_still_read(tmp_path, monkeypatch):
     assert again.compile_stats.compiled == 0
 
 
+@pytest.mark.slow
 def test_a_failed_write_leaves_no_partial_file(tmp_path, monkeypatch):
     import loomfmu.fmu.compile_cache as cc
     cache = tmp_path / "cache"

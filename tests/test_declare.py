@@ -79,6 +79,7 @@ def test_front_door_arguments(tmp_path):
         simulate(tmp_path / "x.fmu", rtol=-1)
 
 
+@pytest.mark.slow
 def test_small_model_fmu_matches_exact_solution(tmp_path):
     res = build_fmu(small_model(), out_dir=tmp_path)
     assert res.problems == []

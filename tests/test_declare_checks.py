@@ -39,6 +39,7 @@ def decay_fmu(tmp_path_factory):
     return build_fmu(_decay(GOOD_TEXT), out_dir=tmp_path_factory.mktemp("decay"))
 
 
+@pytest.mark.slow
 def test_reserved_names_are_the_names_every_fmu_adds(decay_fmu):
     """The names a built FMU has beyond the declared variables are reserved,
     and every solver setting of codegen is among them."""
@@ -50,6 +51,7 @@ def test_reserved_names_are_the_names_every_fmu_adds(decay_fmu):
     assert "time" in reserved_names()  # FMPy's result column
 
 
+@pytest.mark.slow
 def test_texts_xml_and_c_can_hold_still_build_and_run(decay_fmu):
     assert decay_fmu.problems == []
     md = fmpy.read_model_description(str(decay_fmu.path))
@@ -58,6 +60,7 @@ def test_texts_xml_and_c_can_hold_still_build_and_run(decay_fmu):
     assert np.allclose(run.y["y"], np.exp(-2.0 * run.t), rtol=1e-6, atol=0)
 
 
+@pytest.mark.slow
 def test_settings_values_in_their_range_reach_the_fmu(decay_fmu):
     """values={'solver': 3} (rk4) is accepted and used: rk4 with a coarse
     fixed step is far less accurate than dopri5 at a tight tolerance."""
@@ -98,6 +101,7 @@ def test_a_refused_declaration_leaves_the_model_unchanged(call):
     assert ([v.name for v in m.variables], len(m.delays), len(m.events)) == before
 
 
+@pytest.mark.slow
 def test_a_vector_output_is_refused_before_any_build(tmp_path):
     """The adversarial case: a 2-vector output built an FMU whose fmi2DoStep
     overran a stack buffer.  Now the declaration names the output."""
@@ -124,6 +128,7 @@ def test_check_text():
             check_text("m", bad, c_string=True)
 
 
+@pytest.mark.slow
 def test_build_fmu_makes_a_missing_nested_out_dir_and_refuses_a_file(tmp_path):
     m = Model("tiny", stop_time=1.0, step_size=0.5)
     x = m.state("x", 1.0, description="x")

@@ -27,6 +27,8 @@ from loomfmu import build_fmu
 from loomfmu.declare.model import Model
 from loomfmu.verification.verify import simulate
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 T_END = 5.0
 TAUS = (1.0, 0.3, 0.05)
 SOLVERS = ("dopri5", "rodas4")

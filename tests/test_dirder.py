@@ -20,6 +20,8 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Model
 from test_fmi_variants import variant_builds  # FMUs shared by the variant tests
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 MODELS = ("two_mass_force", "backrest", "drive")
 #: central differences with h = 1e-6 (relative): truncation ~1e-12, Newton's
 #: tolerance (1e-10) / h for the implicit model

@@ -15,6 +15,8 @@ from loomfmu.models.drive import build
 from loomfmu.verification.reference import reference
 from loomfmu.verification.verify import compare, simulate
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 K, T, N_MIN = 1800.0, 2.0, 12000.0
 #: a small cam, fast enough that the delayed signal varies within solver steps
 CAM = {"cam_on": 1.0, "cam_A0": 0.06, "cam_A1": 0.01, "cam_B2": 0.004, "cam_A3": 0.002,

@@ -44,6 +44,7 @@ def quantity(m, name, *, states=None, delayed=None, p=None, u_ext=0.0) -> np.nda
     return out[0] if len(out) == 1 else np.hstack(out)
 
 
+@pytest.mark.slow
 def test_cam_series_is_the_fmus_r_output_at_sampled_times(model, run):
     names = [v.name for v in model.of_kind("state")]
     assert names == ["n", "phi"]
@@ -58,6 +59,7 @@ def test_cam_series_is_the_fmus_r_output_at_sampled_times(model, run):
     assert np.max(np.abs(uz + up - run.y["u"])) < 1e-10
 
 
+@pytest.mark.slow
 def test_delay_equation_is_the_fmus_speed_derivative(model, run):
     """T n' = K u(t - tau) - n: the quantity at the FMU's (n, u(t - tau)) is T
     times the FMU's dn/dt (central differences on 2.5 ms, away from t = tau and

@@ -20,7 +20,7 @@ import pytest
 
 from loomfmu import build_fmu, load_model
 
-pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not available")
+pytestmark = [pytest.mark.slow, pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not available")]
 
 DRIVER = Path(__file__).parent / "c" / "early_return.c"
 STRICT = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic"]

@@ -10,6 +10,8 @@ import pytest
 from loomfmu import build_fmu
 from loomfmu.declare.model import Model
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 
 def _touch_model(root: float) -> Model:
     m = Model("touch", stop_time=2.0, step_size=0.25)

@@ -46,6 +46,7 @@ def test_the_spindle_mode_table_matches_the_modal_model_declaration():
     assert cut_frequency("spindle_modal", {"n_modes": 4}) == SPINDLE_MODES_HZ[4]
 
 
+@pytest.mark.slow
 def test_the_selector_picks_the_full_models_when_no_reduced_level_is_within_tol(loom_eval):
     tol = 1e-10
     sel = loom_eval.select(tol, ["frame_a.N_rem", "back.M1f_out"])
@@ -54,6 +55,7 @@ def test_the_selector_picks_the_full_models_when_no_reduced_level_is_within_tol(
     assert all(r.error > tol for r in sel.rows[:-1])
 
 
+@pytest.mark.slow
 def test_the_selector_picks_the_rigid_frame_for_hinge_loads_at_one_percent(loom_eval):
     # documented case (docs/guides/heald_fidelity.md): the rigid frame's kinetostatic
     # hinge load is within 0.9 % of the spatial model's range
@@ -81,6 +83,7 @@ def test_the_selector_picks_the_rigid_frame_for_hinge_loads_at_one_percent(loom_
     assert tight.best.cpu_s <= min(r.cpu_s for r in passing) * (1 + sf.COST_NOISE)
 
 
+@pytest.mark.slow
 def test_a_level_without_the_output_predicts_zero_and_fails(loom_eval):
     sel = loom_eval.select(0.01, ["frame_a.x2_out"])
     assert sel.best.levels["frames"] == "heald_frame"
@@ -91,6 +94,7 @@ def test_a_level_without_the_output_predicts_zero_and_fails(loom_eval):
             assert r.error == pytest.approx(np.abs(y).max() / np.ptp(y))
 
 
+@pytest.mark.slow
 def test_the_regularized_backrest_suffices_for_warp_tension_and_not_for_friction(loom_eval):
     sel = loom_eval.select(0.01, ["back.S2a"])
     reg = [r for r in sel.rows if r.levels["backrest"] == "backrest_regularized"]
@@ -108,6 +112,7 @@ def test_the_regularized_backrest_suffices_for_warp_tension_and_not_for_friction
                "backrest_regularized")
 
 
+@pytest.mark.slow
 def test_table_json_and_chart(loom_eval, tmp_path):
     sel = loom_eval.select(0.01)
     text = sel.table()
@@ -146,6 +151,7 @@ def test_bad_arguments_are_named(kw, name):
 
 
 @pytest.mark.parametrize("tol", [0.0, 1.0, -0.1, math.nan, "1%"])
+@pytest.mark.slow
 def test_bad_tolerance_is_named(tol, loom_eval):
     with pytest.raises(ValueError, match="tol"):
         loom_eval.select(tol)

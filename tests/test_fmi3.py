@@ -20,6 +20,8 @@ from fmpy.fmi3 import FMU3Model, FMU3Slave, fmi3Boolean, fmi3Float64
 from fmpy.validation import validate_fmu
 from test_fmi_variants import variant_builds  # FMUs shared by the variant tests
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 #: events and stick/slip modes (backrest); inputs with direct feedthrough
 #: (two_mass_force)
 MODELS = ("backrest", "two_mass_force")

@@ -39,6 +39,8 @@ from test_fmi_variants import variant_builds  # FMUs shared by the variant tests
 from loomfmu.machines.two_mass import TIGHT, Params, cosim_map, scene
 from loomfmu.scene import run
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 H = 1e-3      # the container's fixed step = our master's communication step
 STOP = 0.2
 X1_0 = 0.1

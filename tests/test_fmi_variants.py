@@ -229,6 +229,7 @@ def built(tmp_path_factory):
 
 
 @pytest.mark.parametrize("key", BUILT, ids=[f"{n}-fmi{v}-{i}" for n, v, i in BUILT])
+@pytest.mark.slow
 def test_built_variant_validates_and_has_its_layout(built, key, tmp_path):
     name, v, i = key
     res = built[key]
@@ -263,6 +264,7 @@ def test_built_variant_validates_and_has_its_layout(built, key, tmp_path):
     assert kinds and all(k.get(flag) == "true" for k in kinds)
 
 
+@pytest.mark.slow
 def test_value_reference_convention_matches_the_c_declaration(built, tmp_path):
     """The FMI 3.0 value references of the model description equal what the
     FMU's own C headers give: LF_NREAL + k, LF_NREAL + LF_NX + Integer vr,
@@ -294,6 +296,7 @@ def test_value_reference_convention_matches_the_c_declaration(built, tmp_path):
         n_real + nx + n_int + 1 + j for j in range(ne)]
 
 
+@pytest.mark.slow
 def test_documentation_page_names_the_interfaces(built):
     res = built["two_mass_force", 3, "cs"]
     with zipfile.ZipFile(res.path) as z:
@@ -384,6 +387,7 @@ def four_interfaces(tmp_path_factory):
 
 
 @pytest.mark.parametrize("name", sorted(HORIZON))
+@pytest.mark.slow
 def test_four_interfaces_agree(four_interfaces, name):
     """FMI 2 and 3, co-simulation and model exchange, through FMPy over a
     short horizon: FMI 3 co-simulation equals FMI 2 co-simulation (the same

@@ -39,6 +39,8 @@ SCRIPT = """
 import gc, sys
 import fmpy
 from loomfmu.verification.verify import simulate
+
+pytestmark = pytest.mark.slow  # builds FMUs
 fmu = sys.argv[1]
 run = simulate(fmu, rtol=1e-6, values={"solver_rtol": 1e-10}, stop_time=0.1)
 assert any("overridden" in m for m in run.log), run.log   # our logger got the warning

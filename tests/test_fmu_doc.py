@@ -19,6 +19,8 @@ from loomfmu.declare.solvers import SETTINGS
 from loomfmu.fmu.documentation import DOC_MEMBER, html_for, write_documentation
 from loomfmu.verification.verify import verify
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 _BUILT: dict = {}
 
 

@@ -20,6 +20,8 @@ from loomfmu.declare.solvers import SOLVERS
 from loomfmu.verification.reference import reference
 from loomfmu.verification.verify import compare, simulate
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 OUTPUTS = ["h", "h_dot", "h_ddot", "x1_out", "x2_out", "y2_out", "T", "dl", "f_x", "f_y"]
 
 

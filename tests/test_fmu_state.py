@@ -11,6 +11,8 @@ from fmpy.fmi1 import FMICallException
 from loomfmu import build_fmu, load_model
 from loomfmu.models.drive import build as build_drive
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 CASES = {
     "backrest": (lambda: load_model("backrest"), ["phi1_out", "omega2_out", "M1f_out"], 0.01),
     "drive": (lambda: build_drive(cam="compensated", harmonics=24, m=8),

@@ -19,6 +19,8 @@ from loomfmu import Model, build_fmu
 from loomfmu.mechanics.friction import BACKWARD, FORWARD, STUCK, coulomb_joint
 from loomfmu.verification.reference import reference
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 M, K, G, MU_S, MU_K, V0 = 1.0, 100.0, 9.81, 0.4, 0.3, 0.1
 OMEGA = math.sqrt(K / M)
 X_K = MU_K * M * G / K

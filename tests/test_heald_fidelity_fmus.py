@@ -12,6 +12,8 @@ from loomfmu.heald.claims import start_values
 from loomfmu.verification.reference import reference
 from loomfmu.verification.verify import compare, simulate
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 PLANAR = ["h", "h_ddot", "y2_out", "T", "f_y", "N_rem"]
 RIGID = ["h", "h_ddot", "T", "f_x", "f_y", "N_rem", "G_rem"]
 

@@ -50,6 +50,7 @@ def test_general_form_with_large_warp_moves_the_maximum_to_the_top_dwell():
     assert N["top dwell"] == pytest.approx(-((11.9 + 2.46) * G + 515.0) / 2)
 
 
+@pytest.mark.slow
 def test_rigid_fmu_hinge_load_is_the_kinetostatic_one(heald_frame_rigid_fmu):
     run = simulate(heald_frame_rigid_fmu.path, rtol=1e-8, output=["N_rem", "h_ddot", "h"])
     phi = 60.0 * run.t
@@ -60,6 +61,7 @@ def test_rigid_fmu_hinge_load_is_the_kinetostatic_one(heald_frame_rigid_fmu):
     assert np.max(np.abs(a)) == pytest.approx(0.029 * (9 / 7) ** 2 * 3600 / math.pi, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_dynamic_hinge_load_tends_to_the_kinetostatic_one_as_the_frame_stiffens(
         heald_frame_fmu):
     """N_rem of the spatial FMU minus the rigid kinetostatic load is the

@@ -48,6 +48,7 @@ def test_out_of_range_value_is_rejected_in_python():
         m.var("m_RR").check_value(-1.0)
 
 
+@pytest.mark.slow
 def test_preset_at_run_time_without_rebuilding(heald_frame_rigid_fmu, slave_factory):
     vals = preset_values("STB-180 Elitex", "heald_frame_rigid")  # no slat length l
     run = simulate(heald_frame_rigid_fmu.path, values=vals, output=["G_rem"])

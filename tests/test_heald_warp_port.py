@@ -22,6 +22,8 @@ from loomfmu.registry import build_options
 from loomfmu.verification.reference import reference
 from loomfmu.verification.verify import simulate
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 LEVELS = ["heald_frame", "heald_frame_planar", "heald_frame_rigid"]
 SLATS = ["x2_out", "y2_out", "N_rem"]
 

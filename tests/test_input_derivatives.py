@@ -23,6 +23,8 @@ from loomfmu.declare.model import Model
 from loomfmu.declare.solvers import SOLVERS
 from loomfmu.verification.reference import reference
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 TAU = 0.1  # delay of the delayed integrator
 A, B, U0 = 2.0, 3.0, 0.5  # u(t) = U0 + A t + B t^2 / 2
 

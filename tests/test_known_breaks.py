@@ -21,6 +21,8 @@ from test_early_return import Run, _driver  # the runtime driver of a built FMU
 from loomfmu import load_model
 from loomfmu.declare.model import Model
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 T1 = 0.4372
 T_END = 1.0
 RATE = 3.0

@@ -39,6 +39,8 @@ from test_validity import T_STAR, _spring  # the spring x = cos(2 t), fails at T
 
 from loomfmu import build_fmu, load_model
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
 
 

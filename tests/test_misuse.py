@@ -19,6 +19,8 @@ import pytest
 
 from loomfmu import load_model
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 ROOT = Path(__file__).resolve().parents[1]
 _spec = importlib.util.spec_from_file_location("bench_misuse", ROOT / "benchmarks" / "misuse.py")
 misuse = importlib.util.module_from_spec(_spec)

@@ -22,6 +22,8 @@ import pytest
 from loomfmu import build_fmu, load_model
 from loomfmu.bench import limit as L
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 MODELS = ("backrest", "backrest_regularized")
 SOLVERS = ("dopri5", "rodas4", "rk4", "ros34pw2")
 STATS = re.compile(r"newton_stats: solves (\d+) hits (\d+) full (\d+) full_it (\d+) "

@@ -647,6 +647,7 @@ def test_inspect_all_out_must_be_a_directory(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("name", QUICK)
+@pytest.mark.slow
 def test_reports_in_docs_are_current(name, tmp_path):
     """docs/reference/inspect holds every model's report; the quick ones are rebuilt
     here and must be identical (regenerate: loomfmu inspect --all)."""

@@ -24,6 +24,8 @@ from fmpy.fmi2 import fmi2LastSuccessfulTime
 from loomfmu import build_fmu, load_model
 from loomfmu.declare.solvers import MAX_STEPS_DEFAULT
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 
 @pytest.fixture(scope="module")
 def drive_path(dist):

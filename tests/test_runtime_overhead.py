@@ -23,6 +23,8 @@ import pytest
 from loomfmu.declare.model import Model
 from loomfmu.fmu.builder import build_fmu
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 OMEGA = 2 * math.pi  # rad/s: one turn per second
 A = 0.3  # indicator "cross": sin(th) - A
 DIP = 0.1 * math.pi  # indicator "dip": below zero for |th - pi| < DIP (mod 2 pi)

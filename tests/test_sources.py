@@ -8,8 +8,12 @@ from __future__ import annotations
 import subprocess
 import zipfile
 
+import pytest
+
 from loomfmu import build_fmu, load_model
 from loomfmu.fmu.builder import fmi_headers_dir
+
+pytestmark = pytest.mark.slow  # builds FMUs
 
 
 def _global_symbols(fmu, workdir):

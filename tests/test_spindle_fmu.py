@@ -13,6 +13,8 @@ from loomfmu.spindle.study import Spindle
 from loomfmu.verification.reference import reference
 from loomfmu.verification.verify import compare, simulate
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 OUTPUTS = ["x_top", "y_top", "r_top", "x_footstep", "r_footstep", "F_upper_x",
            "F_upper", "F_lower_x", "F_lower"]
 RTOL = 1e-6

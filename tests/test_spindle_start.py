@@ -9,6 +9,8 @@ from loomfmu.spindle.start import periodic_start
 from loomfmu.spindle.study import Spindle
 from loomfmu.verification.verify import simulate
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 ECC = 5e-6
 REVOLUTIONS = 5
 

@@ -13,6 +13,8 @@ from loomfmu import build_fmu, load_model
 from loomfmu.spindle.start import periodic_start
 from loomfmu.verification.verify import simulate
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 RPM, ECC, REVOLUTIONS = 16000.0, 5e-6, 3
 OUTPUTS = ["r_top", "F_upper", "F_lower"]
 

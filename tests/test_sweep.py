@@ -63,6 +63,7 @@ def swept(blob, tmp_path_factory):
     return result, out
 
 
+@pytest.mark.slow
 def test_two_workers_equal_the_serial_loop_bit_for_bit(swept, blob):
     result, out = swept
     serial = run_serial(_study(), blob=blob)  # fmpy.simulate_fmu, a fresh instance per case
@@ -90,6 +91,7 @@ def test_two_workers_equal_the_serial_loop_bit_for_bit(swept, blob):
     assert [c for c in left if not any("resource_tracker" in a for a in c)] == []
 
 
+@pytest.mark.slow
 def test_failed_case_is_recorded_with_the_fmus_message(swept):
     result, out = swept
     assert result.executed == 9 and len(result.rows) == 9
@@ -106,6 +108,7 @@ def test_failed_case_is_recorded_with_the_fmus_message(swept):
     assert all("outside its range" in r["message"] for r in rows if r["status"] == "error")
 
 
+@pytest.mark.slow
 def test_resume_skips_finished_cases(swept, blob, tmp_path):
     result, out = swept
     lines = out.read_text().splitlines()
@@ -140,6 +143,7 @@ def test_resume_skips_finished_cases(swept, blob, tmp_path):
     assert case_key(fp1, {"omega": 40.0}) != case_key(fp2, {"omega": 40.0})
 
 
+@pytest.mark.slow
 def test_invalid_case_is_refused_before_running(blob, tmp_path):
     study = Study("heald_frame_rigid", cases=lists(preset=[0, 999], omega=[60.0, 60.0]),
                   figures=[Figure("max", "N_rem")], stop_time=0.1, output_interval=1e-3,
@@ -191,6 +195,7 @@ def test_bad_arguments_name_the_argument_and_the_allowed_range(make, names):
     assert str(e.value).startswith(names) and "allowed" in str(e.value), str(e.value)
 
 
+@pytest.mark.slow
 def test_names_are_checked_against_the_fmu(blob):
     with pytest.raises(ValueError, match=r"cases: unknown 'nope'.*allowed"):
         run_serial(_study(cases=grid(nope=[1.0])), blob=blob)
@@ -198,6 +203,7 @@ def test_names_are_checked_against_the_fmu(blob):
         run_serial(_study(figures=[Figure("max", "x2_out")]), blob=blob)
 
 
+@pytest.mark.slow
 def test_derived_figure_and_latin_hypercube(blob):
     cases = latin_hypercube({"omega": (40.0, 80.0), "k_z": (2.0, 6.0)}, n=5, seed=3)
     assert cases == latin_hypercube({"omega": (40.0, 80.0), "k_z": (2.0, 6.0)}, n=5, seed=3)
@@ -210,6 +216,7 @@ def test_derived_figure_and_latin_hypercube(blob):
     assert all(r["status"] == "ok" and 0.0 < r["stroke"] <= 2 * 0.029 + 1e-12 for r in rows)
 
 
+@pytest.mark.slow
 def test_cli_sweep_run(blob, tmp_path, capsys):
     fmu = tmp_path / blob.name
     fmu.write_bytes(blob.data)
@@ -241,6 +248,7 @@ def _solver_items(blob) -> dict[str, int]:
 
 
 @pytest.mark.parametrize("solver", [s for s in SOLVERS if s != "dopri5"])
+@pytest.mark.slow
 def test_every_solver_of_the_fmu_runs_and_agrees_with_dopri5(blob, solver):
     """Each solver the FMU offers runs a case in the worker, the FMU's
     ``solver`` set to its own enumeration item of that name, with finite
@@ -260,6 +268,7 @@ def test_every_solver_of_the_fmu_runs_and_agrees_with_dopri5(blob, solver):
             assert a[f] == pytest.approx(b[f], rel=1e-6, abs=1e-9), (solver, f, a[f], b[f])
 
 
+@pytest.mark.slow
 def test_a_nan_figure_is_a_failed_case_not_ok(blob):
     study = _study(cases=grid(omega=[40.0, 60.0]), figures=[Derived("odd", _nan_figure, ("h",))])
     rows = run_serial(study, blob=blob)
@@ -298,6 +307,7 @@ def test_trend_case_starts_on_the_periodic_orbit_with_the_studys_parameter():
         studies.prepare_trend({"trend": 4, "x": 1.0}, fixed)
 
 
+@pytest.mark.slow
 def test_figures_differing_in_after_are_named_apart(blob):
     study = _study(cases=grid(omega=[60.0]), figures=[Figure("mean", "h"),
                                                       Figure("mean", "h", after=0.15)])
@@ -311,6 +321,7 @@ def test_figures_differing_in_after_are_named_apart(blob):
         assert alone["mean_h"].hex() == row[name].hex()
 
 
+@pytest.mark.slow
 def test_an_fmu_of_another_model_is_named_as_such(blob, tmp_path):
     import io
     import zipfile
@@ -369,6 +380,7 @@ def _alarm(seconds):
     signal.alarm(seconds)
 
 
+@pytest.mark.slow
 def test_a_scheduler_address_without_a_dask_scheduler_is_refused_in_bounded_time(
         not_dask, blob, tmp_path, capsys):
     try:
@@ -400,6 +412,7 @@ def test_a_scheduler_address_without_a_dask_scheduler_is_refused_in_bounded_time
                           "scheduler answered within 1 s"), err
 
 
+@pytest.mark.slow
 def test_a_running_scheduler_is_accepted_a_worker_is_not(blob, tmp_path):
     from dask.distributed import LocalCluster
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
@@ -413,6 +426,7 @@ def test_a_running_scheduler_is_accepted_a_worker_is_not(blob, tmp_path):
     assert res.workers == -1 and [r["status"] for r in res.rows] == ["ok", "ok"]
 
 
+@pytest.mark.slow
 def test_cli_out_dir_is_checked_before_running(blob, tmp_path, capsys):
     fmu = tmp_path / blob.name
     fmu.write_bytes(blob.data)
@@ -504,6 +518,7 @@ def test_the_worker_logs_fmi2_and_fmi3_messages_and_reports_the_first_failure():
     assert _message([(0, "[ok] fine")], RuntimeError("x")) == "x; log: [ok] fine"
 
 
+@pytest.mark.slow
 def test_slots_of_ended_threads_are_closed(blob):
     """Batches run on one thread pool after another keep no more FMU
     instances (and extracted copies) than there are live threads: a slot
@@ -530,6 +545,7 @@ def test_slots_of_ended_threads_are_closed(blob):
     assert all(os.path.isdir(d) for d in kept)
 
 
+@pytest.mark.slow
 def test_slots_of_threads_threading_does_not_know_stay_in_their_hands(blob):
     """Threads started by _thread (or natively) are not in
     threading.enumerate(): their slots must not be taken for ended ones and

@@ -19,6 +19,8 @@ from loomfmu import build_fmu
 from loomfmu.declare.model import Model
 from loomfmu.verification.reference import reference
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 OMEGA = 2.0
 T_STAR = math.acos(-0.5) / OMEGA  # x = cos(2 t) reaches -0.5
 MESSAGE = "string in compression"
