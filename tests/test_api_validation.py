@@ -1,5 +1,5 @@
 """Misuse of the public Python API: every bad call is refused with a
-ValueError naming the argument (issue 12 item 7), and good calls still work.
+ValueError naming the argument, and good calls still work.
 
 The table of bad calls lives in benchmarks/api_misuse.py (which also counts
 the outcomes: ``python benchmarks/api_misuse.py``).  Each call runs in a

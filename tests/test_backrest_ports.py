@@ -1,4 +1,4 @@
-"""The backrest's build options and ports (issue 13): built-in shedding off,
+"""The backrest's build options and ports: built-in shedding off,
 two front ports (the ends of heald frames A and B), inputs that mean what the
 warp port kind says (elongation from the static state, positive stretches;
 tension absolute), defaults that agree with the heald frame's, and the

@@ -1,5 +1,5 @@
 """A co-simulation FMU's answer must not depend on the master's communication
-step beyond its tolerance (issue 12, item 1).
+step beyond its tolerance.
 
 Every model in loomfmu.MODELS runs over its horizon H (the model's
 stop_time) with communication steps H/1000, H/100, H/10 and H (one

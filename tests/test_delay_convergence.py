@@ -1,5 +1,4 @@
-"""Both adaptive solvers (and rk4) against closed-form delay equations
-(issue 12, item 2).
+"""Both adaptive solvers (and rk4) against closed-form delay equations.
 
 x'(t) = -x(t - tau), x = 1 for t <= 0, has by the method of steps the
 closed form x(t) = sum_{k=0}^{n} (-1)^k (t - (k - 1) tau)^k / k!, n =

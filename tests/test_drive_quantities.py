@@ -1,4 +1,4 @@
-"""The drive's named quantities (issue 14) evaluate to what its equations and
+"""The drive's named quantities evaluate to what its equations and
 its cam table use: the cam series r(phi) is the FMU's r output, the delay
 equation is the FMU's n' = (K u(t - tau) - n)/T, the speed law's series (8)
 is the law within its truncation, the compensation G_k inverts W W_g, and

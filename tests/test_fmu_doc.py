@@ -26,7 +26,7 @@ _BUILT: dict = {}
 
 @pytest.fixture
 def built(request, dist):
-    """The session's build of a model: conftest's fixture where there is one,
+    """The test run's build of a model: conftest's fixture where there is one,
     else built here once per session into the same folder."""
     def get(name):
         try:

@@ -1,4 +1,4 @@
-"""The heald frame's derivation quantities (issue 14): they evaluate to the
+"""The heald frame's derivation quantities: they evaluate to the
 numbers the model's equations use, and the seed's closed form of C equals
 the inverse of the influence matrix."""
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The heald frame with the warp tension as an input (build option
-warp_tension='input', issue 13): the three levels build with it, the warp
+warp_tension='input'): the three levels build with it, the warp
 port connects both ways to a backrest's front, the input-tension FMU fed the
 geometry model's tension reproduces its slat motion, it agrees with scipy at
 communication steps from tiny to large, and a second frame in opposition is

@@ -1,4 +1,4 @@
-"""Known breaks (lf_breaks.c, issue 16): an event indicator that depends
+"""Known breaks (lf_breaks.c): an event indicator that depends
 only on time, parameters and clock states (codegen's event_time_only,
 clock_state) has zeros the step loop predicts, so the solver's steps land
 just before them instead of straddling the discontinuity there.
@@ -104,7 +104,7 @@ def test_known_break_with_early_return(kb_driver):
 # first prediction by rounding: the root can come out a few ulps later.
 # Landing a margin before that was a step of one ulp, after which the same
 # happened again, through the whole margin (1e-12 s / 5.6e-17 s: 18 000
-# steps on heald_frame with rodas4 after 2a56c4d changed its rounding, and
+# steps on heald_frame with rodas4 after a change of its rounding, and
 # the event at the stop time lost).
 
 GRID_CLOCKS = [(0.37, 1.0), (0.37, 12.0), (3.0, 12.0), (7.3, 12.0), (30.0, 12.0)]
@@ -149,7 +149,7 @@ def test_break_at_a_communication_point_is_not_landed_again(grid_driver, solver)
         assert accepted < 60, where
 
 
-HEALD_STEPS = {1: 1311, 2: 2404, 3: 20957, 4: 8147}  # at 2a56c4d's parent
+HEALD_STEPS = {1: 1311, 2: 2404, 3: 20957, 4: 8147}  # measured before known breaks existed
 
 
 @pytest.fixture(scope="module")
@@ -161,7 +161,8 @@ def test_heald_frame_solvers_locate_the_same_dwell_events(heald_driver):
     """heald_frame's verification run (two frame cycles; the stop time is
     the twelfth dwell event, the root of sin(phi / 2) at phi = 4 pi): every
     solver locates the same eleven dwell events before the stop time, with
-    the steps of 2a56c4d's parent to within a few percent.  (Whether the
+    the steps measured before known breaks existed (HEALD_STEPS) to within
+    a few percent.  (Whether the
     root at the stop time itself shows a sign change there is decided by
     the last ulp of phi: it is left out.)"""
     model = load_model("heald_frame")

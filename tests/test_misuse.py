@@ -87,7 +87,7 @@ def test_the_runner_counts_a_sanitizer_finding_as_a_crash(tmp_path):
 
 
 def test_importer_tolerance_overriding_solver_rtol_is_logged(driver, slave_factory):
-    """Issue 11: a user's solver_rtol overridden by fmi2SetupExperiment's
+    """A user's solver_rtol overridden by fmi2SetupExperiment's
     tolerance gives a warning naming both values when it takes effect."""
     fmu = driver.binary.parents[1] / f"{driver.model}.fmu"
 

@@ -1,4 +1,4 @@
-"""Runaway values and runaway calls are refused (issue 12, item 5).
+"""Runaway values and runaway calls are refused.
 
 * A state that stops being finite, exceeds 1e150 in magnitude (its square
   would overflow) or leaves a declared range ends the communication step

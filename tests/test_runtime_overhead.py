@@ -1,4 +1,4 @@
-"""The runtime's shortcuts on the hot path (issue 16) keep every result.
+"""The runtime's shortcuts on the hot path keep every result.
 
 Where every event indicator is known ahead (lf_breaks.c: a function of time,
 the parameters, held inputs and clock states), the events' scan after a

@@ -1,4 +1,4 @@
-"""The spindle's named quantities (issue 14) evaluate to what its equations
+"""The spindle's named quantities evaluate to what its equations
 use: the element matrices are the Hermite beam's closed forms, the assembled
 M, C, G, K are the elements, disks and supports placed, the equations of
 motion are M a = F - (C + Omega G) v - K q with exactly those matrices (and

@@ -211,7 +211,7 @@ def _run_to_discard(s, h, t_stop):
 @pytest.mark.parametrize("solver", [1, 2])
 @pytest.mark.parametrize("offset", [1e-4, 3e-3])
 def test_failure_in_a_step_that_ends_at_an_event(more_fmus, slave_factory, solver, offset):
-    """Issue 13 follow-up: the condition fails at t* inside an internal step
+    """The condition fails at t* inside an internal step
     that ends at an event (t* + offset).  The time found is t* for every
     communication step from 1e-4 s to the whole run, never the event's time
     (it was the event's time, with the condition already negative, when the
