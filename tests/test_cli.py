@@ -19,6 +19,8 @@ import pytest
 from loomfmu.declare.solvers import SOLVERS
 from loomfmu.registry import MODELS
 
+pytestmark = pytest.mark.slow  # the command end to end: subprocesses that build FMUs
+
 BIN = Path(sys.executable).parent
 LOOMFMU = [str(BIN / "loomfmu")] if (BIN / "loomfmu").exists() else \
     [sys.executable, "-m", "loomfmu"]
@@ -57,7 +59,6 @@ def test_python_dash_m_is_the_same_command():
     assert set(json.loads(res.stdout)["models"]) == set(MODELS)
 
 
-@pytest.mark.slow
 def test_list_names_every_model_option_and_fidelity_level():
     res = run("list")
     assert res.returncode == 0, res.stderr
@@ -99,7 +100,6 @@ def test_list_names_every_model_option_and_fidelity_level():
     (["rotor", "nope"], "invalid choice"),
     (["nope"], "invalid choice"),
 ])
-@pytest.mark.slow
 def test_usage_errors_say_what_is_allowed_in_one_line_and_exit_2(args, needle):
     res = run(*args)
     assert res.returncode == 2, (res.returncode, res.stdout, res.stderr)

@@ -17,6 +17,8 @@ from loomfmu import build_fmu
 from loomfmu.declare.model import Model
 from loomfmu.verification import fmpy_logger
 
+pytestmark = pytest.mark.slow  # builds FMUs
+
 
 def _spring() -> Model:
     m = Model("spring_log", description="mass on a spring", stop_time=1.0, step_size=0.01)
@@ -39,8 +41,6 @@ SCRIPT = """
 import gc, sys
 import fmpy
 from loomfmu.verification.verify import simulate
-
-pytestmark = pytest.mark.slow  # builds FMUs
 fmu = sys.argv[1]
 run = simulate(fmu, rtol=1e-6, values={"solver_rtol": 1e-10}, stop_time=0.1)
 assert any("overridden" in m for m in run.log), run.log   # our logger got the warning

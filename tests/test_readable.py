@@ -140,6 +140,7 @@ def _compare(model, *, ops=None, lst=None) -> tuple[int, int, list[str]]:
 
 
 @pytest.mark.parametrize("name", sorted(MODELS))
+@pytest.mark.slow  # SymPy on every model: seconds to a minute each
 def test_printed_form_evaluates_as_casadi(name):
     model = load_model(name)
     t0 = time.process_time()  # CPU time: other jobs on the machine do not count
@@ -243,6 +244,7 @@ def _compare_quantities(model, written) -> tuple[int, int, list[str]]:
 
 
 @pytest.mark.parametrize("name", sorted(MODELS))
+@pytest.mark.slow  # SymPy on every model: seconds to a minute each
 def test_quantities_evaluate_as_casadi(name):
     """Every named quantity of every model, as the report writes it (with the
     earlier quantities' symbols) and as loomfmu.inspect's .sympy gives it."""
@@ -451,6 +453,7 @@ class _Tags(HTMLParser):
 
 
 @pytest.mark.parametrize("name", ["backrest", "drive", "heald_frame_rigid"])
+@pytest.mark.slow  # SymPy on every model: seconds to a minute each
 def test_inspect_report_in_every_format(name, tmp_path):
     model = load_model(name)
     title, sections = inspect_report.document(model)

@@ -21,7 +21,8 @@ SOURCES = [RUNTIME / f for f in ("lf_solvers.c", "lf_dopri5.c", "lf_rodas4.c", "
 CFLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
           "-fvisibility=hidden", "-fPIC"]
 
-pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not available")
+pytestmark = [pytest.mark.slow,  # compiles the solvers with gcc
+              pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not available")]
 
 
 @pytest.fixture(scope="module")

@@ -28,7 +28,8 @@ CFLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
 VARIANTS = {"default": [], "dense": ["-DLF_SCHUR_MIN_ROWS=1000000"],
             "fresh": ["-DWM_MAX_AGE=1"], "jac_every_lu": ["-DWM_JAC_AGE=1"]}
 
-pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not available")
+pytestmark = [pytest.mark.slow,  # compiles the solvers with gcc
+              pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not available")]
 
 
 @pytest.fixture(scope="module")

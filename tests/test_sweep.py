@@ -460,6 +460,7 @@ charts(["drive"], out=Path(sys.argv[1]), quick=True, readme=None, failures_on=Fa
 """
 
 
+@pytest.mark.slow
 def test_bench_charts_on_dask_equal_the_serial_run_but_for_the_times(tmp_path):
     """``loomfmu bench charts --dask``: one task per (model, method) sweep on a
     two-worker LocalCluster; every row but its seconds equals the serial
