@@ -132,6 +132,7 @@ def fmu_dir(tmp_path_factory):
     return path
 
 
+@pytest.mark.slow
 def test_an_fmu_file_is_a_component_without_ports(fmu_dir, tmp_path):
     fmus = build_fmus(tm.scene(), fmu_dir)
     f = Scene("files")
@@ -150,6 +151,7 @@ def test_an_fmu_file_is_a_component_without_ports(fmu_dir, tmp_path):
     assert np.allclose(res["a.x1_out"], ref["force.x1_out"], rtol=0, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_a_unit_conversion_is_applied_in_the_run(tmp_path):
     s = loom()
     s.set("drive", parameters={"n_min": 2000.0})
@@ -217,6 +219,7 @@ def test_ssd_validates_and_carries_connections_values_and_conversions():
     assert validate_ssd(broken) and "Elementz" in " ".join(validate_ssd(broken))
 
 
+@pytest.mark.slow
 def test_the_exported_ssp_keeps_state_starts_and_the_solver_on_libcosim(fmu_dir, tmp_path):
     """A state's start (x1) reaches libcosim (it drops a parameter-set value
     of a non-input), and the solver Enumeration is written as the
@@ -244,6 +247,7 @@ def test_the_exported_ssp_keeps_state_starts_and_the_solver_on_libcosim(fmu_dir,
 
 
 # -- the command ----------------------------------------------------------------------
+@pytest.mark.slow
 def test_scene_command(fmu_dir, tmp_path, capsys):
     assert main(["list"]) == 0
     assert "force.coupling <-> disp.coupling" in capsys.readouterr().out
@@ -282,6 +286,7 @@ def test_scene_command(fmu_dir, tmp_path, capsys):
         assert len(err) == 1 and said in err[0], (argv, err)
 
 
+@pytest.mark.slow
 def test_a_step_that_does_not_resolve_the_coupling_is_flagged(fmu_dir, capsys):
     """two_mass at a 0.1 s step (the Jacobi master's stability limit is about
     5.35 ms) ends at F_c ~ 3e13 N: scene run says so on stderr (before: exit
@@ -300,6 +305,7 @@ def test_a_step_that_does_not_resolve_the_coupling_is_flagged(fmu_dir, capsys):
     assert 0.5 < change < 10, line
 
 
+@pytest.mark.slow
 def test_run_warns_python_users_of_an_unresolved_coupling(fmu_dir):
     with pytest.warns(UnresolvedCoupling, match="disp.x2_out changes by 1.25 times"):
         run(tm.scene(), step=0.1, fmu_dir=fmu_dir)
@@ -333,6 +339,7 @@ def test_largest_step_change_measures_the_resolution():
     assert small < 1e-6
 
 
+@pytest.mark.slow
 def test_run_arguments_are_checked(fmu_dir):
     s = tm.scene()
     fmus = build_fmus(s, fmu_dir)

@@ -21,7 +21,8 @@ from loomfmu.scene.system import FMUError
 
 #: these tests run the masters at and past their stability limits on purpose:
 #: run()'s warning that the steps do not resolve the coupling is expected
-pytestmark = pytest.mark.filterwarnings("ignore::loomfmu.scene.run.UnresolvedCoupling")
+pytestmark = [pytest.mark.slow,
+              pytest.mark.filterwarnings("ignore::loomfmu.scene.run.UnresolvedCoupling")]
 
 SRC = "assumption: a test model"
 

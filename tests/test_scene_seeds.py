@@ -21,6 +21,8 @@ from loomfmu.scene.fmus import build_fmus
 from loomfmu.scene.libcosim import run_ssp
 from loomfmu.scene.ssp import export_ssp
 
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def fmu_dir(tmp_path_factory):

@@ -15,7 +15,8 @@ from loomfmu.scene.fmus import build_fmus
 
 #: these tests run the masters at and past their stability limits on purpose:
 #: run()'s warning that the steps do not resolve the coupling is expected
-pytestmark = pytest.mark.filterwarnings("ignore::loomfmu.scene.run.UnresolvedCoupling")
+pytestmark = [pytest.mark.slow,
+              pytest.mark.filterwarnings("ignore::loomfmu.scene.run.UnresolvedCoupling")]
 
 Z = ("force.x1_out", "force.v1_out", "disp.x2_out", "disp.v2_out")
 #: master name and options for each algorithm of the theory
