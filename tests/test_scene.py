@@ -373,3 +373,24 @@ def test_run_arguments_are_checked(fmu_dir):
     assert step_ns(1e-3) == 1_000_000
     with raises(r"step = 1.15e-09 s is not a whole number of nanoseconds"):
         step_ns(1.5e-10 + 1e-9)
+
+
+def test_a_step_too_small_to_finish_is_refused_before_anything_runs(tmp_path, capsys):
+    """A fixed step of 1e-300 s would take 2e300 communication points: it is
+    refused (ValueError naming step and the allowed range) before any FMU is
+    built, in Python, in a Scene's default and on the command line."""
+    from loomfmu.declare.checks import MAX_POINTS
+    s = tm.scene()
+    with raises(r"step = 1e-300 s gives 2e\+300 communication points up to stop = 2 s; "
+                rf"allowed: a step in \[2e-06, 2\] s \(at most {MAX_POINTS} points\)"):
+        run(s, step=1e-300, fmu_dir=tmp_path)
+    with raises(r"step = 1e-07 s gives 1e\+07 communication points up to stop = 1 s"):
+        run(s, step=1e-7, stop=1.0, fmu_dir=tmp_path)
+    with raises(r"step = 1e-300 s gives 2e\+300 communication points up to stop_time = 2 s"):
+        tm.scene(step=1e-300)
+    assert list(tmp_path.iterdir()) == []      # nothing was built
+    assert main(["run", "two_mass", "--step", "1e-300", "--fmu-dir", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "step = 1e-300 s gives" in err
+    assert list(tmp_path.iterdir()) == []
+

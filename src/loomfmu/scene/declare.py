@@ -22,7 +22,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from loomfmu.declare.checks import check_mapping, check_number, is_real
+from loomfmu.declare.checks import MAX_POINTS, check_mapping, check_number, is_real
 from loomfmu.scene.interface import Interface, conversion, interface_of_fmu, interface_of_model
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
@@ -116,6 +116,11 @@ class Scene:
         self.stop_time = check_number("stop_time", stop_time, lo=0.0, lo_open=True, unit="s")
         self.step = check_number("step", step, lo=0.0, lo_open=True, hi=self.stop_time,
                                  unit="s")
+        if self.stop_time / self.step > MAX_POINTS:
+            raise ValueError(f"step = {step!r} s gives {self.stop_time / self.step:.3g} "
+                             f"communication points up to stop_time = {self.stop_time:g} s;"
+                             f" allowed: a step in [{self.stop_time / MAX_POINTS:.3g}, "
+                             f"{self.stop_time:g}] s (at most {MAX_POINTS} points)")
         self.components: dict[str, Component] = {}
         self.connections: list[Connection] = []
         self.recorded: list[tuple[str, str]] = []

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from loomfmu.declare.checks import check_number
+from loomfmu.declare.checks import MAX_POINTS, check_number
 from loomfmu.progress import Progress
 from loomfmu.scene.declare import Scene
 from loomfmu.scene.fmus import build_fmus, check_fmus
@@ -126,6 +126,8 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
                          f"s; allowed: stop >= {scene.step!r} s, or a step <= stop")
     step = check_number("step", scene.step if step is None else step, lo=0.0, lo_open=True,
                         hi=stop, unit="s")
+    if not adaptive:
+        check_points(step, stop)
     if adaptive:
         h_min = check_number("h_min", h_min, lo=0.0, lo_open=True, hi=step, unit="s")
         h_max = check_number("h_max", max(stop / 10, step) if h_max is None else h_max,
@@ -159,6 +161,11 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
             times, rows, hs = [0.0], [system.get(refs)], []
             t, h, k, shown = 0.0, step, 0, 0
             while t < stop * (1 - 1e-12):
+                if m.n_accepted + m.n_rejected >= MAX_POINTS:
+                    raise RuntimeError(f"scene {scene.name}: {MAX_POINTS} communication "
+                                       f"steps taken by t = {t:.9g} s of stop = {stop:g} s "
+                                       f"(h = {h:.3g} s); allowed: at most {MAX_POINTS}: "
+                                       "a larger h_min or rtol")
                 h_try = min(h, stop - t)
                 if not adaptive:   # t_k = k h: no drift from summing steps
                     h_try = min(step * (k + 1), stop) - t
@@ -203,6 +210,17 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
     if change > UNRESOLVED:
         warnings.warn(unresolved_message(change, name), UnresolvedCoupling, stacklevel=2)
     return result
+
+
+def check_points(step: float, stop: float) -> None:
+    """ValueError naming ``step`` unless a fixed-step run from 0 to ``stop``
+    has at most MAX_POINTS communication points (checked before anything is
+    built or run: more would fill the memory before the run ends)."""
+    if stop / step > MAX_POINTS:
+        raise ValueError(f"step = {step!r} s gives {stop / step:.3g} communication points "
+                         f"up to stop = {stop:g} s; allowed: a step in "
+                         f"[{stop / MAX_POINTS:.3g}, {stop:g}] s (at most {MAX_POINTS} "
+                         "points)")
 
 
 def unresolved_message(change: float, name: str) -> str:
