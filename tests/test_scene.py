@@ -98,6 +98,15 @@ def test_unknown_names_are_refused_with_what_is_allowed():
         s.connect("drive_n_out", "frame.omega")
     with raises(r"drive.spindles is a port and frame.omega is not"):
         s.connect("drive.spindles", "frame.omega")
+    # a port that does not exist (the one-front backrest has warp_front only)
+    with raises(r"connection frame.warp -> back.warp_front_a: back has no port "
+                r"'warp_front_a' \(it does not exist\); allowed: a port of back "
+                r"\(warp_back, warp_front\)"):
+        s.connect("frame.warp", "back.warp_front_a")
+    with raises(r"connection back.warp_front_b -> frame.warp: back has no port "
+                r"'warp_front_b' \(it does not exist\); allowed: a port of back "
+                r"\(warp_back, warp_front\)"):
+        s.connect("back.warp_front_b", "frame.warp")
     with raises(r"both ends are in component 'back'"):
         s.connect("back.S2", "back.warp_pull")
     with raises(r"model = 'loom'; allowed: one of .*two_mass_force"):

@@ -230,6 +230,11 @@ class Scene:
         pa, pb = ca_.interface.ports.get(ra), cb_.interface.ports.get(rb)
         if (pa is None) != (pb is None):
             port_end, other = (a, b) if pa is not None else (b, a)
+            comp, ref = (cb_, rb) if pa is not None else (ca_, ra)
+            if ref not in comp.interface.variables:
+                raise ValueError(f"{label}: {comp.name} has no port {ref!r} (it does not "
+                                 f"exist); allowed: a port of {comp.name} "
+                                 f"({_names(comp.interface.ports)})")
             raise ValueError(f"{label}: {port_end} is a port and {other} is not; allowed: "
                              "port to port, or variable to variable")
         if pa is not None:
