@@ -403,3 +403,12 @@ def test_a_step_too_small_to_finish_is_refused_before_anything_runs(tmp_path, ca
     assert err.count("\n") == 1 and "step = 1e-300 s gives" in err
     assert list(tmp_path.iterdir()) == []
 
+
+def test_a_scene_given_by_name_is_refused_with_how_to_load_it():
+    with raises(r"scene = 'two_mass'; allowed: a loomfmu.scene.Scene "
+                r"\(loomfmu.machines.library.load_scene\('two_mass'\) gives a shipped "
+                r"scene by name\)"):
+        run("two_mass")
+    with raises(r"scene = None; allowed: a loomfmu.scene.Scene \(declare one with "
+                r"Scene\(...\)\)"):
+        run(None)

@@ -119,6 +119,10 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
     loop_options: options of the algebraic-loop solver (loop_method "newton"
     or "fixed-point", loop_rtol, loop_atol, loop_max_iter, relaxation).
     """
+    if not isinstance(scene, Scene):
+        hint = (f"loomfmu.machines.library.load_scene({scene!r}) gives a shipped scene "
+                "by name" if isinstance(scene, str) else "declare one with Scene(...)")
+        raise ValueError(f"scene = {scene!r:.60}; allowed: a loomfmu.scene.Scene ({hint})")
     stop = check_number("stop", scene.stop_time if stop is None else stop, lo=0.0,
                         lo_open=True, unit="s")
     if step is None and scene.step > stop:
