@@ -188,6 +188,23 @@ def invalid_after() -> Model:
     return m
 
 
+#: the mode test model's state crosses X_MODE at t = 1 - X_MODE
+X_MODE = 0.5
+
+
+def mode_switch() -> Model:
+    """x' = -1 from 1; mode q (an Integer output) 0 while x > X_MODE, 1 below."""
+    m = Model("mode_switch", description="test: a mode that switches at t = 0.5",
+              stop_time=1.0, step_size=1e-2, h_fixed=1e-3)
+    x = m.state("x", 1.0, description="falls at rate 1")
+    m.eq(m.der(x), -1.0 + 0.0 * x)
+    q = m.mode("q", 0, (0, 1), description="0 above x = X_MODE, 1 below")
+    m.event("cross", x - X_MODE, description="x passes X_MODE")
+    m.mode_rule(q, (1 - 2 * q) * (x - X_MODE), events=["cross"])
+    m.output("x_out", x, description="x")
+    return m
+
+
 @pytest.fixture(scope="module")
 def loop_fmus(tmp_path_factory):
     path = tmp_path_factory.mktemp("loop_fmus")
@@ -197,6 +214,7 @@ def loop_fmus(tmp_path_factory):
     s.add("b3", model=loop_b(cubic=True))
     s.add("bs", model=loop_sqrt())
     s.add("inv", model=invalid_after())
+    s.add("sw", model=mode_switch())
     return build_fmus(s, path)
 
 
@@ -238,6 +256,25 @@ def test_an_algebraic_loop_is_solved_at_each_communication_point(loop_fmus, mast
             assert res["b.u"][n + 1] == pytest.approx(float(np.exp(-t[n + 1])) + G * ua,
                                                       abs=1e-7)
     assert res.loop_iterations > 0
+
+
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_an_integer_output_a_mode_is_recorded_as_a_number(loop_fmus, master):
+    s = Scene("modes", stop_time=1.0, step=0.15)   # no point at the switch itself
+    s.add("sw", fmu=loop_fmus["sw"])
+    s.record("sw.q", "sw.x_out")
+    res = run(s, master=master, fmus={"sw": loop_fmus["sw"]})
+    t = res["time"]
+    assert np.allclose(res["sw.x_out"], 1.0 - t, atol=1e-9)
+    assert list(res["sw.q"]) == [0.0 if x > X_MODE else 1.0 for x in 1.0 - t]
+    assert res["sw.q"][0] == 0.0 and res["sw.q"][-1] == 1.0
+    # by default every output is recorded, the mode too
+    s.recorded.clear()
+    res = run(s, master=master, fmus={"sw": loop_fmus["sw"]})
+    assert {"sw.q", "sw.x_out"} <= set(res.data.dtype.names)
+    with raises(r"record 'sw.nope': no such variable; allowed: a Real, Integer, Boolean or "
+                r"enumeration variable of sw \(.*q.*\)"):
+        s.record("sw.nope")
 
 
 def test_a_loop_that_does_not_converge_is_named(loop_fmus):

@@ -26,6 +26,8 @@ from loomfmu.declare.checks import MAX_POINTS, check_mapping, check_number, is_r
 from loomfmu.scene.interface import Interface, conversion, interface_of_fmu, interface_of_model
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+#: FMI types a run records (as numbers; a Boolean is 0 or 1)
+RECORDABLE = ("Real", "Integer", "Enumeration", "Boolean")
 
 def model_names() -> list[str]:
     from loomfmu.registry import MODELS
@@ -322,16 +324,18 @@ class Scene:
     # -- outputs -------------------------------------------------------------
     def record(self, *refs: str) -> None:
         """Record these variables ("component.variable") in the results
-        (default: every output of every component)."""
+        (default: every output of every component): Real, Integer (a mode),
+        Boolean or enumeration variables, each given as a number."""
         for ref in refs:
             comp, var = self._split(ref, "record")
             v = comp.interface.variables.get(var)
-            if v is None or v.type != "Real":
-                reals = [n for n, x in comp.interface.variables.items() if x.type == "Real"
-                         and x.causality in ("output", "local", "input")]
+            if v is None or v.type not in RECORDABLE:
+                able = [n for n, x in comp.interface.variables.items()
+                        if x.type in RECORDABLE and x.causality in ("output", "local", "input")]
                 raise ValueError(f"record {ref!r}: " + ("no such variable" if v is None else
-                                 f"{_a(v.type)} variable") + f"; allowed: a Real variable of "
-                                 f"{comp.name} ({_names(reals)})")
+                                 f"{_a(v.type)} variable") + f"; allowed: a Real, Integer, "
+                                 f"Boolean or enumeration variable of {comp.name} "
+                                 f"({_names(able)})")
             if (comp.name, var) not in self.recorded:
                 self.recorded.append((comp.name, var))
 
@@ -340,7 +344,7 @@ class Scene:
             return list(self.recorded)
         return [(c.name, n) for c in self.components.values()
                 for n, v in c.interface.variables.items()
-                if v.causality == "output" and v.type == "Real"]
+                if v.causality == "output" and v.type in RECORDABLE]
 
 
 def _depends(c: Connection, drives: dict, components: dict) -> list[Connection]:

@@ -365,13 +365,17 @@ class System:
             src_pos.append((c.src, len(vrs)))
             vrs.append(self.instances[c.src].vr[c.src_var])
         for c, v in self._watched:
+            if self.instances[c].type[v] != "Real":   # a mode, a flag: read on its own
+                rec_pos.append((c, None))
+                continue
             vrs = names.setdefault(c, [])
             rec_pos.append((c, len(vrs)))
             vrs.append(self.instances[c].vr[v])
         vals = {n: Values(self.instances[n], vrs) for n, vrs in names.items()}
         self._end = list(vals.values())
         self._end_src = [(vals[n], p) for n, p in src_pos]
-        self._end_rec = [(vals[n], p) for n, p in rec_pos]
+        self._end_rec = [(vals[n], p) if p is not None else (None, r)
+                         for r, (n, p) in enumerate(rec_pos)]
         self.end_fresh = False
 
     def read_end(self) -> bool:
@@ -394,7 +398,8 @@ class System:
         """The values of ``refs`` now: from the last read_end when it is of
         this state and ``refs`` are the watched ones, else :meth:`get`."""
         if self.end_fresh and refs == self._watched:
-            return [vals.val[p] for vals, p in self._end_rec]
+            return [vals.val[p] if vals is not None else self.get([refs[p]])[0]
+                    for vals, p in self._end_rec]
         return self.get(refs)
 
     def loop_name(self, block) -> str:
@@ -535,12 +540,19 @@ class System:
                                                            derivatives))   # fails again
 
     def get(self, refs: list[tuple[str, str]]) -> list[float]:
-        """The values of variables ``refs`` (component, variable) now."""
+        """The values of variables ``refs`` (component, variable) now, as
+        numbers (an Integer, enumeration or Boolean variable too: a Boolean
+        is 0.0 or 1.0)."""
         out = []
         for c, v in refs:
             inst = self.instances[c]
-            out.append(self._call(c, f"fmi2GetReal ({v})", self.time[c],
-                                  lambda: inst.fmu.getReal([inst.vr[v]])[0]))
+            kind = inst.type[v]
+            getter = {"Real": "getReal", "Integer": "getInteger",
+                      "Enumeration": "getInteger", "Boolean": "getBoolean"}[kind]
+            fn = getattr(inst.fmu, getter)
+            call = "fmi2GetReal" if kind == "Real" else f"fmi2{getter[0].upper()}{getter[1:]}"
+            out.append(float(self._call(c, f"{call} ({v})", self.time[c],
+                                        lambda: fn([inst.vr[v]])[0])))
         return out
 
     # -- stepping and states --------------------------------------------------
