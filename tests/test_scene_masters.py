@@ -277,6 +277,39 @@ def test_an_integer_output_a_mode_is_recorded_as_a_number(loop_fmus, master):
         s.record("sw.nope")
 
 
+@pytest.mark.parametrize("method", ["newton", "fixed-point"])
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_a_loop_without_a_solution_stops_the_run_naming_it(loop_fmus, master, method):
+    """y_a = x + 2 u_a, y_b = 0.6 + 0.5 u_b: loop gain exactly 1, u_a = 0.6 + 0.5 x
+    + u_a has no solution.  The run stops at the first communication point
+    (t = 0) naming the loop and its residual; the iterate's own size does not
+    loosen the convergence test."""
+    s, fmus = loop_scene(loop_fmus)
+    s.set("a", parameters={"g": 2.0})
+    s.set("b", parameters={"k": -0.5, "c": 0.6})
+    loop = r"algebraic loop \(a.y -> b.u; b.y -> a.u\)"
+    if method == "newton":
+        match = (loop + r": singular Jacobian I - dG/du at t = 0 s \(condition number "
+                 r"[0-9.e+]+, above 1e\+08; largest \|G\(u\) - u\| = [0-9.e+-]+\): the loop "
+                 r"equations have no unique solution")
+    else:
+        match = (loop + r" did not converge at t = 0 s after 50 fixed-point iterations: "
+                 r"largest \|G\(u\) - u\| = [0-9.e+-]+ \(tolerance loop_atol = 1e-12 \+ "
+                 r"loop_rtol = 1e-10 \* s, s = [0-9.e+-]+: \|u\| and \|G\(u\)\| before")
+    with pytest.raises(FMUError, match=match):
+        run(s, master=master, fmus=fmus, loop_options={"loop_method": method})
+
+
+def test_a_diverging_loop_iterate_is_stopped(loop_fmus):
+    """Plain fixed point (w = 1) on the loop of gain 3 grows by sqrt(3) per
+    iteration: stopped once |u| is a million times its scale."""
+    s, fmus = loop_scene(loop_fmus)
+    with pytest.raises(FMUError, match=r"algebraic loop \(a.y -> b.u; b.y -> a.u\) "
+                       r"diverges at t = 0 s: after \d+ fixed-point iterations \|u\| = "
+                       r"[0-9.e+]+ \(more than 1e\+06 times its scale"):
+        run(s, fmus=fmus, loop_options={"loop_method": "fixed-point", "relaxation": 1.0})
+
+
 def test_a_loop_that_does_not_converge_is_named(loop_fmus):
     s, loop_fmus = loop_scene(loop_fmus)
     # relaxed fixed point u <- u + w (G(u) - u): dG/du = [[0, G], [-K, 0]] has eigenvalues

@@ -10,7 +10,10 @@ and G(u) the outputs they produce (converted), u = G(u) is solved by Newton's
 method with a finite-difference Jacobian (one extra output read per loop
 variable; the loop's last solution is the first guess), or by relaxed
 fixed-point iteration u <- u + w (G(u) - u).  Converged when every
-|G(u) - u| <= loop_atol + loop_rtol |u|; after loop_max_iter iterations
+|G(u) - u| <= loop_atol + loop_rtol s, with s fixed before iterating (the
+larger of |u| and |G(u)| at the start, and |u| at the loop's earlier
+solutions): a diverging iterate cannot widen its own tolerance.  After
+loop_max_iter iterations, on a singular Jacobian or on a runaway iterate,
 FMUError names the loop, the time and the residual.
 
 Cost: the hot path calls FMPy's ctypes functions (``FMU2Slave._functions``)
@@ -45,6 +48,12 @@ from loomfmu.scene.declare import Connection, Scene, _self_loop, feedthrough_blo
 
 #: FMU log lines kept per instance (the latest), shown when a call fails
 LOG_LINES = 200
+#: a loop's Jacobian I - dG/du with a larger condition number is singular: a
+#: finite-difference Jacobian (relative error ~1e-9) cannot resolve it
+LOOP_COND_MAX = 1e8
+#: a loop iterate whose magnitude exceeds this many times its scale before
+#: iterating (plus 1) runs away: the loop has no solution near its start
+LOOP_RUNAWAY = 1e6
 
 
 class FMUError(RuntimeError):
@@ -184,6 +193,8 @@ class System:
             k += len(b)
         self.is_loop = [len(b) > 1 or _self_loop(b[0], scene.components) for b in blocks]
         self.loop_iterations = 0     # loop iterations (output reads) so far
+        #: each loop's largest input magnitude at its earlier solutions
+        self._loop_size: dict[tuple[int, ...], np.ndarray] = {}
         #: each component's time (its last communication point)
         self.time = {name: t0 for name in scene.components}
         self._src = [(self.instances[c.src].fmu, self.instances[c.src].vr[c.src_var])
@@ -407,22 +418,44 @@ class System:
 
     def solve_loop(self, block: list[int], t: float) -> None:
         """Solve the algebraic loop of connections ``block`` at time ``t``
-        (see the module's doc); the inputs end at the solution."""
+        (see the module's doc); the inputs end at the solution.
+
+        Convergence is measured against a scale fixed before iterating, s =
+        the larger of |u| and |G(u)| at the start and |u| at this loop's
+        earlier solutions: an iterate that runs away does not widen its own
+        tolerance.  A Jacobian I - dG/du that is singular (condition number
+        above LOOP_COND_MAX: the loop has no unique solution, e.g. a loop
+        gain of exactly 1) and an iterate that runs away (|u| beyond
+        LOOP_RUNAWAY times s) stop the run with FMUError naming the loop,
+        the time and the residual."""
         def G(u):
             self.set_inputs(block, list(u), t)
             self.loop_iterations += 1
             return np.array([self.source_value(i) for i in block])
 
+        key = tuple(block)
         u = np.array([self.held[i] for i in block], dtype=float)
         g = G(u)
+        scale = np.maximum(np.abs(u), np.abs(g)) if np.all(np.isfinite(g)) else np.abs(u)
+        if key in self._loop_size:
+            scale = np.maximum(scale, self._loop_size[key])
+        tol = self.loop_atol + self.loop_rtol * scale
         for it in range(self.loop_max_iter + 1):
             r = g - u
             if not np.all(np.isfinite(g)):
                 break
-            if np.all(np.abs(r) <= self.loop_atol + self.loop_rtol * np.abs(u)):
+            if np.all(np.abs(r) <= tol):
+                self._loop_size[key] = np.maximum(self._loop_size.get(key, 0.0), np.abs(u))
                 return      # the inputs hold u (the last G call)
             if it == self.loop_max_iter:
                 break
+            if np.any(np.abs(u) > LOOP_RUNAWAY * (1.0 + scale)):
+                raise FMUError(f"algebraic loop ({self.loop_name(block)}) diverges at t = "
+                               f"{t:.9g} s: after {it} {self.loop_method} iterations |u| = "
+                               f"{float(np.max(np.abs(u))):.3g} (more than {LOOP_RUNAWAY:g} "
+                               f"times its scale {float(np.max(scale)):.3g} at the start), "
+                               f"largest |G(u) - u| = {float(np.max(np.abs(r))):.3g}; the "
+                               "loop has no solution near its start")
             if self.loop_method == "fixed-point":
                 u = u + self.relaxation * r
             else:
@@ -432,18 +465,22 @@ class System:
                     e = u.copy()
                     e[j] += du
                     J[:, j] = (G(e) - g) / du
-                try:
-                    u = u + np.linalg.solve(np.eye(len(block)) - J, r)
-                except np.linalg.LinAlgError:
+                A = np.eye(len(block)) - J
+                cond = np.linalg.cond(A) if np.all(np.isfinite(A)) else math.inf
+                if not cond <= LOOP_COND_MAX:
                     raise FMUError(f"algebraic loop ({self.loop_name(block)}): singular "
-                                   f"Jacobian I - dG/du at t = {t:.9g} s (the loop "
-                                   "equations have no unique solution)") from None
+                                   f"Jacobian I - dG/du at t = {t:.9g} s (condition number "
+                                   f"{cond:.3g}, above {LOOP_COND_MAX:g}; largest |G(u) - u| "
+                                   f"= {float(np.max(np.abs(r))):.3g}): the loop equations "
+                                   "have no unique solution (e.g. a loop gain of exactly 1)")
+                u = u + np.linalg.solve(A, r)
             g = G(u)
         res = float(np.max(np.abs(g - u))) if np.all(np.isfinite(g)) else math.nan
         raise FMUError(f"algebraic loop ({self.loop_name(block)}) did not converge at t = "
                        f"{t:.9g} s after {self.loop_max_iter} {self.loop_method} iterations: "
                        f"largest |G(u) - u| = {res:.3g} (tolerance loop_atol = "
-                       f"{self.loop_atol:g} + loop_rtol = {self.loop_rtol:g} * |u|)")
+                       f"{self.loop_atol:g} + loop_rtol = {self.loop_rtol:g} * s, s = "
+                       f"{float(np.max(scale)):.3g}: |u| and |G(u)| before iterating)")
 
     def set_inputs(self, indices, values, t: float) -> None:
         """Set the inputs of connections ``indices`` to ``values``."""
