@@ -6,6 +6,7 @@ the first steps, rejected steps and the stability limits)."""
 from __future__ import annotations
 
 import math
+import re
 import zipfile
 
 import numpy as np
@@ -17,6 +18,7 @@ from loomfmu.machines import two_mass as tm
 from loomfmu.scene import Scene, run
 from loomfmu.scene.extrapolation import History, shift, shift_rows, taylor, taylor_many, value
 from loomfmu.scene.fmus import build_fmus
+from loomfmu.scene.interface import AssumedDependencies, outputs_without_dependencies
 from loomfmu.scene.system import FMUError
 
 #: these tests run the masters at and past their stability limits on purpose:
@@ -308,6 +310,69 @@ def test_a_diverging_loop_iterate_is_stopped(loop_fmus):
                        r"diverges at t = 0 s: after \d+ fixed-point iterations \|u\| = "
                        r"[0-9.e+]+ \(more than 1e\+06 times its scale"):
         run(s, fmus=fmus, loop_options={"loop_method": "fixed-point", "relaxation": 1.0})
+
+
+def without_dependencies(fmu, out) -> str:
+    """A copy of the FMU ``fmu`` at ``out`` whose model description lists
+    its outputs without the dependencies attribute (valid FMI 2.0: such an
+    output depends on every input)."""
+    with zipfile.ZipFile(fmu) as z:
+        files = {n: z.read(n) for n in z.namelist()}
+    xml = files["modelDescription.xml"].decode()
+    head, rest = xml.split("<Outputs>", 1)
+    outputs, tail = rest.split("</Outputs>", 1)
+    outputs = re.sub(r' dependencies(Kind)?="[^"]*"', "", outputs)
+    assert "dependencies" not in outputs
+    files["modelDescription.xml"] = (head + "<Outputs>" + outputs + "</Outputs>" + tail).encode()
+    with zipfile.ZipFile(out, "w") as z:
+        for n, data in files.items():
+            z.writestr(n, data)
+    return str(out)
+
+
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_an_output_without_dependencies_depends_on_every_input(loop_fmus, master,
+                                                                tmp_path):
+    """FMI 2.0 and 3.0: an output whose ModelStructure entry has no
+    dependencies depends on all inputs.  The loop a.y -> b.u -> b.y -> a.u is
+    found and solved as with the dependencies declared, and the assumption
+    is said once per component."""
+    fmus = {n: without_dependencies(loop_fmus[n], tmp_path / f"{n}.fmu") for n in "ab"}
+    s = Scene("loop", stop_time=0.5, step=0.05)
+    for name in "ab":
+        with pytest.warns(AssumedDependencies, match=rf"component {name} \(FMU .*\): "
+                          r"outputs y declare no dependencies in the model description; "
+                          r"taken to depend directly on every input"):
+            s.add(name, fmu=fmus[name])
+        assert s.components[name].interface.feedthrough["y"] == ("u",)
+    s.connect("a.y", "b.u")
+    s.connect("b.y", "a.u")
+    s.record("a.x", "a.u", "b.u")
+    assert [str(c) for c in s.loops()[0]] == ["a.y -> b.u", "b.y -> a.u"]
+    res = run(s, master=master, fmus=fmus)
+    t = res["time"]
+    for n in range(len(t) - 1):
+        ua, _ = solution(float(np.exp(-t[n])), False)
+        assert res["a.u"][n + 1] == pytest.approx(ua, abs=1e-9)
+    assert res.loop_iterations > 0
+
+
+def test_empty_dependencies_state_no_feedthrough_and_a_missing_attribute_all():
+    xml = ('<fmiModelDescription fmiVersion="2.0"><ModelVariables>'
+           '<ScalarVariable name="u" causality="input"/>'
+           '<ScalarVariable name="y1" causality="output"/>'
+           '<ScalarVariable name="y2" causality="output"/>'
+           '<ScalarVariable name="y3" causality="output"/></ModelVariables>'
+           '<ModelStructure><Outputs><Unknown index="2" dependencies=""/>'
+           '<Unknown index="3"/></Outputs></ModelStructure></fmiModelDescription>')
+    assert outputs_without_dependencies(xml) == {"y2", "y3"}
+    xml3 = ('<fmiModelDescription fmiVersion="3.0"><ModelVariables>'
+            '<Float64 name="u" valueReference="1" causality="input"/>'
+            '<Float64 name="y1" valueReference="2" causality="output"/>'
+            '<Float64 name="y2" valueReference="3" causality="output"/></ModelVariables>'
+            '<ModelStructure><Output valueReference="2" dependencies="1"/>'
+            '<Output valueReference="3"/></ModelStructure></fmiModelDescription>')
+    assert outputs_without_dependencies(xml3) == {"y2"}
 
 
 def test_a_loop_that_does_not_converge_is_named(loop_fmus):

@@ -19,11 +19,18 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from loomfmu.declare.checks import MAX_POINTS, check_mapping, check_number, is_real
-from loomfmu.scene.interface import Interface, conversion, interface_of_fmu, interface_of_model
+from loomfmu.scene.interface import (
+    AssumedDependencies,
+    Interface,
+    conversion,
+    interface_of_fmu,
+    interface_of_model,
+)
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 #: FMI types a run records (as numbers; a Boolean is 0 or 1)
@@ -150,6 +157,11 @@ class Scene:
             if options:
                 raise ValueError(f"component {name!r}: options apply to model=, not fmu=")
             comp = Component(name, interface_of_fmu(fmu), fmu=Path(fmu))
+            if comp.interface.assumed:
+                warnings.warn(f"component {name} ({comp.source}): outputs "
+                              f"{', '.join(comp.interface.assumed)} declare no dependencies "
+                              "in the model description; taken to depend directly on every "
+                              "input (FMI 2.0, 3.0)", AssumedDependencies, stacklevel=2)
         else:
             from loomfmu.declare.model import Model
             decl = declare_model(model, options)
