@@ -682,10 +682,12 @@ def test_scene_command_takes_the_extrapolation_and_the_order(bench, capsys):
     assert main(["run", "two_mass", "--master", "gauss-seidel", "--extrapolation", "2",
                  "--order", "disp,force", "--stop", "0.01", "--fmu-dir", fmu_dir]) == 0
     out = capsys.readouterr().out
-    assert "master gauss-seidel, extrapolation 2: 10 steps accepted" in out
-    assert main(["run", "two_mass", "--order", "disp,force", "--stop", "0.01"]) == 2
-    assert "--order disp,force: applies to --master gauss-seidel only" in \
-        capsys.readouterr().err
+    assert ("master gauss-seidel, extrapolation 2 (step: the scene's recommendation): "
+            "10 steps accepted") in out
+    assert main(["run", "two_mass", "--master", "jacobi", "--order", "disp,force",
+                 "--stop", "0.01"]) == 2
+    assert "--order disp,force: applies to --master gauss-seidel only (the master is " \
+        "jacobi)" in capsys.readouterr().err
 
 
 def test_output_derivatives_that_fail_fall_back_to_the_samples(bench, tmp_path):

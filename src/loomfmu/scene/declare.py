@@ -33,6 +33,8 @@ from loomfmu.scene.interface import (
 )
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+#: the masters' names (loomfmu.scene.master.MASTERS: its keys, in this order)
+MASTER_NAMES = ("jacobi", "gauss-seidel")
 #: FMI types a run records (as numbers; a Boolean is 0 or 1)
 RECORDABLE = ("Real", "Integer", "Enumeration", "Boolean")
 
@@ -114,13 +116,22 @@ def _names(items) -> str:
 
 
 class Scene:
-    """A co-simulation scene.  name: an identifier; stop_time and step (s):
-    the defaults of a run."""
+    """A co-simulation scene.  name: an identifier; stop_time and step (s),
+    master (a name of loomfmu.scene.MASTERS) and extrapolation (the input
+    extrapolation's order, 0, 1 or 2): the defaults of a run, the scene's
+    recommended settings (a run takes each that its caller does not give)."""
 
     def __init__(self, name: str, *, description: str = "", stop_time: float = 1.0,
-                 step: float = 1e-3):
+                 step: float = 1e-3, master: str = "jacobi", extrapolation: int = 0):
+        from loomfmu.scene.extrapolation import ORDERS
         if not isinstance(name, str) or not _NAME.match(name):
             raise ValueError(f"name = {name!r:.60}; allowed: an identifier")
+        if master not in MASTER_NAMES:
+            raise ValueError(f"master = {master!r:.40}; allowed: {', '.join(MASTER_NAMES)}")
+        if extrapolation not in ORDERS or isinstance(extrapolation, bool):
+            raise ValueError(f"extrapolation = {extrapolation!r:.40}; allowed: one of "
+                             f"{', '.join(map(str, ORDERS))}")
+        self.master, self.extrapolation = master, int(extrapolation)
         self.name, self.description = name, str(description)
         self.stop_time = check_number("stop_time", stop_time, lo=0.0, lo_open=True, unit="s")
         self.step = check_number("step", step, lo=0.0, lo_open=True, hi=self.stop_time,

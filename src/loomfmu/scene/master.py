@@ -31,6 +31,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from loomfmu.scene.declare import MASTER_NAMES
 from loomfmu.scene.extrapolation import ORDERS, History, shift, shift_rows, taylor_many, value
 from loomfmu.scene.system import FMUError, ModelInvalid, System
 
@@ -340,6 +341,7 @@ class GaussSeidel(Master):
 
 #: master name -> class
 MASTERS = {"jacobi": Jacobi, "gauss-seidel": GaussSeidel}
+assert tuple(MASTERS) == MASTER_NAMES   # a scene checks its master by these names
 
 
 def make_master(name: str, system: System, **kw) -> Master:

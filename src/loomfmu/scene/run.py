@@ -59,6 +59,8 @@ class Result:
     coupled: list[str] = field(default_factory=list)
     #: absolute floor of a signal's size in largest_step_change (run's atol)
     atol: float = 1e-6
+    #: the order of the input extrapolation the run used
+    extrapolation: int = 0
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.data[name]
@@ -99,22 +101,24 @@ class Result:
         return path
 
 
-def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
+def run(scene: Scene, *, master: str | None = None, step: float | None = None,
         stop: float | None = None, adaptive: bool = False, rtol: float = 1e-3,
         atol: float = 1e-6, h_min: float = 1e-9, h_max: float | None = None,
         fmu_dir=None, fmus: dict | None = None, progress: bool = False,
-        master_options: dict | None = None, extrapolation: int = 0,
+        master_options: dict | None = None, extrapolation: int | None = None,
         loop_options: dict | None = None) -> Result:
     """Run ``scene`` from 0 to ``stop`` (default the scene's stop_time).
 
-    master: "jacobi" or "gauss-seidel"; step: the communication step (s;
-    default the scene's), the first step when ``adaptive``; adaptive: control
+    master: "jacobi" or "gauss-seidel" (default the scene's recommendation,
+    Scene.master); step: the communication step (s; default the scene's),
+    the first step when ``adaptive``; adaptive: control
     the step by the coupling error estimate (rtol, atol; h_min <= h <= h_max,
     default the larger of stop / 10 and step); fmu_dir: folder
     the models are built into (default a temporary folder); fmus: component ->
     FMU path, to skip the build; progress: show progress on stderr;
-    extrapolation: order of the input extrapolation (0, 1, 2; above 0 every
-    FMU that receives an input must declare canInterpolateInputs);
+    extrapolation: order of the input extrapolation (0, 1, 2; default the
+    scene's recommendation, Scene.extrapolation; above 0 every FMU that
+    receives an input must declare canInterpolateInputs);
     master_options: more options of the master (e.g. Gauss-Seidel's order);
     loop_options: options of the algebraic-loop solver (loop_method "newton"
     or "fixed-point", loop_rtol, loop_atol, loop_max_iter, relaxation).
@@ -123,6 +127,8 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
         hint = (f"loomfmu.machines.library.load_scene({scene!r}) gives a shipped scene "
                 "by name" if isinstance(scene, str) else "declare one with Scene(...)")
         raise ValueError(f"scene = {scene!r:.60}; allowed: a loomfmu.scene.Scene ({hint})")
+    master = scene.master if master is None else master
+    extrapolation = scene.extrapolation if extrapolation is None else extrapolation
     stop = check_number("stop", scene.stop_time if stop is None else stop, lo=0.0,
                         lo_open=True, unit="s")
     if step is None and scene.step > stop:
@@ -209,7 +215,7 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
     sources = {f"{c.src}.{c.src_var}" for c in scene.connections}
     result = Result(data, m.name, m.n_accepted, m.n_rejected, np.array(hs), logs,
                     loop_iterations, list(m.notes), [n for n in names[1:] if n in sources],
-                    atol)
+                    atol, extrapolation)
     change, name = result.largest_step_change()
     if change > UNRESOLVED:
         warnings.warn(unresolved_message(change, name), UnresolvedCoupling, stacklevel=2)
