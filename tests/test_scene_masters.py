@@ -19,7 +19,7 @@ from loomfmu.scene import Scene, run
 from loomfmu.scene.extrapolation import History, shift, shift_rows, taylor, taylor_many, value
 from loomfmu.scene.fmus import build_fmus
 from loomfmu.scene.interface import AssumedDependencies, outputs_without_dependencies
-from loomfmu.scene.system import FMUError
+from loomfmu.scene.system import FMUError, ModelInvalid
 
 #: these tests run the masters at and past their stability limits on purpose:
 #: run()'s warning that the steps do not resolve the coupling is expected
@@ -207,6 +207,18 @@ def mode_switch() -> Model:
     return m
 
 
+def taut() -> Model:
+    """z' = u; valid while its input u >= 0 (as a warp's tension must be)."""
+    m = Model("taut", description="test: not valid for an input below zero",
+              stop_time=2.0, step_size=1e-2, h_fixed=1e-3)
+    u = m.input("u", 1.0, description="input, valid when >= 0")
+    z = m.state("z", 0.0, description="integral of the input")
+    m.eq(m.der(z), u)
+    m.require("u_taut", u, "input below zero: the test model is not valid here")
+    m.output("z_out", z, description="integral of the input")
+    return m
+
+
 @pytest.fixture(scope="module")
 def loop_fmus(tmp_path_factory):
     path = tmp_path_factory.mktemp("loop_fmus")
@@ -217,6 +229,7 @@ def loop_fmus(tmp_path_factory):
     s.add("bs", model=loop_sqrt())
     s.add("inv", model=invalid_after())
     s.add("sw", model=mode_switch())
+    s.add("taut", model=taut())
     return build_fmus(s, path)
 
 
@@ -373,6 +386,34 @@ def test_empty_dependencies_state_no_feedthrough_and_a_missing_attribute_all():
             '<ModelStructure><Output valueReference="2" dependencies="1"/>'
             '<Output valueReference="3"/></ModelStructure></fmiModelDescription>')
     assert outputs_without_dependencies(xml3) == {"y2"}
+
+
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_a_validity_failure_says_how_far_the_coupled_input_moved(loop_fmus, master):
+    """x = 1 - t drives the taut model's input, valid while >= 0: at a step of
+    0.3 s the input held from t = 1.2 (Gauss-Seidel: 0.9) is -0.2, 0.3 below the
+    0.1 of the step before.  The message says so and that a shorter step or extrapolation may
+    help; a component without coupled inputs is told a shorter step cannot."""
+    s = Scene("taut", stop_time=1.5, step=0.3)
+    s.add("sw", fmu=loop_fmus["sw"])
+    s.add("taut", fmu=loop_fmus["taut"])
+    s.connect("sw.x_out", "taut.u")
+    fmus = {"sw": loop_fmus["sw"], "taut": loop_fmus["taut"]}
+    # Gauss-Seidel: taut steps after sw and reads x at the step's end, 0.3 s earlier
+    at = "1.2" if master == "jacobi" else "0.9"
+    with pytest.raises(ModelInvalid, match=rf"taut: fmi2DoStep .* failed at t = {at} s.*"
+                       r"input below zero.*\[fmi2Terminated: the model is not valid beyond "
+                       r"this point; its coupled inputs at the start of this step of 0.3 s: u "
+                       r"moved by -0.3 from 0.1 to -0.2 since the previous communication "
+                       r"point, 150 % of its size. An input held or extrapolated over a long "
+                       r"step can overshoot: a shorter communication step or input "
+                       r"extrapolation may help\]"):
+        run(s, master=master, fmus=fmus)
+    s = Scene("invalid", stop_time=1.0, step=0.1)
+    s.add("inv", fmu=loop_fmus["inv"])
+    with pytest.raises(ModelInvalid, match=r"the component has no coupled input: a shorter "
+                       r"communication step cannot help"):
+        run(s, master=master, fmus={"inv": loop_fmus["inv"]})
 
 
 def test_a_loop_that_does_not_converge_is_named(loop_fmus):

@@ -24,7 +24,9 @@ step with error > 1 is rejected when the master is ``adaptive``: every FMU
 goes back to the step's start through fmi2SetFMUstate and the step is redone
 shorter.  A step an FMU discards with fmi2Terminated true (a validity
 condition failed: the model is not valid beyond) is not redone: the run
-stops at once with the FMU's message (ModelInvalid).
+stops at once with the FMU's message and how far the component's coupled
+inputs moved within the step (ModelInvalid; a shorter step or
+extrapolation may keep it valid where a held input overshot).
 """
 from __future__ import annotations
 
@@ -220,7 +222,7 @@ class Master:
             self._advance(t, h)
             error = self._error(t + h)
             message = ""
-        except ModelInvalid:     # no shorter step helps: stop with the FMU's message
+        except ModelInvalid:     # not redone: stop with the FMU's message
             if saved is not None:
                 system.free_states(saved)
             raise

@@ -62,8 +62,12 @@ class FMUError(RuntimeError):
 
 class ModelInvalid(FMUError):
     """fmi2DoStep returned Discard with fmi2Terminated true: the FMU says its
-    model is not valid beyond where it stopped (a validity condition failed);
-    a shorter step cannot help."""
+    model is not valid beyond where it stopped (a validity condition failed)
+    under the inputs it was given.  The message says how far each of its
+    coupled inputs moved within the last communication step: an input held
+    or extrapolated over a long step can overshoot, where a shorter step or
+    extrapolation may keep the model valid; a component without coupled
+    inputs fails the same at any step."""
 
 
 #: fmi2StatusKind fmi2Terminated (FMI 2.0, 4.2.3)
@@ -193,6 +197,8 @@ class System:
             k += len(b)
         self.is_loop = [len(b) > 1 or _self_loop(b[0], scene.components) for b in blocks]
         self.loop_iterations = 0     # loop iterations (output reads) so far
+        #: each component's coupled inputs over its last successful step
+        self._stepped_inputs: dict[str, list[float]] = {}
         #: each loop's largest input magnitude at its earlier solutions
         self._loop_size: dict[tuple[int, ...], np.ndarray] = {}
         #: each component's time (its last communication point)
@@ -604,14 +610,41 @@ class System:
         except FMUError as exc:
             if self._terminated(name):
                 raise ModelInvalid(f"{exc} [fmi2Terminated: the model is not valid beyond "
-                                   "this point; a shorter step cannot help]") from None
+                                   f"this point; {self._moved(name, h)}]") from None
             raise
         self.time[name] = t + h
+        self._stepped_inputs[name] = [self.held[i] for i in self.into[name]]
+
+    def _moved(self, name: str, h: float) -> str:
+        """How far component ``name``'s coupled inputs moved from its previous
+        step to the step that failed (of length h), and what may help."""
+        idx = self.into[name]
+        if not idx:
+            return ("the component has no coupled input: a shorter communication step "
+                    "cannot help")
+        before = self._stepped_inputs.get(name)
+        parts = []
+        for k, i in enumerate(idx):
+            c, now = self.connections[i], self.held[i]
+            unit = self.scene.components[name].interface.variables[c.dst_var].unit
+            unit = f" {unit}" if unit else ""
+            if before is None:
+                parts.append(f"{c.dst_var} = {now:.4g}{unit} (its first step)")
+                continue
+            was = before[k]
+            size = max(abs(now), abs(was))
+            rel = f", {100 * abs(now - was) / size:.3g} % of its size" if size > 0 else ""
+            parts.append(f"{c.dst_var} moved by {now - was:+.4g}{unit} from {was:.4g} to "
+                         f"{now:.4g} since the previous communication point{rel}")
+        return (f"its coupled inputs at the start of this step of {h:.4g} s: "
+                + "; ".join(parts) + ". An input held or extrapolated over a long step can "
+                "overshoot: a shorter communication step or input extrapolation may help")
 
     def get_states(self) -> dict:
         states = {n: self._call(n, "fmi2GetFMUstate", self.time[n], i.fmu.getFMUState)
                   for n, i in self.instances.items()}
         self._saved_time = dict(self.time)
+        self._saved_inputs = dict(self._stepped_inputs)
         return states
 
     def set_states(self, states: dict, held: list[float]) -> None:
@@ -620,6 +653,7 @@ class System:
                        lambda: self.instances[n].fmu.setFMUState(s))
         self.held = list(held)
         self.time = dict(self._saved_time)
+        self._stepped_inputs = dict(self._saved_inputs)
         self.end_fresh = False
 
     def free_states(self, states: dict) -> None:
