@@ -98,6 +98,15 @@ def test_unknown_names_are_refused_with_what_is_allowed():
         s.connect("drive_n_out", "frame.omega")
     with raises(r"drive.spindles is a port and frame.omega is not"):
         s.connect("drive.spindles", "frame.omega")
+    # a port that does not exist (the one-front backrest has warp_front only)
+    with raises(r"connection frame.warp -> back.warp_front_a: back has no port "
+                r"'warp_front_a' \(it does not exist\); allowed: a port of back "
+                r"\(warp_back, warp_front\)"):
+        s.connect("frame.warp", "back.warp_front_a")
+    with raises(r"connection back.warp_front_b -> frame.warp: back has no port "
+                r"'warp_front_b' \(it does not exist\); allowed: a port of back "
+                r"\(warp_back, warp_front\)"):
+        s.connect("back.warp_front_b", "frame.warp")
     with raises(r"both ends are in component 'back'"):
         s.connect("back.S2", "back.warp_pull")
     with raises(r"model = 'loom'; allowed: one of .*two_mass_force"):
@@ -147,7 +156,8 @@ def test_an_fmu_file_is_a_component_without_ports(fmu_dir, tmp_path):
         f.add("c", fmu=tmp_path / "nothing.fmu")
     # the same system as the declared scene: the same trajectory
     res = run(f, step=1e-3, stop=0.05)
-    ref = run(tm.scene(x1_0=0.2, tight=False), step=1e-3, stop=0.05, fmus=fmus)
+    ref = run(tm.scene(x1_0=0.2, tight=False), step=1e-3, stop=0.05, fmus=fmus,
+              master="jacobi", extrapolation=0)
     assert np.allclose(res["a.x1_out"], ref["force.x1_out"], rtol=0, atol=1e-12)
 
 
@@ -238,7 +248,8 @@ def test_the_exported_ssp_keeps_state_starts_and_the_solver_on_libcosim(fmu_dir,
     ssp = export_ssp(s, tmp_path / "tm.ssp", fmus=fmus)
     refs = s.recorded_variables()
     theirs = run_ssp(ssp, refs, step=1e-3, stop=0.05)
-    ours = run(s, fmus=fmus, master_options={"resolve_feedthrough": False})
+    ours = run(s, fmus=fmus, master="jacobi", extrapolation=0,
+               master_options={"resolve_feedthrough": False})
     for c, v in refs:
         a, b = theirs[f"{c}.{v}"], ours[f"{c}.{v}"][1:]
         assert np.abs(a - b).max() <= 1e-9 * np.abs(b).max(), (c, v)
@@ -278,8 +289,8 @@ def test_scene_command(fmu_dir, tmp_path, capsys):
                         "not exist"),
                        (["--csv", str(tmp_path)], "a folder; allowed: a file name"),
                        (["--fmu-dir", str(csv)], "not a folder"),
-                       (["--output-derivatives"], "output_derivatives = True with "
-                        "extrapolation = 0"),
+                       (["--output-derivatives", "--extrapolation", "0"],
+                        "output_derivatives = True with extrapolation = 0"),
                        (["--rtol", "nan", "--adaptive"], "rtol = nan")):
         assert main(["run", "two_mass", "--stop", "0.01"] + argv) == 2
         err = capsys.readouterr().err.strip().splitlines()
@@ -291,7 +302,8 @@ def test_a_step_that_does_not_resolve_the_coupling_is_flagged(fmu_dir, capsys):
     """two_mass at a 0.1 s step (the Jacobi master's stability limit is about
     5.35 ms) ends at F_c ~ 3e13 N: scene run says so on stderr (before: exit
     0 and no word); at 1 ms it prints the step's resolution instead."""
-    assert main(["run", "two_mass", "--step", "0.1", "--fmu-dir", str(fmu_dir)]) == 0
+    assert main(["run", "two_mass", "--step", "0.1", "--master", "jacobi",
+                 "--extrapolation", "0", "--fmu-dir", str(fmu_dir)]) == 0
     out, err = capsys.readouterr()
     warning = [l for l in err.splitlines() if "warning:" in l]
     assert len(warning) == 1 and "do not resolve the coupled signals" in warning[0], err
@@ -308,7 +320,7 @@ def test_a_step_that_does_not_resolve_the_coupling_is_flagged(fmu_dir, capsys):
 @pytest.mark.slow
 def test_run_warns_python_users_of_an_unresolved_coupling(fmu_dir):
     with pytest.warns(UnresolvedCoupling, match="disp.x2_out changes by 1.25 times"):
-        run(tm.scene(), step=0.1, fmu_dir=fmu_dir)
+        run(tm.scene(), step=0.1, fmu_dir=fmu_dir, master="jacobi", extrapolation=0)
     with warnings.catch_warnings():
         warnings.simplefilter("error", UnresolvedCoupling)
         run(tm.scene(), step=0.001, stop=0.2, fmu_dir=fmu_dir)   # no warning
@@ -368,8 +380,72 @@ def test_run_arguments_are_checked(fmu_dir):
     with raises(r"stop = 1e-300 s is shorter than the scene's step 0.001 s"):
         run(s, fmus=fmus, stop=1e-300)
     with raises(r"output_derivatives = True with extrapolation = 0"):
-        run(s, fmus=fmus, stop=0.01, master_options={"output_derivatives": True})
+        run(s, fmus=fmus, stop=0.01, extrapolation=0,
+            master_options={"output_derivatives": True})
     from loomfmu.scene.libcosim import step_ns
     assert step_ns(1e-3) == 1_000_000
     with raises(r"step = 1.15e-09 s is not a whole number of nanoseconds"):
         step_ns(1.5e-10 + 1e-9)
+
+
+def test_a_step_too_small_to_finish_is_refused_before_anything_runs(tmp_path, capsys):
+    """A fixed step of 1e-300 s would take 2e300 communication points: it is
+    refused (ValueError naming step and the allowed range) before any FMU is
+    built, in Python, in a Scene's default and on the command line."""
+    from loomfmu.declare.checks import MAX_POINTS
+    s = tm.scene()
+    with raises(r"step = 1e-300 s gives 2e\+300 communication points up to stop = 2 s; "
+                rf"allowed: a step in \[2e-06, 2\] s \(at most {MAX_POINTS} points\)"):
+        run(s, step=1e-300, fmu_dir=tmp_path)
+    with raises(r"step = 1e-07 s gives 1e\+07 communication points up to stop = 1 s"):
+        run(s, step=1e-7, stop=1.0, fmu_dir=tmp_path)
+    with raises(r"step = 1e-300 s gives 2e\+300 communication points up to stop_time = 2 s"):
+        tm.scene(step=1e-300)
+    assert list(tmp_path.iterdir()) == []      # nothing was built
+    assert main(["run", "two_mass", "--step", "1e-300", "--fmu-dir", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "step = 1e-300 s gives" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_scene_given_by_name_is_refused_with_how_to_load_it():
+    with raises(r"scene = 'two_mass'; allowed: a loomfmu.scene.Scene "
+                r"\(loomfmu.machines.library.load_scene\('two_mass'\) gives a shipped "
+                r"scene by name\)"):
+        run("two_mass")
+    with raises(r"scene = None; allowed: a loomfmu.scene.Scene \(declare one with "
+                r"Scene\(...\)\)"):
+        run(None)
+
+
+@pytest.mark.slow
+def test_a_run_takes_the_scenes_recommended_master_unless_given_one(fmu_dir, capsys):
+    """Each seed scene declares the master, extrapolation and step its page
+    recommends; run() and `scene run` take each the caller does not give."""
+    s = tm.scene()
+    assert (s.master, s.extrapolation, s.step) == ("gauss-seidel", 2, 1e-3)
+    fmus = build_fmus(s, fmu_dir)
+    res = run(s, stop=0.05, fmus=fmus)
+    assert (res.master, res.extrapolation) == ("gauss-seidel", 2)
+    same = run(s, stop=0.05, fmus=fmus, master="gauss-seidel", extrapolation=2)
+    assert np.array_equal(res.data, same.data)
+    # explicit arguments win, each on its own
+    assert run(s, stop=0.05, fmus=fmus, master="jacobi").extrapolation == 2
+    held = run(s, stop=0.05, fmus=fmus, master="jacobi", extrapolation=0)
+    assert (held.master, held.extrapolation) == ("jacobi", 0)
+    assert not np.array_equal(held.data, res.data)
+    # a generic scene recommends the plain Jacobi master holding its inputs
+    assert (Scene("x").master, Scene("x").extrapolation) == ("jacobi", 0)
+    with raises(r"master = 'newton'; allowed: jacobi, gauss-seidel"):
+        Scene("x", master="newton")
+    with raises(r"extrapolation = 3; allowed: one of 0, 1, 2"):
+        Scene("x", extrapolation=3)
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    for name, step in (("two_mass", "0.001"), ("spinning", "0.01"), ("loom", "0.002")):
+        assert (f"recommended: master gauss-seidel, extrapolation 2, step {step} s (the "
+                f"defaults of 'loomfmu scene run {name}')") in out
+    assert main(["run", "two_mass", "--stop", "0.01", "--fmu-dir", str(fmu_dir)]) == 0
+    out = capsys.readouterr().out
+    assert ("scene two_mass, master gauss-seidel, extrapolation 2 (master, extrapolation, "
+            "step: the scene's recommendation): 10 steps accepted") in out

@@ -6,6 +6,7 @@ the first steps, rejected steps and the stability limits)."""
 from __future__ import annotations
 
 import math
+import re
 import zipfile
 
 import numpy as np
@@ -17,7 +18,8 @@ from loomfmu.machines import two_mass as tm
 from loomfmu.scene import Scene, run
 from loomfmu.scene.extrapolation import History, shift, shift_rows, taylor, taylor_many, value
 from loomfmu.scene.fmus import build_fmus
-from loomfmu.scene.system import FMUError
+from loomfmu.scene.interface import AssumedDependencies, outputs_without_dependencies
+from loomfmu.scene.system import FMUError, ModelInvalid
 
 #: these tests run the masters at and past their stability limits on purpose:
 #: run()'s warning that the steps do not resolve the coupling is expected
@@ -187,6 +189,35 @@ def invalid_after() -> Model:
     return m
 
 
+#: the mode test model's state crosses X_MODE at t = 1 - X_MODE
+X_MODE = 0.5
+
+
+def mode_switch() -> Model:
+    """x' = -1 from 1; mode q (an Integer output) 0 while x > X_MODE, 1 below."""
+    m = Model("mode_switch", description="test: a mode that switches at t = 0.5",
+              stop_time=1.0, step_size=1e-2, h_fixed=1e-3)
+    x = m.state("x", 1.0, description="falls at rate 1")
+    m.eq(m.der(x), -1.0 + 0.0 * x)
+    q = m.mode("q", 0, (0, 1), description="0 above x = X_MODE, 1 below")
+    m.event("cross", x - X_MODE, description="x passes X_MODE")
+    m.mode_rule(q, (1 - 2 * q) * (x - X_MODE), events=["cross"])
+    m.output("x_out", x, description="x")
+    return m
+
+
+def taut() -> Model:
+    """z' = u; valid while its input u >= 0 (as a warp's tension must be)."""
+    m = Model("taut", description="test: not valid for an input below zero",
+              stop_time=2.0, step_size=1e-2, h_fixed=1e-3)
+    u = m.input("u", 1.0, description="input, valid when >= 0")
+    z = m.state("z", 0.0, description="integral of the input")
+    m.eq(m.der(z), u)
+    m.require("u_taut", u, "input below zero: the test model is not valid here")
+    m.output("z_out", z, description="integral of the input")
+    return m
+
+
 @pytest.fixture(scope="module")
 def loop_fmus(tmp_path_factory):
     path = tmp_path_factory.mktemp("loop_fmus")
@@ -196,6 +227,8 @@ def loop_fmus(tmp_path_factory):
     s.add("b3", model=loop_b(cubic=True))
     s.add("bs", model=loop_sqrt())
     s.add("inv", model=invalid_after())
+    s.add("sw", model=mode_switch())
+    s.add("taut", model=taut())
     return build_fmus(s, path)
 
 
@@ -237,6 +270,149 @@ def test_an_algebraic_loop_is_solved_at_each_communication_point(loop_fmus, mast
             assert res["b.u"][n + 1] == pytest.approx(float(np.exp(-t[n + 1])) + G * ua,
                                                       abs=1e-7)
     assert res.loop_iterations > 0
+
+
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_an_integer_output_a_mode_is_recorded_as_a_number(loop_fmus, master):
+    s = Scene("modes", stop_time=1.0, step=0.15)   # no point at the switch itself
+    s.add("sw", fmu=loop_fmus["sw"])
+    s.record("sw.q", "sw.x_out")
+    res = run(s, master=master, fmus={"sw": loop_fmus["sw"]})
+    t = res["time"]
+    assert np.allclose(res["sw.x_out"], 1.0 - t, atol=1e-9)
+    assert list(res["sw.q"]) == [0.0 if x > X_MODE else 1.0 for x in 1.0 - t]
+    assert res["sw.q"][0] == 0.0 and res["sw.q"][-1] == 1.0
+    # by default every output is recorded, the mode too
+    s.recorded.clear()
+    res = run(s, master=master, fmus={"sw": loop_fmus["sw"]})
+    assert {"sw.q", "sw.x_out"} <= set(res.data.dtype.names)
+    with raises(r"record 'sw.nope': no such variable; allowed: a Real, Integer, Boolean or "
+                r"enumeration variable of sw \(.*q.*\)"):
+        s.record("sw.nope")
+
+
+@pytest.mark.parametrize("method", ["newton", "fixed-point"])
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_a_loop_without_a_solution_stops_the_run_naming_it(loop_fmus, master, method):
+    """y_a = x + 2 u_a, y_b = 0.6 + 0.5 u_b: loop gain exactly 1, u_a = 0.6 + 0.5 x
+    + u_a has no solution.  The run stops at the first communication point
+    (t = 0) naming the loop and its residual; the iterate's own size does not
+    loosen the convergence test."""
+    s, fmus = loop_scene(loop_fmus)
+    s.set("a", parameters={"g": 2.0})
+    s.set("b", parameters={"k": -0.5, "c": 0.6})
+    loop = r"algebraic loop \(a.y -> b.u; b.y -> a.u\)"
+    if method == "newton":
+        match = (loop + r": singular Jacobian I - dG/du at t = 0 s \(condition number "
+                 r"[0-9.e+]+, above 1e\+08; largest \|G\(u\) - u\| = [0-9.e+-]+\): the loop "
+                 r"equations have no unique solution")
+    else:
+        match = (loop + r" did not converge at t = 0 s after 50 fixed-point iterations: "
+                 r"largest \|G\(u\) - u\| = [0-9.e+-]+ \(tolerance loop_atol = 1e-12 \+ "
+                 r"loop_rtol = 1e-10 \* s, s = [0-9.e+-]+: \|u\| and \|G\(u\)\| before")
+    with pytest.raises(FMUError, match=match):
+        run(s, master=master, fmus=fmus, loop_options={"loop_method": method})
+
+
+def test_a_diverging_loop_iterate_is_stopped(loop_fmus):
+    """Plain fixed point (w = 1) on the loop of gain 3 grows by sqrt(3) per
+    iteration: stopped once |u| is a million times its scale."""
+    s, fmus = loop_scene(loop_fmus)
+    with pytest.raises(FMUError, match=r"algebraic loop \(a.y -> b.u; b.y -> a.u\) "
+                       r"diverges at t = 0 s: after \d+ fixed-point iterations \|u\| = "
+                       r"[0-9.e+]+ \(more than 1e\+06 times its scale"):
+        run(s, fmus=fmus, loop_options={"loop_method": "fixed-point", "relaxation": 1.0})
+
+
+def without_dependencies(fmu, out) -> str:
+    """A copy of the FMU ``fmu`` at ``out`` whose model description lists
+    its outputs without the dependencies attribute (valid FMI 2.0: such an
+    output depends on every input)."""
+    with zipfile.ZipFile(fmu) as z:
+        files = {n: z.read(n) for n in z.namelist()}
+    xml = files["modelDescription.xml"].decode()
+    head, rest = xml.split("<Outputs>", 1)
+    outputs, tail = rest.split("</Outputs>", 1)
+    outputs = re.sub(r' dependencies(Kind)?="[^"]*"', "", outputs)
+    assert "dependencies" not in outputs
+    files["modelDescription.xml"] = (head + "<Outputs>" + outputs + "</Outputs>" + tail).encode()
+    with zipfile.ZipFile(out, "w") as z:
+        for n, data in files.items():
+            z.writestr(n, data)
+    return str(out)
+
+
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_an_output_without_dependencies_depends_on_every_input(loop_fmus, master,
+                                                                tmp_path):
+    """FMI 2.0 and 3.0: an output whose ModelStructure entry has no
+    dependencies depends on all inputs.  The loop a.y -> b.u -> b.y -> a.u is
+    found and solved as with the dependencies declared, and the assumption
+    is said once per component."""
+    fmus = {n: without_dependencies(loop_fmus[n], tmp_path / f"{n}.fmu") for n in "ab"}
+    s = Scene("loop", stop_time=0.5, step=0.05)
+    for name in "ab":
+        with pytest.warns(AssumedDependencies, match=rf"component {name} \(FMU .*\): "
+                          r"outputs y declare no dependencies in the model description; "
+                          r"taken to depend directly on every input"):
+            s.add(name, fmu=fmus[name])
+        assert s.components[name].interface.feedthrough["y"] == ("u",)
+    s.connect("a.y", "b.u")
+    s.connect("b.y", "a.u")
+    s.record("a.x", "a.u", "b.u")
+    assert [str(c) for c in s.loops()[0]] == ["a.y -> b.u", "b.y -> a.u"]
+    res = run(s, master=master, fmus=fmus)
+    t = res["time"]
+    for n in range(len(t) - 1):
+        ua, _ = solution(float(np.exp(-t[n])), False)
+        assert res["a.u"][n + 1] == pytest.approx(ua, abs=1e-9)
+    assert res.loop_iterations > 0
+
+
+def test_empty_dependencies_state_no_feedthrough_and_a_missing_attribute_all():
+    xml = ('<fmiModelDescription fmiVersion="2.0"><ModelVariables>'
+           '<ScalarVariable name="u" causality="input"/>'
+           '<ScalarVariable name="y1" causality="output"/>'
+           '<ScalarVariable name="y2" causality="output"/>'
+           '<ScalarVariable name="y3" causality="output"/></ModelVariables>'
+           '<ModelStructure><Outputs><Unknown index="2" dependencies=""/>'
+           '<Unknown index="3"/></Outputs></ModelStructure></fmiModelDescription>')
+    assert outputs_without_dependencies(xml) == {"y2", "y3"}
+    xml3 = ('<fmiModelDescription fmiVersion="3.0"><ModelVariables>'
+            '<Float64 name="u" valueReference="1" causality="input"/>'
+            '<Float64 name="y1" valueReference="2" causality="output"/>'
+            '<Float64 name="y2" valueReference="3" causality="output"/></ModelVariables>'
+            '<ModelStructure><Output valueReference="2" dependencies="1"/>'
+            '<Output valueReference="3"/></ModelStructure></fmiModelDescription>')
+    assert outputs_without_dependencies(xml3) == {"y2"}
+
+
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_a_validity_failure_says_how_far_the_coupled_input_moved(loop_fmus, master):
+    """x = 1 - t drives the taut model's input, valid while >= 0: at a step of
+    0.3 s the input held from t = 1.2 (Gauss-Seidel: 0.9) is -0.2, 0.3 below the
+    0.1 of the step before.  The message says so and that a shorter step or extrapolation may
+    help; a component without coupled inputs is told a shorter step cannot."""
+    s = Scene("taut", stop_time=1.5, step=0.3)
+    s.add("sw", fmu=loop_fmus["sw"])
+    s.add("taut", fmu=loop_fmus["taut"])
+    s.connect("sw.x_out", "taut.u")
+    fmus = {"sw": loop_fmus["sw"], "taut": loop_fmus["taut"]}
+    # Gauss-Seidel: taut steps after sw and reads x at the step's end, 0.3 s earlier
+    at = "1.2" if master == "jacobi" else "0.9"
+    with pytest.raises(ModelInvalid, match=rf"taut: fmi2DoStep .* failed at t = {at} s.*"
+                       r"input below zero.*\[fmi2Terminated: the model is not valid beyond "
+                       r"this point; its coupled inputs at the start of this step of 0.3 s: u "
+                       r"moved by -0.3 from 0.1 to -0.2 since the previous communication "
+                       r"point, 150 % of its size. An input held or extrapolated over a long "
+                       r"step can overshoot: a shorter communication step or input "
+                       r"extrapolation may help\]"):
+        run(s, master=master, fmus=fmus)
+    s = Scene("invalid", stop_time=1.0, step=0.1)
+    s.add("inv", fmu=loop_fmus["inv"])
+    with pytest.raises(ModelInvalid, match=r"the component has no coupled input: a shorter "
+                       r"communication step cannot help"):
+        run(s, master=master, fmus={"inv": loop_fmus["inv"]})
 
 
 def test_a_loop_that_does_not_converge_is_named(loop_fmus):
@@ -546,10 +722,12 @@ def test_scene_command_takes_the_extrapolation_and_the_order(bench, capsys):
     assert main(["run", "two_mass", "--master", "gauss-seidel", "--extrapolation", "2",
                  "--order", "disp,force", "--stop", "0.01", "--fmu-dir", fmu_dir]) == 0
     out = capsys.readouterr().out
-    assert "master gauss-seidel, extrapolation 2: 10 steps accepted" in out
-    assert main(["run", "two_mass", "--order", "disp,force", "--stop", "0.01"]) == 2
-    assert "--order disp,force: applies to --master gauss-seidel only" in \
-        capsys.readouterr().err
+    assert ("master gauss-seidel, extrapolation 2 (step: the scene's recommendation): "
+            "10 steps accepted") in out
+    assert main(["run", "two_mass", "--master", "jacobi", "--order", "disp,force",
+                 "--stop", "0.01"]) == 2
+    assert "--order disp,force: applies to --master gauss-seidel only (the master is " \
+        "jacobi)" in capsys.readouterr().err
 
 
 def test_output_derivatives_that_fail_fall_back_to_the_samples(bench, tmp_path):

@@ -96,7 +96,7 @@ def test_the_spindle_started_by_the_helper_stays_periodic_at_constant_speed(fmu_
 @pytest.mark.parametrize("tension", loom_scene.TENSIONS)
 def test_loom_runs_frames_in_opposition_and_the_warp_stays_taut(fmu_dir, tension):
     s = loom_scene.scene(tension=tension, stop_time=0.3, step=1e-3)
-    res = run(s, master="gauss-seidel", fmu_dir=fmu_dir)
+    res = run(s, master="gauss-seidel", extrapolation=0, fmu_dir=fmu_dir)
     d = res.data
     assert res.accepted == 300
     assert np.abs(d["frame_a.h"] + d["frame_b.h"]).max() < 1e-9      # opposition
@@ -132,7 +132,7 @@ def test_the_exported_ssp_runs_on_libcosim_and_agrees_with_our_master(fmu_dir, t
     ssp = export_ssp(s, tmp_path / f"{name}.ssp", fmus=fmus)
     refs = s.recorded_variables()
     theirs = run_ssp(ssp, refs, step=h, stop=stop)
-    ours = run(s, master="jacobi", fmus=fmus,
+    ours = run(s, master="jacobi", extrapolation=0, fmus=fmus,
                master_options={"resolve_feedthrough": False}).data
     assert np.allclose(theirs["time"], ours["time"][1:], rtol=0, atol=1e-12)
     worst = max(float(np.abs(theirs[f"{c}.{v}"] - ours[f"{c}.{v}"][1:]).max()
@@ -141,10 +141,12 @@ def test_the_exported_ssp_runs_on_libcosim_and_agrees_with_our_master(fmu_dir, t
 
 
 def test_scene_command_runs_and_exports_the_loom(fmu_dir, tmp_path, capsys):
-    assert main(["run", "loom", "--stop", "0.02", "--fmu-dir", str(fmu_dir),
-                 "--master", "gauss-seidel"]) == 0
+    assert main(["run", "loom", "--stop", "0.02", "--fmu-dir", str(fmu_dir)]) == 0
     out = capsys.readouterr().out
-    assert re.search(r"scene loom, master gauss-seidel\b.*: 20 steps accepted", out), out
+    # the scene's recommendation: Gauss-Seidel, extrapolation 2, H = 2 ms
+    assert re.search(r"scene loom, master gauss-seidel, extrapolation 2 \(master, "
+                     r"extrapolation, step: the scene's recommendation\): 10 steps accepted",
+                     out), out
     assert "back.S2a = " in out
     target = tmp_path / "loom.ssp"
     assert main(["export", "loom", "--out", str(target), "--fmu-dir", str(fmu_dir)]) == 0

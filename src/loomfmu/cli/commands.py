@@ -11,6 +11,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
+from loomfmu.declare.checks import MAX_POINTS
 from loomfmu.fidelity import LEVELS
 from loomfmu.progress import Progress
 from loomfmu.registry import FIDELITY, MODELS, load_model
@@ -220,10 +221,6 @@ def cmd_build(args) -> int:
 
 
 # ---------------------------------------------------------------- simulate
-#: most communication points a simulate run records (more: choose --step)
-MAX_POINTS = 1_000_000
-
-
 def _fmu_description(path: Path, hint: str = ""):
     """The model description of the FMU file ``path``; a UsageError naming
     the file where it is missing, not a zip or has no readable

@@ -28,8 +28,9 @@ def _parser(prog: str) -> argparse.ArgumentParser:
     sub.add_parser("list", help="the scenes, their components and connections")
     r = sub.add_parser("run", help="run a scene on our master; print the final values")
     r.add_argument("scene", help=f"one of {', '.join(sorted(SCENES))}")
-    r.add_argument("--master", choices=sorted(MASTERS), default="jacobi",
-                   help="master algorithm (default: jacobi)")
+    r.add_argument("--master", choices=sorted(MASTERS), default=None,
+                   help="master algorithm (default: the scene's recommended one, see "
+                        "'loomfmu scene list')")
     r.add_argument("--step", type=float, default=None,
                    help="communication step in s (> 0; default: the scene's); with "
                         "--adaptive the first step")
@@ -37,10 +38,10 @@ def _parser(prog: str) -> argparse.ArgumentParser:
                    help="control the step by the coupling error estimate (--rtol)")
     r.add_argument("--rtol", type=float, default=1e-3,
                    help="tolerance of the adaptive step (0 < rtol < 1; default 1e-3)")
-    r.add_argument("--extrapolation", type=int, choices=(0, 1, 2), default=0,
+    r.add_argument("--extrapolation", type=int, choices=(0, 1, 2), default=None,
                    help="order of the input extrapolation (0: hold; 1, 2: polynomial "
                         "through the last 2-3 values, for FMUs that interpolate inputs; "
-                        "default 0)")
+                        "default: the scene's recommended order)")
     r.add_argument("--output-derivatives", action="store_true",
                    help="with --extrapolation 1: take the slope from the sources' "
                         "output derivatives instead of their last values")
@@ -66,6 +67,8 @@ def _list() -> int:
     for name, (factory, text) in sorted(SCENES.items()):
         s = factory()
         print(f"{name}: {text}")
+        print(f"  recommended: master {s.master}, extrapolation {s.extrapolation}, step "
+              f"{s.step:g} s (the defaults of 'loomfmu scene run {name}')")
         for c in s.components.values():
             print(f"  component {c.name}: {c.source}")
         for c in s.connections:
@@ -97,25 +100,31 @@ def _run(args, prog: str) -> int:
         raise ValueError(f"--fmu-dir {args.fmu_dir}: not a folder; allowed: a folder (made "
                          "if missing)")
     s = load_scene(args.scene)
+    master = s.master if args.master is None else args.master
+    extrapolation = s.extrapolation if args.extrapolation is None else args.extrapolation
     opts = {}
     if args.order is not None:
-        if args.master != "gauss-seidel":
-            raise ValueError(f"--order {args.order}: applies to --master gauss-seidel only")
+        if master != "gauss-seidel":
+            raise ValueError(f"--order {args.order}: applies to --master gauss-seidel only "
+                             f"(the master is {master})")
         opts["order"] = [x.strip() for x in args.order.split(",")]
     if args.output_derivatives:
         opts["output_derivatives"] = True
     try:
         with warnings.catch_warnings():   # said below, as a line of the command
             warnings.simplefilter("ignore", UnresolvedCoupling)
-            res = run(s, master=args.master, step=args.step, stop=args.stop,
+            res = run(s, master=master, step=args.step, stop=args.stop,
                       adaptive=args.adaptive, rtol=args.rtol, fmu_dir=args.fmu_dir,
-                      progress=True, extrapolation=args.extrapolation, master_options=opts)
+                      progress=True, extrapolation=extrapolation, master_options=opts)
     except (FMUError, RuntimeError) as exc:
         one_line = " ".join(str(exc).split())
         print(f"{prog}: run failed: {one_line}", file=sys.stderr)
         return 1
     last = res.data[-1]
-    print(f"scene {s.name}, master {res.master}, extrapolation {args.extrapolation}: "
+    chosen = [w for w, a in (("master", args.master), ("extrapolation", args.extrapolation),
+                             ("step", args.step)) if a is None]
+    print(f"scene {s.name}, master {res.master}, extrapolation {res.extrapolation}"
+          + (f" ({', '.join(chosen)}: the scene's recommendation)" if chosen else "") + ": "
           f"{res.accepted} steps accepted, {res.rejected} rejected, t = {last['time']:.6g} s"
           + (f", {res.loop_iterations} loop iterations" if res.loop_iterations else ""))
     for name in res.data.dtype.names[1:]:

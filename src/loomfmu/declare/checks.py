@@ -23,6 +23,10 @@ import numpy as np
 #: how many allowed names a message lists before it abbreviates
 _LIST_NAMES = 12
 
+#: most communication points one run records (a simulation, a scene, a
+#: study's case): more would hold the memory of a run that cannot finish
+MAX_POINTS = 1_000_000
+
 
 def _interval(lo: float, hi: float, lo_open: bool, hi_open: bool) -> str:
     if lo == -math.inf and hi == math.inf:

@@ -407,7 +407,7 @@ def evaluate(scene: str, outputs, *, stop_time: float | None = None,
             cpu = math.inf
             for _ in range(repeats):
                 t0 = time.process_time()
-                res = run(s, fmus=fmus, stop=stop, step=step, master=master)
+                res = run(s, fmus=fmus, stop=stop, step=step, master=master, extrapolation=0)
                 cpu = min(cpu, time.process_time() - t0)
             data = {o: (np.zeros(len(res.data)) if o in absent else np.asarray(res[o]))
                     for o in outputs}

@@ -38,6 +38,12 @@ def start_speed(cam: str = "compensated") -> float:
     return float(declare_model("drive", {"cam": cam}).var("n").start)
 
 
+#: the master the scene recommends (docs/guides/scene_spinning.md, verdict): the
+#: drive's speed is smooth and the spindle, stepping after the drive,
+#: interpolates its newest value; 1e-3 of the vibration's phase at H = 0.1 s
+RECOMMENDED = {"master": "gauss-seidel", "extrapolation": 2}
+
+
 def scene(*, cam: str = "compensated", fidelity: str = "spindle",
           stop_time: float = LAYER_CYCLE, step: float = 1e-2,
           drive_parameters: dict | None = None, n_const: float | None = None,
@@ -49,7 +55,8 @@ def scene(*, cam: str = "compensated", fidelity: str = "spindle",
     law; "none": constant speed n_min); fidelity: the spindle model, one of
     FIDELITIES; stop_time, step (s): the defaults of a run (10 ms: the
     amplitudes and forces are within 0.4 % with any master; the vibration's
-    phase needs extrapolation order 2, docs/guides/scene_spinning.md);
+    phase needs extrapolation order 2, docs/guides/scene_spinning.md), run
+    by default on the RECOMMENDED master;
     drive_parameters: parameter values of the drive FMU; n_const: a constant
     drive speed (rpm, 1000 ... 40000) instead of the cam's law (the cam
     switched off, cam_on = 0, and n_min = n_const); spindle_options: build
@@ -66,7 +73,7 @@ def scene(*, cam: str = "compensated", fidelity: str = "spindle",
         n0 = start_speed(cam)
     s = Scene("spinning", description="spinning position: the drive with its layer cam "
               f"({cam}) feeding the spindle rotor ({fidelity})", stop_time=stop_time,
-              step=step)
+              step=step, **RECOMMENDED)
     s.add("drive", model="drive", options={"cam": cam}, parameters=params)
     options = dict(spindle_options or {})
     s.add("spindle", model=fidelity, options=options,

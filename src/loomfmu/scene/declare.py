@@ -19,13 +19,24 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from loomfmu.declare.checks import check_mapping, check_number, is_real
-from loomfmu.scene.interface import Interface, conversion, interface_of_fmu, interface_of_model
+from loomfmu.declare.checks import MAX_POINTS, check_mapping, check_number, is_real
+from loomfmu.scene.interface import (
+    AssumedDependencies,
+    Interface,
+    conversion,
+    interface_of_fmu,
+    interface_of_model,
+)
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+#: the masters' names (loomfmu.scene.master.MASTERS: its keys, in this order)
+MASTER_NAMES = ("jacobi", "gauss-seidel")
+#: FMI types a run records (as numbers; a Boolean is 0 or 1)
+RECORDABLE = ("Real", "Integer", "Enumeration", "Boolean")
 
 def model_names() -> list[str]:
     from loomfmu.registry import MODELS
@@ -105,17 +116,31 @@ def _names(items) -> str:
 
 
 class Scene:
-    """A co-simulation scene.  name: an identifier; stop_time and step (s):
-    the defaults of a run."""
+    """A co-simulation scene.  name: an identifier; stop_time and step (s),
+    master (a name of loomfmu.scene.MASTERS) and extrapolation (the input
+    extrapolation's order, 0, 1 or 2): the defaults of a run, the scene's
+    recommended settings (a run takes each that its caller does not give)."""
 
     def __init__(self, name: str, *, description: str = "", stop_time: float = 1.0,
-                 step: float = 1e-3):
+                 step: float = 1e-3, master: str = "jacobi", extrapolation: int = 0):
+        from loomfmu.scene.extrapolation import ORDERS
         if not isinstance(name, str) or not _NAME.match(name):
             raise ValueError(f"name = {name!r:.60}; allowed: an identifier")
+        if master not in MASTER_NAMES:
+            raise ValueError(f"master = {master!r:.40}; allowed: {', '.join(MASTER_NAMES)}")
+        if extrapolation not in ORDERS or isinstance(extrapolation, bool):
+            raise ValueError(f"extrapolation = {extrapolation!r:.40}; allowed: one of "
+                             f"{', '.join(map(str, ORDERS))}")
+        self.master, self.extrapolation = master, int(extrapolation)
         self.name, self.description = name, str(description)
         self.stop_time = check_number("stop_time", stop_time, lo=0.0, lo_open=True, unit="s")
         self.step = check_number("step", step, lo=0.0, lo_open=True, hi=self.stop_time,
                                  unit="s")
+        if self.stop_time / self.step > MAX_POINTS:
+            raise ValueError(f"step = {step!r} s gives {self.stop_time / self.step:.3g} "
+                             f"communication points up to stop_time = {self.stop_time:g} s;"
+                             f" allowed: a step in [{self.stop_time / MAX_POINTS:.3g}, "
+                             f"{self.stop_time:g}] s (at most {MAX_POINTS} points)")
         self.components: dict[str, Component] = {}
         self.connections: list[Connection] = []
         self.recorded: list[tuple[str, str]] = []
@@ -143,6 +168,11 @@ class Scene:
             if options:
                 raise ValueError(f"component {name!r}: options apply to model=, not fmu=")
             comp = Component(name, interface_of_fmu(fmu), fmu=Path(fmu))
+            if comp.interface.assumed:
+                warnings.warn(f"component {name} ({comp.source}): outputs "
+                              f"{', '.join(comp.interface.assumed)} declare no dependencies "
+                              "in the model description; taken to depend directly on every "
+                              "input (FMI 2.0, 3.0)", AssumedDependencies, stacklevel=2)
         else:
             from loomfmu.declare.model import Model
             decl = declare_model(model, options)
@@ -225,6 +255,11 @@ class Scene:
         pa, pb = ca_.interface.ports.get(ra), cb_.interface.ports.get(rb)
         if (pa is None) != (pb is None):
             port_end, other = (a, b) if pa is not None else (b, a)
+            comp, ref = (cb_, rb) if pa is not None else (ca_, ra)
+            if ref not in comp.interface.variables:
+                raise ValueError(f"{label}: {comp.name} has no port {ref!r} (it does not "
+                                 f"exist); allowed: a port of {comp.name} "
+                                 f"({_names(comp.interface.ports)})")
             raise ValueError(f"{label}: {port_end} is a port and {other} is not; allowed: "
                              "port to port, or variable to variable")
         if pa is not None:
@@ -312,16 +347,18 @@ class Scene:
     # -- outputs -------------------------------------------------------------
     def record(self, *refs: str) -> None:
         """Record these variables ("component.variable") in the results
-        (default: every output of every component)."""
+        (default: every output of every component): Real, Integer (a mode),
+        Boolean or enumeration variables, each given as a number."""
         for ref in refs:
             comp, var = self._split(ref, "record")
             v = comp.interface.variables.get(var)
-            if v is None or v.type != "Real":
-                reals = [n for n, x in comp.interface.variables.items() if x.type == "Real"
-                         and x.causality in ("output", "local", "input")]
+            if v is None or v.type not in RECORDABLE:
+                able = [n for n, x in comp.interface.variables.items()
+                        if x.type in RECORDABLE and x.causality in ("output", "local", "input")]
                 raise ValueError(f"record {ref!r}: " + ("no such variable" if v is None else
-                                 f"{_a(v.type)} variable") + f"; allowed: a Real variable of "
-                                 f"{comp.name} ({_names(reals)})")
+                                 f"{_a(v.type)} variable") + f"; allowed: a Real, Integer, "
+                                 f"Boolean or enumeration variable of {comp.name} "
+                                 f"({_names(able)})")
             if (comp.name, var) not in self.recorded:
                 self.recorded.append((comp.name, var))
 
@@ -330,7 +367,7 @@ class Scene:
             return list(self.recorded)
         return [(c.name, n) for c in self.components.values()
                 for n, v in c.interface.variables.items()
-                if v.causality == "output" and v.type == "Real"]
+                if v.causality == "output" and v.type in RECORDABLE]
 
 
 def _depends(c: Connection, drives: dict, components: dict) -> list[Connection]:

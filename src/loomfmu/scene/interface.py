@@ -1,7 +1,9 @@
 """What a scene knows of a component: its FMU interface, read from a
 ``modelDescription.xml`` (variables with causality, unit and value
 reference; units as SI base-unit exponents with factor and offset; which
-outputs depend directly on which inputs), plus its ports.
+outputs depend directly on which inputs: an output whose description
+states no dependencies depends on every input, as FMI 2.0 and 3.0 say),
+plus its ports.
 
 A registered model's interface comes from the model description its
 declaration generates (no compiler run); an FMU's from the file.  Ports are
@@ -13,6 +15,8 @@ from __future__ import annotations
 import math
 import os
 import tempfile
+import xml.etree.ElementTree as ET
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -71,6 +75,9 @@ class Interface:
     feedthrough: dict[str, tuple[str, ...]]   # output -> inputs it depends on directly
     ports: dict[str, PortInfo] = field(default_factory=dict)
     can_get_set_state: bool = False
+    #: outputs whose model description states no dependencies: taken to
+    #: depend directly on every input, as FMI 2.0 and 3.0 say
+    assumed: tuple[str, ...] = ()
 
     def unit(self, name: str) -> UnitInfo | None:
         """The unit ``name``: from the model description, else loomfmu's table,
@@ -104,8 +111,38 @@ def conversion(src: UnitInfo | None, dst: UnitInfo | None, src_name: str,
     return gain, bias
 
 
-def interface_from_description(md, ports: dict[str, PortInfo] | None = None) -> Interface:
-    """An :class:`Interface` from an fmpy ``ModelDescription``."""
+class AssumedDependencies(UserWarning):
+    """An FMU's output states no dependencies in its model description: it is
+    taken to depend directly on every input (FMI 2.0 and 3.0), which may
+    close algebraic loops that the master then iterates."""
+
+
+def outputs_without_dependencies(xml: str | bytes) -> set[str]:
+    """The outputs of a model description (its text) whose ModelStructure
+    entry has no ``dependencies`` attribute, or that have no entry: by FMI
+    2.0 and 3.0 such an output depends on every input (and known).  An
+    empty ``dependencies=""`` states that it depends on none."""
+    root = ET.fromstring(xml)
+    if root.get("fmiVersion", "").startswith("3"):
+        mv = root.find("ModelVariables")
+        names = {el.get("valueReference"): el.get("name") for el in
+                 (list(mv) if mv is not None else []) if el.get("causality") == "output"}
+        listed = {el.get("valueReference"): el for el in root.findall("ModelStructure/Output")}
+        return {n for vr, n in names.items()
+                if vr not in listed or "dependencies" not in listed[vr].attrib}
+    svs = root.findall("ModelVariables/ScalarVariable")
+    outputs = {k + 1: v.get("name") for k, v in enumerate(svs)
+               if v.get("causality") == "output"}
+    listed = {int(el.get("index", 0)): el for el in root.findall("ModelStructure/Outputs/Unknown")}
+    return {n for k, n in outputs.items()
+            if k not in listed or "dependencies" not in listed[k].attrib}
+
+
+def interface_from_description(md, ports: dict[str, PortInfo] | None = None, *,
+                               undeclared=()) -> Interface:
+    """An :class:`Interface` from an fmpy ``ModelDescription``; ``undeclared``:
+    the outputs whose dependencies the description does not state (they
+    depend on every input: :func:`outputs_without_dependencies`)."""
     variables = {}
     for v in md.modelVariables:
         unit = v.unit or (v.declaredType.unit if v.declaredType is not None and
@@ -123,12 +160,16 @@ def interface_from_description(md, ports: dict[str, PortInfo] | None = None) -> 
     feed = {o.variable.name: tuple(d.name for d in (o.dependencies or ())
                                    if d.causality == "input")
             for o in md.outputs}
+    inputs = tuple(n for n, v in variables.items() if v.causality == "input")
+    assumed = tuple(sorted(n for n in undeclared if n in variables))
+    for name in assumed:
+        feed[name] = inputs
     cs = md.coSimulation
     if cs is None:
         raise ValueError(f"model {md.modelName!r} has no CoSimulation interface; "
                          "allowed: an FMI 2.0 co-simulation FMU")
     return Interface(md.modelName, md.guid, variables, units, feed, dict(ports or {}),
-                     bool(cs.canGetAndSetFMUstate))
+                     bool(cs.canGetAndSetFMUstate), assumed)
 
 
 def _bound(text, default: float) -> float:
@@ -145,9 +186,11 @@ def interface_of_fmu(path: str | os.PathLike) -> Interface:
         raise ValueError(f"fmu = {str(path)!r}: no such file; allowed: a path to an .fmu")
     try:
         md = read_model_description(str(path))
+        with zipfile.ZipFile(path) as z:
+            undeclared = outputs_without_dependencies(z.read("modelDescription.xml"))
     except Exception as exc:  # not a zip, no modelDescription.xml, invalid XML
         raise ValueError(f"fmu = {str(path)!r}: not a readable FMU ({exc})") from None
-    return interface_from_description(md)
+    return interface_from_description(md, undeclared=undeclared)
 
 
 def interface_of_model(model) -> Interface:
@@ -163,7 +206,7 @@ def interface_of_model(model) -> Interface:
         md = read_model_description(str(f))
     ports = {p.name: PortInfo(p.name, p.kind, dict(p.variables), p.description)
              for p in model.ports}
-    return interface_from_description(md, ports)
+    return interface_from_description(md, ports, undeclared=outputs_without_dependencies(xml))
 
 
 def is_finite_number(value) -> bool:

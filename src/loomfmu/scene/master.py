@@ -24,13 +24,16 @@ step with error > 1 is rejected when the master is ``adaptive``: every FMU
 goes back to the step's start through fmi2SetFMUstate and the step is redone
 shorter.  A step an FMU discards with fmi2Terminated true (a validity
 condition failed: the model is not valid beyond) is not redone: the run
-stops at once with the FMU's message (ModelInvalid).
+stops at once with the FMU's message and how far the component's coupled
+inputs moved within the step (ModelInvalid; a shorter step or
+extrapolation may keep it valid where a held input overshot).
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
 
+from loomfmu.scene.declare import MASTER_NAMES
 from loomfmu.scene.extrapolation import ORDERS, History, shift, shift_rows, taylor_many, value
 from loomfmu.scene.system import FMUError, ModelInvalid, System
 
@@ -219,7 +222,7 @@ class Master:
             self._advance(t, h)
             error = self._error(t + h)
             message = ""
-        except ModelInvalid:     # no shorter step helps: stop with the FMU's message
+        except ModelInvalid:     # not redone: stop with the FMU's message
             if saved is not None:
                 system.free_states(saved)
             raise
@@ -340,6 +343,7 @@ class GaussSeidel(Master):
 
 #: master name -> class
 MASTERS = {"jacobi": Jacobi, "gauss-seidel": GaussSeidel}
+assert tuple(MASTERS) == MASTER_NAMES   # a scene checks its master by these names
 
 
 def make_master(name: str, system: System, **kw) -> Master:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from loomfmu.declare.checks import check_number
+from loomfmu.declare.checks import MAX_POINTS, check_number
 from loomfmu.progress import Progress
 from loomfmu.scene.declare import Scene
 from loomfmu.scene.fmus import build_fmus, check_fmus
@@ -59,6 +59,8 @@ class Result:
     coupled: list[str] = field(default_factory=list)
     #: absolute floor of a signal's size in largest_step_change (run's atol)
     atol: float = 1e-6
+    #: the order of the input extrapolation the run used
+    extrapolation: int = 0
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.data[name]
@@ -99,26 +101,34 @@ class Result:
         return path
 
 
-def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
+def run(scene: Scene, *, master: str | None = None, step: float | None = None,
         stop: float | None = None, adaptive: bool = False, rtol: float = 1e-3,
         atol: float = 1e-6, h_min: float = 1e-9, h_max: float | None = None,
         fmu_dir=None, fmus: dict | None = None, progress: bool = False,
-        master_options: dict | None = None, extrapolation: int = 0,
+        master_options: dict | None = None, extrapolation: int | None = None,
         loop_options: dict | None = None) -> Result:
     """Run ``scene`` from 0 to ``stop`` (default the scene's stop_time).
 
-    master: "jacobi" or "gauss-seidel"; step: the communication step (s;
-    default the scene's), the first step when ``adaptive``; adaptive: control
+    master: "jacobi" or "gauss-seidel" (default the scene's recommendation,
+    Scene.master); step: the communication step (s; default the scene's),
+    the first step when ``adaptive``; adaptive: control
     the step by the coupling error estimate (rtol, atol; h_min <= h <= h_max,
     default the larger of stop / 10 and step); fmu_dir: folder
     the models are built into (default a temporary folder); fmus: component ->
     FMU path, to skip the build; progress: show progress on stderr;
-    extrapolation: order of the input extrapolation (0, 1, 2; above 0 every
-    FMU that receives an input must declare canInterpolateInputs);
+    extrapolation: order of the input extrapolation (0, 1, 2; default the
+    scene's recommendation, Scene.extrapolation; above 0 every FMU that
+    receives an input must declare canInterpolateInputs);
     master_options: more options of the master (e.g. Gauss-Seidel's order);
     loop_options: options of the algebraic-loop solver (loop_method "newton"
     or "fixed-point", loop_rtol, loop_atol, loop_max_iter, relaxation).
     """
+    if not isinstance(scene, Scene):
+        hint = (f"loomfmu.machines.library.load_scene({scene!r}) gives a shipped scene "
+                "by name" if isinstance(scene, str) else "declare one with Scene(...)")
+        raise ValueError(f"scene = {scene!r:.60}; allowed: a loomfmu.scene.Scene ({hint})")
+    master = scene.master if master is None else master
+    extrapolation = scene.extrapolation if extrapolation is None else extrapolation
     stop = check_number("stop", scene.stop_time if stop is None else stop, lo=0.0,
                         lo_open=True, unit="s")
     if step is None and scene.step > stop:
@@ -126,6 +136,8 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
                          f"s; allowed: stop >= {scene.step!r} s, or a step <= stop")
     step = check_number("step", scene.step if step is None else step, lo=0.0, lo_open=True,
                         hi=stop, unit="s")
+    if not adaptive:
+        check_points(step, stop)
     if adaptive:
         h_min = check_number("h_min", h_min, lo=0.0, lo_open=True, hi=step, unit="s")
         h_max = check_number("h_max", max(stop / 10, step) if h_max is None else h_max,
@@ -159,6 +171,11 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
             times, rows, hs = [0.0], [system.get(refs)], []
             t, h, k, shown = 0.0, step, 0, 0
             while t < stop * (1 - 1e-12):
+                if m.n_accepted + m.n_rejected >= MAX_POINTS:
+                    raise RuntimeError(f"scene {scene.name}: {MAX_POINTS} communication "
+                                       f"steps taken by t = {t:.9g} s of stop = {stop:g} s "
+                                       f"(h = {h:.3g} s); allowed: at most {MAX_POINTS}: "
+                                       "a larger h_min or rtol")
                 h_try = min(h, stop - t)
                 if not adaptive:   # t_k = k h: no drift from summing steps
                     h_try = min(step * (k + 1), stop) - t
@@ -198,11 +215,22 @@ def run(scene: Scene, *, master: str = "jacobi", step: float | None = None,
     sources = {f"{c.src}.{c.src_var}" for c in scene.connections}
     result = Result(data, m.name, m.n_accepted, m.n_rejected, np.array(hs), logs,
                     loop_iterations, list(m.notes), [n for n in names[1:] if n in sources],
-                    atol)
+                    atol, extrapolation)
     change, name = result.largest_step_change()
     if change > UNRESOLVED:
         warnings.warn(unresolved_message(change, name), UnresolvedCoupling, stacklevel=2)
     return result
+
+
+def check_points(step: float, stop: float) -> None:
+    """ValueError naming ``step`` unless a fixed-step run from 0 to ``stop``
+    has at most MAX_POINTS communication points (checked before anything is
+    built or run: more would fill the memory before the run ends)."""
+    if stop / step > MAX_POINTS:
+        raise ValueError(f"step = {step!r} s gives {stop / step:.3g} communication points "
+                         f"up to stop = {stop:g} s; allowed: a step in "
+                         f"[{stop / MAX_POINTS:.3g}, {stop:g}] s (at most {MAX_POINTS} "
+                         "points)")
 
 
 def unresolved_message(change: float, name: str) -> str:

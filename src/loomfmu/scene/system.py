@@ -10,7 +10,10 @@ and G(u) the outputs they produce (converted), u = G(u) is solved by Newton's
 method with a finite-difference Jacobian (one extra output read per loop
 variable; the loop's last solution is the first guess), or by relaxed
 fixed-point iteration u <- u + w (G(u) - u).  Converged when every
-|G(u) - u| <= loop_atol + loop_rtol |u|; after loop_max_iter iterations
+|G(u) - u| <= loop_atol + loop_rtol s, with s fixed before iterating (the
+larger of |u| and |G(u)| at the start, and |u| at the loop's earlier
+solutions): a diverging iterate cannot widen its own tolerance.  After
+loop_max_iter iterations, on a singular Jacobian or on a runaway iterate,
 FMUError names the loop, the time and the residual.
 
 Cost: the hot path calls FMPy's ctypes functions (``FMU2Slave._functions``)
@@ -45,6 +48,12 @@ from loomfmu.scene.declare import Connection, Scene, _self_loop, feedthrough_blo
 
 #: FMU log lines kept per instance (the latest), shown when a call fails
 LOG_LINES = 200
+#: a loop's Jacobian I - dG/du with a larger condition number is singular: a
+#: finite-difference Jacobian (relative error ~1e-9) cannot resolve it
+LOOP_COND_MAX = 1e8
+#: a loop iterate whose magnitude exceeds this many times its scale before
+#: iterating (plus 1) runs away: the loop has no solution near its start
+LOOP_RUNAWAY = 1e6
 
 
 class FMUError(RuntimeError):
@@ -53,8 +62,12 @@ class FMUError(RuntimeError):
 
 class ModelInvalid(FMUError):
     """fmi2DoStep returned Discard with fmi2Terminated true: the FMU says its
-    model is not valid beyond where it stopped (a validity condition failed);
-    a shorter step cannot help."""
+    model is not valid beyond where it stopped (a validity condition failed)
+    under the inputs it was given.  The message says how far each of its
+    coupled inputs moved within the last communication step: an input held
+    or extrapolated over a long step can overshoot, where a shorter step or
+    extrapolation may keep the model valid; a component without coupled
+    inputs fails the same at any step."""
 
 
 #: fmi2StatusKind fmi2Terminated (FMI 2.0, 4.2.3)
@@ -184,6 +197,10 @@ class System:
             k += len(b)
         self.is_loop = [len(b) > 1 or _self_loop(b[0], scene.components) for b in blocks]
         self.loop_iterations = 0     # loop iterations (output reads) so far
+        #: each component's coupled inputs over its last successful step
+        self._stepped_inputs: dict[str, list[float]] = {}
+        #: each loop's largest input magnitude at its earlier solutions
+        self._loop_size: dict[tuple[int, ...], np.ndarray] = {}
         #: each component's time (its last communication point)
         self.time = {name: t0 for name in scene.components}
         self._src = [(self.instances[c.src].fmu, self.instances[c.src].vr[c.src_var])
@@ -365,13 +382,17 @@ class System:
             src_pos.append((c.src, len(vrs)))
             vrs.append(self.instances[c.src].vr[c.src_var])
         for c, v in self._watched:
+            if self.instances[c].type[v] != "Real":   # a mode, a flag: read on its own
+                rec_pos.append((c, None))
+                continue
             vrs = names.setdefault(c, [])
             rec_pos.append((c, len(vrs)))
             vrs.append(self.instances[c].vr[v])
         vals = {n: Values(self.instances[n], vrs) for n, vrs in names.items()}
         self._end = list(vals.values())
         self._end_src = [(vals[n], p) for n, p in src_pos]
-        self._end_rec = [(vals[n], p) for n, p in rec_pos]
+        self._end_rec = [(vals[n], p) if p is not None else (None, r)
+                         for r, (n, p) in enumerate(rec_pos)]
         self.end_fresh = False
 
     def read_end(self) -> bool:
@@ -394,7 +415,8 @@ class System:
         """The values of ``refs`` now: from the last read_end when it is of
         this state and ``refs`` are the watched ones, else :meth:`get`."""
         if self.end_fresh and refs == self._watched:
-            return [vals.val[p] for vals, p in self._end_rec]
+            return [vals.val[p] if vals is not None else self.get([refs[p]])[0]
+                    for vals, p in self._end_rec]
         return self.get(refs)
 
     def loop_name(self, block) -> str:
@@ -402,22 +424,44 @@ class System:
 
     def solve_loop(self, block: list[int], t: float) -> None:
         """Solve the algebraic loop of connections ``block`` at time ``t``
-        (see the module's doc); the inputs end at the solution."""
+        (see the module's doc); the inputs end at the solution.
+
+        Convergence is measured against a scale fixed before iterating, s =
+        the larger of |u| and |G(u)| at the start and |u| at this loop's
+        earlier solutions: an iterate that runs away does not widen its own
+        tolerance.  A Jacobian I - dG/du that is singular (condition number
+        above LOOP_COND_MAX: the loop has no unique solution, e.g. a loop
+        gain of exactly 1) and an iterate that runs away (|u| beyond
+        LOOP_RUNAWAY times s) stop the run with FMUError naming the loop,
+        the time and the residual."""
         def G(u):
             self.set_inputs(block, list(u), t)
             self.loop_iterations += 1
             return np.array([self.source_value(i) for i in block])
 
+        key = tuple(block)
         u = np.array([self.held[i] for i in block], dtype=float)
         g = G(u)
+        scale = np.maximum(np.abs(u), np.abs(g)) if np.all(np.isfinite(g)) else np.abs(u)
+        if key in self._loop_size:
+            scale = np.maximum(scale, self._loop_size[key])
+        tol = self.loop_atol + self.loop_rtol * scale
         for it in range(self.loop_max_iter + 1):
             r = g - u
             if not np.all(np.isfinite(g)):
                 break
-            if np.all(np.abs(r) <= self.loop_atol + self.loop_rtol * np.abs(u)):
+            if np.all(np.abs(r) <= tol):
+                self._loop_size[key] = np.maximum(self._loop_size.get(key, 0.0), np.abs(u))
                 return      # the inputs hold u (the last G call)
             if it == self.loop_max_iter:
                 break
+            if np.any(np.abs(u) > LOOP_RUNAWAY * (1.0 + scale)):
+                raise FMUError(f"algebraic loop ({self.loop_name(block)}) diverges at t = "
+                               f"{t:.9g} s: after {it} {self.loop_method} iterations |u| = "
+                               f"{float(np.max(np.abs(u))):.3g} (more than {LOOP_RUNAWAY:g} "
+                               f"times its scale {float(np.max(scale)):.3g} at the start), "
+                               f"largest |G(u) - u| = {float(np.max(np.abs(r))):.3g}; the "
+                               "loop has no solution near its start")
             if self.loop_method == "fixed-point":
                 u = u + self.relaxation * r
             else:
@@ -427,18 +471,22 @@ class System:
                     e = u.copy()
                     e[j] += du
                     J[:, j] = (G(e) - g) / du
-                try:
-                    u = u + np.linalg.solve(np.eye(len(block)) - J, r)
-                except np.linalg.LinAlgError:
+                A = np.eye(len(block)) - J
+                cond = np.linalg.cond(A) if np.all(np.isfinite(A)) else math.inf
+                if not cond <= LOOP_COND_MAX:
                     raise FMUError(f"algebraic loop ({self.loop_name(block)}): singular "
-                                   f"Jacobian I - dG/du at t = {t:.9g} s (the loop "
-                                   "equations have no unique solution)") from None
+                                   f"Jacobian I - dG/du at t = {t:.9g} s (condition number "
+                                   f"{cond:.3g}, above {LOOP_COND_MAX:g}; largest |G(u) - u| "
+                                   f"= {float(np.max(np.abs(r))):.3g}): the loop equations "
+                                   "have no unique solution (e.g. a loop gain of exactly 1)")
+                u = u + np.linalg.solve(A, r)
             g = G(u)
         res = float(np.max(np.abs(g - u))) if np.all(np.isfinite(g)) else math.nan
         raise FMUError(f"algebraic loop ({self.loop_name(block)}) did not converge at t = "
                        f"{t:.9g} s after {self.loop_max_iter} {self.loop_method} iterations: "
                        f"largest |G(u) - u| = {res:.3g} (tolerance loop_atol = "
-                       f"{self.loop_atol:g} + loop_rtol = {self.loop_rtol:g} * |u|)")
+                       f"{self.loop_atol:g} + loop_rtol = {self.loop_rtol:g} * s, s = "
+                       f"{float(np.max(scale)):.3g}: |u| and |G(u)| before iterating)")
 
     def set_inputs(self, indices, values, t: float) -> None:
         """Set the inputs of connections ``indices`` to ``values``."""
@@ -535,12 +583,19 @@ class System:
                                                            derivatives))   # fails again
 
     def get(self, refs: list[tuple[str, str]]) -> list[float]:
-        """The values of variables ``refs`` (component, variable) now."""
+        """The values of variables ``refs`` (component, variable) now, as
+        numbers (an Integer, enumeration or Boolean variable too: a Boolean
+        is 0.0 or 1.0)."""
         out = []
         for c, v in refs:
             inst = self.instances[c]
-            out.append(self._call(c, f"fmi2GetReal ({v})", self.time[c],
-                                  lambda: inst.fmu.getReal([inst.vr[v]])[0]))
+            kind = inst.type[v]
+            getter = {"Real": "getReal", "Integer": "getInteger",
+                      "Enumeration": "getInteger", "Boolean": "getBoolean"}[kind]
+            fn = getattr(inst.fmu, getter)
+            call = "fmi2GetReal" if kind == "Real" else f"fmi2{getter[0].upper()}{getter[1:]}"
+            out.append(float(self._call(c, f"{call} ({v})", self.time[c],
+                                        lambda: fn([inst.vr[v]])[0])))
         return out
 
     # -- stepping and states --------------------------------------------------
@@ -555,14 +610,41 @@ class System:
         except FMUError as exc:
             if self._terminated(name):
                 raise ModelInvalid(f"{exc} [fmi2Terminated: the model is not valid beyond "
-                                   "this point; a shorter step cannot help]") from None
+                                   f"this point; {self._moved(name, h)}]") from None
             raise
         self.time[name] = t + h
+        self._stepped_inputs[name] = [self.held[i] for i in self.into[name]]
+
+    def _moved(self, name: str, h: float) -> str:
+        """How far component ``name``'s coupled inputs moved from its previous
+        step to the step that failed (of length h), and what may help."""
+        idx = self.into[name]
+        if not idx:
+            return ("the component has no coupled input: a shorter communication step "
+                    "cannot help")
+        before = self._stepped_inputs.get(name)
+        parts = []
+        for k, i in enumerate(idx):
+            c, now = self.connections[i], self.held[i]
+            unit = self.scene.components[name].interface.variables[c.dst_var].unit
+            unit = f" {unit}" if unit else ""
+            if before is None:
+                parts.append(f"{c.dst_var} = {now:.4g}{unit} (its first step)")
+                continue
+            was = before[k]
+            size = max(abs(now), abs(was))
+            rel = f", {100 * abs(now - was) / size:.3g} % of its size" if size > 0 else ""
+            parts.append(f"{c.dst_var} moved by {now - was:+.4g}{unit} from {was:.4g} to "
+                         f"{now:.4g} since the previous communication point{rel}")
+        return (f"its coupled inputs at the start of this step of {h:.4g} s: "
+                + "; ".join(parts) + ". An input held or extrapolated over a long step can "
+                "overshoot: a shorter communication step or input extrapolation may help")
 
     def get_states(self) -> dict:
         states = {n: self._call(n, "fmi2GetFMUstate", self.time[n], i.fmu.getFMUState)
                   for n, i in self.instances.items()}
         self._saved_time = dict(self.time)
+        self._saved_inputs = dict(self._stepped_inputs)
         return states
 
     def set_states(self, states: dict, held: list[float]) -> None:
@@ -571,6 +653,7 @@ class System:
                        lambda: self.instances[n].fmu.setFMUState(s))
         self.held = list(held)
         self.time = dict(self._saved_time)
+        self._stepped_inputs = dict(self._saved_inputs)
         self.end_fresh = False
 
     def free_states(self, states: dict) -> None:

@@ -16,14 +16,11 @@ import json
 import math
 from typing import Callable
 
-from loomfmu.declare.checks import check_choice, check_names, check_number
+from loomfmu.declare.checks import MAX_POINTS, check_choice, check_names, check_number
 from loomfmu.declare.solvers import SOLVERS
 from loomfmu.registry import MODELS
 from loomfmu.sweep.figures import Derived, Figure
 from loomfmu.sweep.worker import Setup
-
-#: most communication points of one case
-MAX_POINTS = 1_000_000
 
 
 @dataclasses.dataclass
