@@ -11,7 +11,8 @@
  */
 #define _POSIX_C_SOURCE 199309L
 #include "fmi2Functions.h"
-#include "lf_runtime.h"
+#include "lf_instance.h"
+#include "lf_newton.h"
 #ifdef LF_PROBE_SCHUR
 #include "lf_linalg.h"
 #endif

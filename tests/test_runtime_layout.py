@@ -1,13 +1,19 @@
 """The C runtime's layout: no dependency cycle between its files outside the
 documented units, and no source file longer than MAX_LINES.
 
-A file depends on another when it refers (a call, or the address of a
-function or table) to a global lf_ symbol the other defines.  The
-references are read from the file's text and from the static inline
-functions of the runtime headers it includes; declarations (prototypes,
-extern) are not references.  Files that call each other on purpose form a
-unit, listed in UNITS and described in docs/guides/runtime.md and in their
-headers; a cycle inside one unit is allowed, any other fails.
+Every runtime file, header or source, is a file of the graph; a header and
+the .c file of the same name (lf_eval.h and lf_eval.c) are one unit.  A
+file depends on another when it takes a name from it:
+- a global lf_ function or table the other .c file defines, referred to (a
+  call, an address) in a body or an initializer; a header's static inline
+  functions and macros refer on the header's behalf; declarations
+  (prototypes, extern) are not references;
+- a macro, type (typedef, struct, union or enum tag), enumeration constant
+  or static inline function the other header defines, used anywhere
+  (prototypes, struct members, macro bodies and #if lines too).
+Files that depend on each other on purpose form a unit, listed in UNITS and
+described in docs/guides/runtime.md and in their headers; a cycle inside
+one unit is allowed, any other fails.
 
 Run against another runtime folder (e.g. to see the check fail on an older
 tree):
@@ -34,7 +40,6 @@ UNITS: tuple[frozenset[str], ...] = ()
 _GLOBAL_DEF = re.compile(r"^(?!static\b|typedef\b|extern\b|return\b)[A-Za-z_][^;(=]*?"
                          r"\b(lf_\w+)\s*[\(\[=]", re.M)
 _COMMENT = re.compile(r"/\*.*?\*/|//[^\n]*", re.S)
-_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
 _IDENT = re.compile(r"\blf_\w+\b")
 
 
@@ -137,46 +142,106 @@ def _inline_functions(text: str) -> dict[str, str]:
     return out
 
 
+# literal strings and comments, in one pass (a comment opener inside a
+# string is text, not a comment)
+_LEXEMES = re.compile(r'"(?:\\.|[^"\\\n])*"|\'(?:\\.|[^\'\\\n])*\'|/\*.*?\*/|//[^\n]*', re.S)
+_WORD = re.compile(r"\b[A-Za-z_]\w*\b")
+_TAG = re.compile(r"\b(?:struct|union|enum)\s+(\w+)\s*\{")
+_ENUM_BODY = re.compile(r"\benum\b[^{;]*\{([^}]*)\}")
+_FN_PTR_TYPEDEF = re.compile(r"\(\s*\*\s*(\w+)\s*\)")
+
+
+def _clean(text: str) -> str:
+    """Without comments and string literals (an include's file name is a
+    string: no name is read from it)."""
+    return _LEXEMES.sub(lambda m: '""' if m.group(0)[0] in "\"'" else " ", text)
+
+
+def _top_level_statements(text: str) -> list[str]:
+    """The statements at file scope of a preprocessed-looking text, braces
+    included (a function's body ends its statement)."""
+    out, depth, start = [], 0, 0
+    for i, ch in enumerate(text):
+        if ch == "{":
+            depth += 1
+        elif ch == "}":
+            depth -= 1
+        elif ch == ";" and depth == 0:
+            out.append(text[start:i + 1])
+            start = i + 1
+    return out
+
+
+def header_names(text: str) -> set[str]:
+    """The names a header defines for the files that use it: macros, types
+    (typedef names, struct, union and enum tags), enumeration constants and
+    static inline functions.  Prototypes and extern declarations define
+    nothing: their names belong to the .c file that defines them."""
+    text = _clean(text)
+    names = {m.group(1) for m in _DEFINE.finditer(text)}
+    body = _strip(text)
+    names |= set(_inline_functions(body))
+    names |= set(_TAG.findall(body))
+    for m in _ENUM_BODY.finditer(body):
+        names |= {e.split("=")[0].strip() for e in m.group(1).split(",") if e.strip()}
+    for stmt in _top_level_statements(body):
+        stmt = stmt.strip()
+        if not stmt.startswith("typedef"):
+            continue
+        m = _FN_PTR_TYPEDEF.search(stmt)
+        if m:
+            names.add(m.group(1))
+            continue
+        tail = re.sub(r"\[[^\]]*\]", " ", stmt[stmt.rfind("}") + 1:] if "}" in stmt else stmt)
+        words = _WORD.findall(tail)
+        if words:
+            names.add(words[-1])
+    return names
+
+
+def unit_of_file(name: str, names: set[str]) -> str:
+    """A header and the .c file of the same name are one unit (named by the
+    .c file): the header declares what the file defines."""
+    if name.endswith(".h") and name[:-2] + ".c" in names:
+        return name[:-2] + ".c"
+    return name
+
+
 def dependencies(runtime_dir: Path) -> dict[str, set[str]]:
-    """For each lf_*.c file: the other runtime files whose global symbols it
-    refers to."""
+    """For each runtime unit (a .c file with its header of the same name, or
+    a header without a .c file): the other units it takes a name from.
+
+    A unit takes a name from the .c file that defines a global function or
+    table it refers to in a body or an initializer (a call, an address; a
+    header's static inline functions and macros refer on the header's
+    behalf, declarations do not refer), and from the header that defines a
+    macro, a type, an enumeration constant or a static inline function it
+    uses anywhere (prototypes, struct members, macros and #if lines too)."""
     runtime_dir = Path(runtime_dir)
     raw = {p.name: p.read_text() for p in runtime_dir.glob("lf_*.[ch]")}
-    stripped = {name: _strip(t) for name, t in raw.items()}
-    owner: dict[str, str] = {}
-    for name, text in stripped.items():
-        if name.endswith(".c"):
-            for sym in _definitions(text):
-                owner[sym] = name
-
-    def headers(name: str, seen: set[str]) -> set[str]:
-        for inc in _INCLUDE.findall(_COMMENT.sub(" ", raw[name])):
-            if inc in raw and inc not in seen and inc.endswith(".h"):
-                seen.add(inc)
-                headers(inc, seen)
-        return seen
-
-    deps = {}
+    files = set(raw)
+    clean = {name: _clean(t) for name, t in raw.items()}
+    stripped = {name: _strip(t) for name, t in clean.items()}
+    fn_owner: dict[str, str] = {}    # global functions and tables: their .c file
+    name_owner: dict[str, str] = {}  # macros, types, inline functions: their header
     for name in sorted(raw):
-        if not name.endswith(".c"):
-            continue
-        included = headers(name, set())
-        macros = _macros(raw[name])
-        inline: dict[str, str] = {}
-        for h in included:
-            macros.update(_macros(raw[h]))
-            inline.update(_inline_functions(stripped[h]))
-        # the header's inline functions count where they are used
-        used = set(re.findall(r"\b\w+\b", stripped[name])) & set(inline)
-        todo = set(used)
-        while todo:
-            more = set(re.findall(r"\b\w+\b", inline[todo.pop()])) & set(inline)
-            todo |= more - used
-            used |= more
-        refs = _references(stripped[name], macros)
-        for f in used:
-            refs |= _references(inline[f], macros)
-        deps[name] = {owner[s] for s in refs if s in owner and owner[s] != name}
+        if name.endswith(".c"):
+            for sym in _definitions(stripped[name]):
+                fn_owner[sym] = unit_of_file(name, files)
+        else:
+            for sym in header_names(raw[name]):
+                name_owner.setdefault(sym, unit_of_file(name, files))
+    deps: dict[str, set[str]] = {unit_of_file(n, files): set() for n in raw}
+    for name in sorted(raw):
+        unit = unit_of_file(name, files)
+        refs = _direct_references(stripped[name])
+        for body in _macros(clean[name]).values():
+            refs |= body
+        words = set(_WORD.findall(re.sub(r"^[ \t]*#[ \t]*(?:define|undef)[ \t]+\w+", " ",
+                                         clean[name], flags=re.M)))
+        deps[unit] |= {fn_owner[s] for s in refs if s in fn_owner}
+        deps[unit] |= {name_owner[s] for s in words if s in name_owner}
+        deps[unit].discard(unit)
     return deps
 
 
@@ -260,23 +325,37 @@ def test_units_are_documented():
 def test_the_check_sees_a_cycle(tmp_path):
     (tmp_path / "lf_a.c").write_text("int lf_a(void) {\n    return lf_b();\n}\n")
     (tmp_path / "lf_b.c").write_text("int lf_b(void) {\n    return lf_c() + 1;\n}\n")
-    (tmp_path / "lf_c.c").write_text('#include "lf_c.h"\nint lf_c(void) {\n    return 2;\n}\n'
-                                     "int lf_c2(void) {\n    return lf_d();\n}\n")
-    # a header's inline function counts only in the files that call it
-    (tmp_path / "lf_g.c").write_text('#include "lf_c.h"\nint lf_g(void) {\n    return 3;\n}\n')
+    (tmp_path / "lf_c.c").write_text('#include "lf_c.h"\nint lf_c(void) {\n    return 2;\n}\n')
+    # a header's inline function calls on the header's behalf; the header
+    # is one unit with lf_c.c
     (tmp_path / "lf_c.h").write_text("int lf_a(void);\nstatic inline int lf_d(void) "
                                      "{ return lf_a(); }\n")
-    (tmp_path / "lf_e.c").write_text('#include "lf_e.h"\nint lf_e(void) {\n    return 0;\n}\n')
-    (tmp_path / "lf_e.h").write_text("#define CALL_F() \\\n    lf_f()\nint lf_f(void);\n")
-    (tmp_path / "lf_f.c").write_text('#include "lf_e.h"\nint lf_f(void) {\n    return 1;\n}\n'
-                                     "int lf_g(void) {\n    return lf_e() + CALL_F();\n}\n")
+    # a prototype takes no name from the .c file that defines it
+    (tmp_path / "lf_g.c").write_text('#include "lf_c.h"\nint lf_g(void) {\n    return 3;\n}\n')
+    # types and macros of a header: a dependency on the header
+    (tmp_path / "lf_t.h").write_text("#define LF_T_N 3\ntypedef struct { int v[LF_T_N]; } LfT;\n"
+                                     "typedef enum { LF_T_A = 1, LF_T_B } LfTKind;\n")
+    (tmp_path / "lf_u.h").write_text('#include "lf_t.h"\nint lf_u(LfT *t);\n')
+    (tmp_path / "lf_u.c").write_text('#include "lf_u.h"\nint lf_u(LfT *t) {\n'
+                                     "    return t->v[0] + LF_T_B;\n}\n")
     deps = dependencies(tmp_path)
     assert deps == {"lf_a.c": {"lf_b.c"}, "lf_b.c": {"lf_c.c"}, "lf_c.c": {"lf_a.c"},
-                    "lf_e.c": set(), "lf_f.c": {"lf_e.c"}, "lf_g.c": set()}
+                    "lf_g.c": set(), "lf_t.h": set(), "lf_u.c": {"lf_t.h"}}
     assert cycles(deps) == [["lf_a.c", "lf_b.c", "lf_c.c"]]
-    (tmp_path / "lf_e.c").write_text('#include "lf_e.h"\nint lf_e(void) {\n    return CALL_F();\n}\n')
+    # a bottom header whose inline function calls a file that uses its types
+    (tmp_path / "lf_t.h").write_text("#define LF_T_N 3\ntypedef struct { int v[LF_T_N]; } LfT;\n"
+                                     "typedef enum { LF_T_A = 1, LF_T_B } LfTKind;\n"
+                                     "int lf_u(LfT *t);\n"
+                                     "static inline int lf_t_of(LfT *t) { return lf_u(t); }\n")
     assert sorted(cycles(dependencies(tmp_path))) == [["lf_a.c", "lf_b.c", "lf_c.c"],
-                                                       ["lf_e.c", "lf_f.c"]]
+                                                       ["lf_t.h", "lf_u.c"]]
+    # the same through a macro of the header
+    (tmp_path / "lf_t.h").write_text("#define LF_T_N 3\n#define LF_T_OF(t) lf_u(t)\n"
+                                     "typedef struct { int v[LF_T_N]; } LfT;\n")
+    (tmp_path / "lf_u.c").write_text('#include "lf_u.h"\nint lf_u(LfT *t) {\n'
+                                     "    return t->v[0];\n}\n")
+    assert sorted(cycles(dependencies(tmp_path))) == [["lf_a.c", "lf_b.c", "lf_c.c"],
+                                                       ["lf_t.h", "lf_u.c"]]
 
 
 def main(argv: list[str]) -> int:

@@ -23,8 +23,10 @@
 #define _POSIX_C_SOURCE 199309L
 
 #include "fmi2Functions.h"
-#include "lf_internal.h"
-#include "lf_runtime.h"
+#include "lf_delay.h"
+#include "lf_instance.h"
+#include "lf_newton.h"
+#include "lf_outputs.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -1,8 +1,11 @@
 /* loomfmu shared runtime: the base every runtime file stands on: logging
  * and the CasADi work arrays of the generated functions.  It calls no other
  * runtime file (the layers: docs/runtime.md). */
+#include <stdarg.h>
 #include <stdio.h>
 
+#include "lf_base.h"
+#include "lf_instance.h"
 #include "lf_internal.h"
 
 const char *const lf_log_category_names[LF_N_LOG] = LF_LOG_CATEGORY_NAMES;

@@ -20,7 +20,12 @@
 #include <math.h>
 #include <string.h>
 
+#include "lf_breaks.h"
+#include "lf_eval.h"
+#include "lf_events.h"
+#include "lf_instance.h"
 #include "lf_internal.h"
+#include "lf_newton.h"
 
 #define LF_KB_MAX_ITER 100
 

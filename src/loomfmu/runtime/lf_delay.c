@@ -7,7 +7,13 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "lf_delay.h"
+#include "lf_base.h"
+#include "lf_eval.h"
+#include "lf_inputs.h"
+#include "lf_instance.h"
 #include "lf_internal.h"
+#include "lf_newton.h"
 
 /* Room for the breakpoints t + tau_k of a jump of the history at t (one per
  * delay > 0, those already pending not counted).  The breakpoints passed

@@ -13,8 +13,12 @@
 #include <string.h>
 
 #include "lf_dirder.h"
-#include "lf_internal.h"
+#include "lf_base.h"
+#include "lf_eval.h"
+#include "lf_instance.h"
 #include "lf_linalg.h"
+#include "lf_newton.h"
+#include "lf_start.h"
 
 #define NOUT (LF_NY + LF_NZ)
 #define VR_DER0 ((unsigned)LF_NREAL)

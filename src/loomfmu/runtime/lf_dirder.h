@@ -9,7 +9,7 @@
 
 #include <stddef.h>
 
-#include "lf_runtime.h"
+#include "lf_instance.h"
 
 /* out[i] = sum_j d(unknown_vr[i]) / d(known_vr[j]) seed[j], exact, at the
  * instance's current point: time c->run.t, the states r[LF_VR_X0..], the inputs

@@ -1,5 +1,5 @@
 /* loomfmu shared runtime: calls of the generated functions.  Every call
- * passes here (lf_eval_fn; lf_eval_fn1 in lf_internal.h is its inline hot
+ * passes here (lf_eval_fn; lf_eval_fn1 in lf_eval.h is its inline hot
  * path) with the arguments it needs: the inputs at t (lf_inputs.c), the
  * folded parameter subexpressions, and the delayed values at t, read from
  * the history the step loop keeps (lf_delay.c writes it; the lookup is
@@ -8,6 +8,10 @@
 #include <math.h>
 #include <string.h>
 
+#include "lf_eval.h"
+#include "lf_base.h"
+#include "lf_inputs.h"
+#include "lf_instance.h"
 #include "lf_internal.h"
 
 /* ---- evaluating the generated functions ------------------------------- */

@@ -6,8 +6,15 @@
 #include <math.h>
 #include <string.h>
 
+#include "lf_events.h"
+#include "lf_base.h"
+#include "lf_delay.h"
+#include "lf_eval.h"
+#include "lf_instance.h"
 #include "lf_internal.h"
-#include "lf_wcache.h"
+#include "lf_modes.h"
+#include "lf_newton.h"
+#include "lf_validity.h"
 
 #define LF_EVENT_MAX_ITER 200
 

@@ -5,7 +5,8 @@
 #include <string.h>
 
 #include "lf_facade.h"
-#include "lf_internal.h"
+#include "lf_base.h"
+#include "lf_instance.h"
 
 /* ---- registry of live instances ---------------------------------------------
  * An instance is known by this registry, so that a call with a freed

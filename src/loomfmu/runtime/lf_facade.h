@@ -10,7 +10,7 @@
 #include <math.h>
 #include <stddef.h>
 
-#include "lf_runtime.h"
+#include "lf_instance.h"
 #include "lf_me.h" /* the model-exchange core: lf_state_derivatives, lf_me_* */
 
 /* ---- live instances (lock-free; instances may live in several threads) --- */
@@ -86,7 +86,7 @@ void lf_blobs_free(LfInstance *c, LfBlob **list);
 int lf_step_integrable(LfInstance *c, const char *fn, double t, double h);
 
 /* The hot path of fmi2DoStep's checks: 1 if (t, h) passes both
- * lf_step_integrable and lf_check_step (lf_runtime.h), computed without the
+ * lf_step_integrable and lf_check_step (lf_step.h), computed without the
  * calls that prepare their log lines; 0 leaves the answer (and the log) to
  * them.  The same conditions: finite t, h > 0 and t + h; t within 1e-9 of
  * the FMU's time (relative beyond 1); an end later than the FMU's time and

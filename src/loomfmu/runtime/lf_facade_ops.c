@@ -9,6 +9,8 @@
 #include <string.h>
 
 #include "lf_facade_ops.h"
+#include "lf_base.h"
+#include "lf_runtime.h"
 #include "lf_state.h"
 
 void lf_state_names(int mask, const char *const names[], int n_names, char *buf,

@@ -23,7 +23,7 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "lf_fmi2_internal.h"
+#include "lf_fmi2.h"
 
 LfInstance *lf_fmi2_live(fmi2Component c) { return lf_live(c); }
 

@@ -1,6 +1,6 @@
 /* loomfmu shared runtime: FMI 2.0 co-simulation: the step (the runtime's
  * step loop, lf_step.c) and the status inquiries. */
-#include "lf_fmi2_internal.h"
+#include "lf_fmi2.h"
 
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetPrior) {
     LfInstance *inst = (LfInstance *)c;

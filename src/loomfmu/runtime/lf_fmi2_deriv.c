@@ -18,7 +18,7 @@
 
 #include "fmi2Functions.h"
 #include "lf_dirder.h"
-#include "lf_fmi2_internal.h"
+#include "lf_fmi2.h"
 
 #define SET_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | LF_ST_STEP_COMPLETE)
 #define OUT_DER_STATES (RUNNING | LF_ST_TERMINATED)

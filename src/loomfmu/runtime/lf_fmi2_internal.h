@@ -7,7 +7,11 @@
 #define LF_FMI2_INTERNAL_H
 
 #include "fmi2Functions.h"
+#include "lf_base.h"
+#include "lf_inputs.h"
+#include "lf_outputs.h"
 #include "lf_runtime.h"
+#include "lf_step.h"
 #include "lf_facade.h"
 #include "lf_facade_ops.h"
 
@@ -81,25 +85,5 @@ static inline int lf_fmi2_vrs_ok(const fmi2ValueReference vr[], size_t nvr, cons
 }
 /* Frees every FMU state the instance made. */
 void lf_fmi2_free_states(LfInstance *inst);
-
-/* The hot path of lf_fmi2_allowed (every fmi2DoStep and get/set call): 1 if
- * `c` is live and in one of the states of `mask`, without a call that
- * prepares a log line.  0 leaves the answer (and the log) to
- * lf_fmi2_allowed. */
-static inline int lf_fmi2_in_state(fmi2Component c, int mask) {
-    const LfInstance *inst = lf_live(c);
-    int bits;
-    if (!inst) return 0;
-    bits = (int)inst->run.state;
-    if (ENV(inst)->me && inst->run.state == LF_ST_STEP_COMPLETE)
-        bits = ENV(inst)->me_cont ? M2_CONT : M2_EVENT;
-    return (bits & mask) != 0;
-}
-
-#define CHECK(fn, mask)                                                              \
-    do {                                                                             \
-        if (!lf_fmi2_in_state(c, mask) && !lf_fmi2_allowed(c, fn, mask))             \
-            return fmi2Error;                                                        \
-    } while (0)
 
 #endif

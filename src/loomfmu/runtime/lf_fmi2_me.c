@@ -9,7 +9,7 @@
  * the delays' history and the validity conditions) and fmi2EnterEventMode
  * at events.  A call in another state, or on a co-simulation instance, is
  * refused with fmi2Error and a log naming the function and the state. */
-#include "lf_fmi2_internal.h"
+#include "lf_fmi2.h"
 
 /* getters: from initialization mode on (FMI 2.0, 3.2.3) */
 #define ME_GET (LF_ST_INIT | ME_RUNNING | LF_ST_TERMINATED | LF_ST_ERROR)

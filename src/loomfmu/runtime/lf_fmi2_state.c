@@ -4,7 +4,7 @@
  * this instance did not make is refused without being dereferenced.  Bytes
  * are checked when deserialized (size, checksum, this FMU and FMI version)
  * and every field when a state is set. */
-#include "lf_fmi2_internal.h"
+#include "lf_fmi2.h"
 
 #define STATE_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING | ME_RUNNING | LF_ST_TERMINATED)
 /* FMI 2.0, 2.1.3: after fmi2Error a stored state may be set again */

@@ -3,7 +3,7 @@
  * references (lf_model.h), and der(x_k) (read only) at LF_NREAL + k. */
 #include <stddef.h>
 
-#include "lf_fmi2_internal.h"
+#include "lf_fmi2.h"
 
 /* FMI 2.0, 4.2.4: values can be read from initialization mode on, and set
  * before initialization, in it and after a completed step */

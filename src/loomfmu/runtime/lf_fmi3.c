@@ -14,7 +14,7 @@
 #include <string.h>
 
 #include "lf_facade_ops.h"
-#include "lf_fmi3_internal.h"
+#include "lf_fmi3.h"
 
 /* FMI 3.0's names of the interface states, in the order of the F3_ bits */
 static const char *const state_names[] = {"Instantiated", "InitializationMode", "EventMode",

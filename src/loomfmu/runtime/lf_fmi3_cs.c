@@ -25,7 +25,8 @@
 
 #include "lf_build.h"
 #include "lf_facade.h"
-#include "lf_fmi3_internal.h"
+#include "lf_fmi3.h"
+#include "lf_modes.h"
 #include "lf_step.h"
 
 fmi3Instance fmi3InstantiateCoSimulation(

@@ -8,7 +8,7 @@
 #include <stddef.h>
 
 #include "lf_dirder.h"
-#include "lf_fmi3_internal.h"
+#include "lf_fmi3.h"
 
 #define DIRDER_STATES (F3_INIT | F3_EVENT | F3_STEP | F3_CONT | F3_TERMINATED)
 

@@ -17,7 +17,11 @@
 #include <stddef.h>
 
 #include "fmi3Functions.h"
+#include "lf_base.h"
+#include "lf_inputs.h"
+#include "lf_outputs.h"
 #include "lf_runtime.h"
+#include "lf_step.h"
 #include "lf_facade.h"
 
 /* Float64 value references of the state derivatives, then the Integers */
@@ -114,10 +118,5 @@ LfStatus lf_fmi3_me_delays_known(LfInstance *inst, const char *fn);
 
 /* lf_fmi3.c: frees the FMU states the instance made */
 void lf_fmi3_free_states(LfInstance *inst);
-
-#define CHECK3(fn, mask)                                                             \
-    do {                                                                             \
-        if (!lf_fmi3_allowed(c, fn, mask)) return fmi3Error;                         \
-    } while (0)
 
 #endif

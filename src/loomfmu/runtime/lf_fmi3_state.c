@@ -12,7 +12,7 @@
 #include <stddef.h>
 
 #include "lf_facade_ops.h"
-#include "lf_fmi3_internal.h"
+#include "lf_fmi3.h"
 
 /* FMI 3.0: states are got and set in every state but error, where a state
  * may be set again */

@@ -12,7 +12,7 @@
 #include <stdio.h>
 
 #include "lf_facade_ops.h"
-#include "lf_fmi3_internal.h"
+#include "lf_fmi3.h"
 
 /* FMI 3.0: values are read from initialization mode on; inputs are set in
  * event, step and continuous-time mode, the others before initialization ends

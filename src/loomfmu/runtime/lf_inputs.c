@@ -19,6 +19,9 @@
 #include <math.h>
 #include <string.h>
 
+#include "lf_inputs.h"
+#include "lf_base.h"
+#include "lf_instance.h"
 #include "lf_internal.h"
 
 #define LF_INPUT_ORDER_MAX 2

@@ -19,8 +19,16 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "lf_internal.h"
 #include "lf_me.h"
+#include "lf_base.h"
+#include "lf_delay.h"
+#include "lf_eval.h"
+#include "lf_instance.h"
+#include "lf_internal.h"
+#include "lf_modes.h"
+#include "lf_newton.h"
+#include "lf_start.h"
+#include "lf_step.h"
 
 /* ---- checks ---------------------------------------------------------------- */
 

@@ -22,7 +22,7 @@
 
 #include <stddef.h>
 
-#include "lf_runtime.h"
+#include "lf_instance.h"
 
 /* der(x) at the instance's time and states (before initialization: at the
  * start values), with the inputs at that time; LF_ERROR (logged) if the

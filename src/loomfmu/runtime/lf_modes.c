@@ -6,7 +6,12 @@
 #include <math.h>
 #include <string.h>
 
+#include "lf_modes.h"
+#include "lf_base.h"
+#include "lf_eval.h"
+#include "lf_instance.h"
 #include "lf_internal.h"
+#include "lf_newton.h"
 #include "lf_wcache.h"
 
 LfStatus lf_eval_events(LfInstance *c, double t, const double *x, double *e) {

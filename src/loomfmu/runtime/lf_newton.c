@@ -4,6 +4,10 @@
 #include <math.h>
 #include <string.h>
 
+#include "lf_newton.h"
+#include "lf_base.h"
+#include "lf_eval.h"
+#include "lf_instance.h"
 #include "lf_internal.h"
 #include "lf_linalg.h"
 #include "lf_wcache.h"

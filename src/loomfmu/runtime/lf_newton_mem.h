@@ -1,6 +1,5 @@
 /* loomfmu shared runtime: Newton's memory for models solved by Newton
- * (lf_newton.c), a field of LfInstance (lf_runtime.h includes this header
- * after LF_DIM).
+ * (lf_newton.c), a field of LfInstance (lf_instance.h).
  *
  * While a step runs (c->unsaved.wc_on), the solves of the unknowns w at the
  * solver's stages, the event and validity scans' points and the outputs
@@ -23,27 +22,29 @@
 
 #include <stddef.h>
 
-#ifndef LF_DIM
-#error "lf_newton_mem.h needs LF_DIM (include lf_runtime.h)"
-#endif
+#include "lf_model.h"
+
+/* n doubles where the model is solved by Newton and n > 0, else 1 (a
+ * model without Newton keeps none) */
+#define LF_NM_DIM(n) (LF_IMPLICIT && (n) > 0 ? (n) : 1)
 
 typedef struct {
     unsigned long lu_gen;   /* generation of the kept LU (0: none) */
     unsigned long b_gen;    /* generation of the kept solution (0: none) */
     /* dF/dw factored (LU, pivots) and dF/dx, dF/dt at the same point */
-    double lu[LF_IMPLICIT ? LF_DIM(LF_NW * LF_NW) : 1];
-    size_t piv[LF_IMPLICIT ? LF_DIM(LF_NW) : 1];
-    double fx[LF_IMPLICIT ? LF_DIM(LF_NW * LF_NX) : 1];
-    double ft[LF_IMPLICIT ? LF_DIM(LF_NW) : 1];
+    double lu[LF_NM_DIM(LF_NW * LF_NW)];
+    size_t piv[LF_NM_DIM(LF_NW)];
+    double fx[LF_NM_DIM(LF_NW * LF_NX)];
+    double ft[LF_NM_DIM(LF_NW)];
     /* formed from them at first use (tan_ok): (dF/dw)^-1 and the
      * tangent dw/dx = -(dF/dw)^-1 dF/dx, dw/dt = -(dF/dw)^-1 dF/dt */
     int tan_ok;
-    double inv[LF_IMPLICIT ? LF_DIM(LF_NW * LF_NW) : 1];
-    double wx[LF_IMPLICIT ? LF_DIM(LF_NW * LF_NX) : 1];
-    double wt[LF_IMPLICIT ? LF_DIM(LF_NW) : 1];
+    double inv[LF_NM_DIM(LF_NW * LF_NW)];
+    double wx[LF_NM_DIM(LF_NW * LF_NX)];
+    double wt[LF_NM_DIM(LF_NW)];
     double tb;              /* the last solution (tb, xb, wb) */
-    double xb[LF_IMPLICIT ? LF_DIM(LF_NX) : 1];
-    double wb[LF_IMPLICIT ? LF_DIM(LF_NW) : 1];
+    double xb[LF_NM_DIM(LF_NX)];
+    double wb[LF_NM_DIM(LF_NW)];
     int stale;              /* the last simplified solve contracted slowly */
 } LfNewtonMem;
 

@@ -4,7 +4,14 @@
 #include <math.h>
 #include <string.h>
 
+#include "lf_outputs.h"
+#include "lf_base.h"
+#include "lf_delay.h"
+#include "lf_eval.h"
+#include "lf_instance.h"
 #include "lf_internal.h"
+#include "lf_newton.h"
+#include "lf_start.h"
 #include "lf_wcache.h"
 
 LfStatus lf_update_outputs(LfInstance *c) {

@@ -7,7 +7,12 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "lf_internal.h"
+#include "lf_runtime.h"
+#include "lf_base.h"
+#include "lf_inputs.h"
+#include "lf_instance.h"
+#include "lf_outputs.h"
+#include "lf_start.h"
 
 void lf_free(LfInstance *c) {
     if (!c) return;

@@ -4,7 +4,11 @@
  * initialization sees is where initialization will start. */
 #include <math.h>
 
-#include "lf_internal.h"
+#include "lf_start.h"
+#include "lf_base.h"
+#include "lf_eval.h"
+#include "lf_instance.h"
+#include "lf_modes.h"
 
 /* States declared with a start expression (e.g. a static equilibrium) start
  * there for the parameters actually set, unless the importer set them. */

@@ -14,8 +14,10 @@
 #include <math.h>
 #include <string.h>
 
-#include "lf_runtime.h"
 #include "lf_state.h"
+#include "lf_base.h"
+#include "lf_instance.h"
+#include "lf_newton.h"
 #if defined(__has_include)
 #if __has_include("lf_build.h")
 #include "lf_build.h" /* LF_FMI_VERSION, written by the builder */

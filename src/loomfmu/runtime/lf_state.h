@@ -11,7 +11,7 @@
 #define LF_STATE_H
 
 #include <stddef.h>
-#include "lf_runtime.h"
+#include "lf_instance.h"
 
 #define LF_STATE_MAGIC 0x4C465336u /* "LFS6": the FMI version in the header */
 #define LF_STATE_GUID_LEN 64

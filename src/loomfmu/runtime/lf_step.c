@@ -12,7 +12,19 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "lf_internal.h"
+#include "lf_step.h"
+#include "lf_base.h"
+#include "lf_breaks.h"
+#include "lf_delay.h"
+#include "lf_eval.h"
+#include "lf_events.h"
+#include "lf_inputs.h"
+#include "lf_instance.h"
+#include "lf_modes.h"
+#include "lf_newton.h"
+#include "lf_outputs.h"
+#include "lf_start.h"
+#include "lf_validity.h"
 
 /* Constraints across parameters (each >= 0), which ranges cannot express. */
 static LfStatus check_constraints(LfInstance *c) {

@@ -1,6 +1,6 @@
-/* loomfmu shared runtime: the step loop's interface for the FMI facades
- * beyond lf_runtime.h: early return at events (FMI 3.0 co-simulation) and
- * the event update without a solver (model exchange).
+/* loomfmu shared runtime: initialization and the step loop (lf_step.c),
+ * the facades' interface to it: exit initialization, a checked step, early
+ * return at events (FMI 3.0 co-simulation), inputs settled before a read.
  *
  * Early return.  With c->unsaved.stop_at_events = 1 (set by the facade, e.g. from
  * earlyReturnAllowed; not part of the FMU state), lf_do_step ends the step
@@ -19,7 +19,21 @@
 #ifndef LF_STEP_H
 #define LF_STEP_H
 
+#include "lf_instance.h"
+/* for the facades and drivers that step an instance: its life cycle and
+ * outputs with the step loop (this header takes no name from them) */
+#include "lf_outputs.h"
 #include "lf_runtime.h"
+
+/* Start the solver at t_start with the current states (exit initialization). */
+LfStatus lf_initialize(LfInstance *c);
+/* Is fmi2DoStep(t0, h) a valid call here?  (logs why not) */
+LfStatus lf_check_step(LfInstance *c, double t0, double h);
+/* Advance from c->run.t by h: integrate, locate events, update outputs. */
+LfStatus lf_do_step(LfInstance *c, double t0, double h);
+/* The same after the caller checked the call with lf_check_step (the FMI
+ * facades do, to refuse it before anything changes). */
+LfStatus lf_do_checked_step(LfInstance *c, double t0, double h);
 
 /* Perform the pending event (none: LF_OK, *values_changed = 0) and update
  * the outputs at c->run.t.  *values_changed (may be NULL): a mode or a state
@@ -41,13 +55,5 @@ LfStatus lf_handle_pending_event(LfInstance *c, int *values_changed);
  * are handled again (at the next read or step).  LF_ERROR (logged) if no
  * mode is consistent with the inputs. */
 LfStatus lf_settle_inputs(LfInstance *c);
-
-/* The modes after the event of indicator k (-1: none, e.g. an input jump)
- * at (t, x), without a solver (model exchange): the event's own mode first,
- * then every mode made consistent; x is updated with the
- * reinitialized states; *changed (may be NULL): a mode or a state changed
- * (lf_modes.c).
- * LF_ERROR (logged) if no value of some mode is consistent. */
-LfStatus lf_event_update(LfInstance *c, int k, double t, double *x, int *changed);
 
 #endif

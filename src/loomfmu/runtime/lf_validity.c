@@ -27,7 +27,14 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "lf_validity.h"
+#include "lf_base.h"
+#include "lf_delay.h"
+#include "lf_eval.h"
+#include "lf_instance.h"
 #include "lf_internal.h"
+#include "lf_modes.h"
+#include "lf_newton.h"
 
 #define LF_VALIDITY_BISECTIONS 200
 

@@ -22,7 +22,7 @@
 
 #include <string.h>
 
-#include "lf_runtime.h"
+#include "lf_instance.h"
 
 #define LF_WC_USED (LF_IMPLICIT && LF_ND == 0)
 /* Explicit models remember only where c->val.w_cur was solved (wk_t, wk_x of
