@@ -54,7 +54,7 @@ def _runtime_symbols() -> tuple[str, ...]:
 #: with nm that no other global symbol is left). Read from the sources.
 RUNTIME_SYMBOLS = _runtime_symbols()
 
-#: Log categories, in the order of LfLogCategory in lf_runtime.h; written into
+#: Log categories, in the order of LfLogCategory in lf_instance.h; written into
 #: the generated declaration (LF_LOG_CATEGORY_NAMES) and the model description.
 LOG_CATEGORIES = (
     ("logEvents", "event located inside a step, solver restarted"),
