@@ -85,6 +85,7 @@ def test_link_finder_sees_links_and_skips_code(tmp_path):
 @pytest.mark.parametrize("name", sorted(MODELS))
 def test_generated_model_docs_are_current(name):
     path = ROOT / "docs" / "reference" / "models" / f"{name}.md"
+    assert path.exists(), f"{path} is missing: run loomfmu docs"
     assert path.read_text() == model_markdown(load_model(name)), (
         f"{path} is stale: run loomfmu docs")
 

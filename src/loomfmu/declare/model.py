@@ -296,6 +296,8 @@ class Model:
 
     def state(self, name, start, *, unit="", description="", nominal=None,
               min=-math.inf, max=math.inf) -> ca.SX:
+        """Declare a continuous state ``name`` with its start value; its
+        derivative is ``der(sym)`` in the equations."""
         sym = self._add(name, "state", start, unit, description, nominal=nominal,
                         min=min, max=max)
         self._der[name] = ca.SX.sym(f"der({name})")
@@ -303,9 +305,13 @@ class Model:
 
     def input(self, name, start, *, unit="", description="", min=-math.inf,
               max=math.inf) -> ca.SX:
+        """Declare a Real input ``name`` (held or interpolated by the
+        importer) with its start value and range."""
         return self._add(name, "input", start, unit, description, min=min, max=max)
 
     def algebraic(self, name, *, unit="", description="") -> ca.SX:
+        """Declare an algebraic unknown ``name`` of the DAE (solved with the
+        derivatives, by Newton where the equations are implicit in it)."""
         return self._add(name, "algebraic", None, unit, description)
 
     def delay(self, name, expr, tau, *, max_delay: float, description="") -> ca.SX:
@@ -536,12 +542,15 @@ class Model:
 
     # -- queries ------------------------------------------------------------
     def var(self, name: str) -> Variable:
+        """The declared variable ``name`` (ValueError listing the names if none)."""
         try:
             return self._by_name[name]
         except KeyError:
             raise ValueError(f"model {self.name} has no variable {name!r}") from None
 
     def of_kind(self, kind: str) -> list[Variable]:
+        """The variables of ``kind`` ("parameter", "state", "input", "output",
+        "algebraic"), in declaration order."""
         return [v for v in self.variables if v.kind == kind]
 
     def syms(self, kind: str) -> ca.SX:

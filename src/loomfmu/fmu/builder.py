@@ -94,6 +94,10 @@ def fmi_headers_dir() -> Path:
 
 @dataclass
 class BuildResult:
+    """What :func:`build_fmu` made: the model's name, the .fmu's path, its
+    GUID, the build's wall time, FMPy's validation problems (empty when the
+    FMU is valid), the FMI version and interface ("cs", "me" or "both")."""
+
     model: str
     path: Path
     guid: str
