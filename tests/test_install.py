@@ -33,4 +33,4 @@ def test_wheel_holds_every_package_models_and_runtime(tmp_path):
         if src.suffix in (".c", ".h"):
             assert f"loomfmu/runtime/{src.name}" in names
     entry = next(n for n in names if n.endswith("entry_points.txt"))
-    assert "loomfmu = loomfmu.cli.dispatch:main" in zipfile.ZipFile(wheel).read(entry).decode()
+    assert "loomfmu = loomfmu.cli:main" in zipfile.ZipFile(wheel).read(entry).decode()
