@@ -400,7 +400,7 @@ def cases() -> list[Case]:
     # -- drive: parameters, law, cam, tracking ----------------------------------------
     for kw, arg in ((dict(K=NAN), "K"), (dict(K=True), "K"), (dict(K="30"), "K"),
                     (dict(Kx=1.0), "Kx"), (dict(T_c=-1.0), "T_c"), (dict(n_max=0.1), "n_max"),
-                    (dict(tau=INF), "tau")):
+                    (dict(tau=INF), "tau"), (dict(T=0.0), "T"), (dict(K=1e-3), "K")):
         add(f"DriveParams(**{kw!r})", arg, lambda fx, kw=kw: _drive("DriveParams", **kw))
     add("DriveParams.from_rpm(n_min='12000')", "n_min",
         lambda fx: _drive("DriveParams").from_rpm(n_min="12000"))

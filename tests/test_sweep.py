@@ -188,6 +188,8 @@ def _derived(t, y, case):
     (lambda: run_study(_study(), workers=65), "workers"),
     (lambda: run_study(_study(), scheduler="localhost"), "scheduler"),
     (lambda: run_study(_study(), batch=0), "batch"),
+    (lambda: run_study(_study(), out="."), "out = '.': an existing directory"),
+    (lambda: run_study(_study(), out=__file__ + "/x.csv"), "out = "),
 ])
 def test_bad_arguments_name_the_argument_and_the_allowed_range(make, names):
     with pytest.raises(ValueError) as e:

@@ -20,7 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from loomfmu.declare.checks import check_bool, check_int, check_number
+from loomfmu.declare.checks import check_bool, check_int, check_number, check_writable
 from loomfmu.sweep import store
 from loomfmu.sweep.connect import MAX_CONNECT_TIMEOUT, check_scheduler, refused
 from loomfmu.sweep.study import Study, case_key
@@ -183,6 +183,8 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
                                    hi=MAX_CONNECT_TIMEOUT, lo_open=True, unit="s")
     if out is not None and not isinstance(out, (str, Path)):
         raise ValueError(f"out = {out!r:.60}; allowed: None or a .csv path")
+    if out is not None:
+        out = check_writable("out", out)
     _need_distributed()
     if scheduler is not None:
         check_scheduler(scheduler, connect_timeout)
