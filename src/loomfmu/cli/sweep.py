@@ -13,11 +13,10 @@ cases are skipped) unless --fresh. Exit 1 if a case failed.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
-from loomfmu.declare.checks import check_number
+from loomfmu.declare.checks import check_number, check_writable
 from loomfmu.declare.solvers import SOLVERS
 
 
@@ -175,18 +174,8 @@ def _run(study, out: Path, args):
 def _check_out_dir(out_dir: Path, out: Path) -> None:
     """OUT_DIR is (or can be made) a writable directory and OUT_DIR/<study>.csv
     is not a directory: checked before any case runs (ValueError, exit 2)."""
-    allowed = "allowed: a directory (existing or to be made) that this user can write"
-    existed = out_dir.exists()
-    if existed and not out_dir.is_dir():
-        raise ValueError(f"--out-dir {str(out_dir)!r}: an existing file, not a "
-                         f"directory; {allowed}")
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"--out-dir {str(out_dir)!r}: cannot be made "
-                         f"({exc.strerror or exc}); {allowed}") from None
-    if existed and not os.access(out_dir, os.W_OK | os.X_OK):
-        raise ValueError(f"--out-dir {str(out_dir)!r}: not writable; {allowed}")
+    check_writable("--out-dir", out_dir, folder=True)
+    out_dir.mkdir(parents=True, exist_ok=True)
     if out.is_dir():
         raise ValueError(f"--out-dir {str(out_dir)!r}: {out.name} in it is a directory; "
                          "allowed: a directory where that name is free or a results file")

@@ -270,3 +270,20 @@ def check_writable(name: str, path, *, folder: bool = False):
         where = "" if existing == here else f" in {str(existing)!r}"
         raise ValueError(f"{said}: not writable{where} ({why}); {allowed}")
     return p
+
+
+def check_output_options(args, *, files: Iterable[str] = (), folders: Iterable[str] = ()
+                         ) -> None:
+    """:func:`check_writable` on each output option of a parsed command line
+    that is set (``files``, ``folders``: the argparse ``dest`` names, e.g.
+    ``"out_dir"`` for ``--out-dir``), before the command does any work; then
+    the missing directories are made, so that the writes at the end find them."""
+    checked = []
+    for names, folder in ((files, False), (folders, True)):
+        for dest in names:
+            value = getattr(args, dest, None)
+            if value is not None:
+                p = check_writable("--" + dest.replace("_", "-"), value, folder=folder)
+                checked.append(p if folder else p.parent)
+    for p in checked:
+        p.mkdir(parents=True, exist_ok=True)
