@@ -144,6 +144,42 @@ def test_resume_skips_finished_cases(swept, blob, tmp_path):
 
 
 @pytest.mark.slow
+def test_a_corrupt_row_is_named_by_file_and_line_and_its_case_run_again(swept, blob,
+                                                                      tmp_path, capsys):
+    result, out = swept
+    lines = out.read_text().splitlines()
+    cols = lines[0].split(",")
+    status, first_fig = cols.index("status"), cols.index(FIGS[0])
+    ok_line = next(i for i, r in enumerate(csv.reader(lines[1:]), 1) if r[status] == "ok"
+                   and i > 2)
+    lines[1] += ",surplus"                                  # one field too many
+    fields = next(csv.reader([lines[2]]))
+    fields[status] = "bogus"                                 # an unknown status
+    lines[2] = ",".join(fields)
+    fields = next(csv.reader([lines[ok_line]]))
+    fields[first_fig] = "abc"                                # an ok row's figure
+    lines[ok_line] = ",".join(fields)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(lines) + "\n")
+    again = run_study(_study(), out=bad, workers=1, blob=blob, progress=True)
+    assert (again.executed, again.skipped) == (3, 6)
+    assert len(again.notes) == 3, again.notes
+    assert again.notes[0].startswith(f"{bad}:2: case 0 is run again: ")
+    assert "fields, the header has" in again.notes[0]
+    assert again.notes[1].startswith(f"{bad}:3: case 1 is run again: status 'bogus' is not "
+                                     "one of ok, ")
+    assert again.notes[2].startswith(f"{bad}:{ok_line + 1}: case {ok_line - 1} is run again: "
+                                     f"figure {FIGS[0]} = 'abc' is not a number")
+    err = capsys.readouterr().err
+    assert all(f"sweep small: note: {n}" in err for n in again.notes) and "Traceback" not in err
+    for a, b in zip(again.rows, result.rows):                # rerun: as before
+        assert a["status"] == b["status"] and a["message"] == b["message"]
+        if a["status"] == "ok":
+            assert [a[f].hex() for f in FIGS] == [b[f].hex() for f in FIGS]
+    assert run_study(_study(), out=bad, workers=1, blob=blob, progress=False).notes == []
+
+
+@pytest.mark.slow
 def test_invalid_case_is_refused_before_running(blob, tmp_path):
     study = Study("heald_frame_rigid", cases=lists(preset=[0, 999], omega=[60.0, 60.0]),
                   figures=[Figure("max", "N_rem")], stop_time=0.1, output_interval=1e-3,

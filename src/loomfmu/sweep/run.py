@@ -16,6 +16,7 @@ import dataclasses
 import hashlib
 import logging
 import os
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -44,7 +45,10 @@ class StudyResult:
     client_cpu_s: CPU seconds the workers and this process (client and, for
     a LocalCluster, the scheduler) spent from the first task to the last;
     busiest_worker_cpu_s: the most any one worker spent (how evenly the work
-    was split, whatever else the machine runs)."""
+    was split, whatever else the machine runs); notes: what the run had to
+    mend, one line each (a corrupt row of ``out`` run again, a case run again
+    after its worker was lost), also printed to standard error with
+    ``progress``."""
     rows: list
     executed: int
     skipped: int
@@ -55,6 +59,7 @@ class StudyResult:
     worker_cpu_s: float = 0.0
     client_cpu_s: float = 0.0
     busiest_worker_cpu_s: float = 0.0
+    notes: list = dataclasses.field(default_factory=list)
 
     @property
     def failed(self) -> list[dict]:
@@ -192,7 +197,10 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
     _check_fmu(study, blob)
     keys = _keys(study, blob)
     cols = store.columns(study.case_names, [f.name for f in study.figures])
-    done = _finished(out, keys, cols, resume)
+    notes: list[str] = []
+    done = _finished(out, keys, cols, resume, [f.name for f in study.figures], notes)
+    for note in notes:
+        _say(study, note, progress)
     pending = [(i, k, c) for i, (k, c) in enumerate(zip(keys, study.cases)) if k not in done]
     t0 = time.perf_counter()
     rows = dict(done)
@@ -211,7 +219,13 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
         store.write_rows(Path(out), cols, ordered)
     return StudyResult(ordered, len(pending), len(done), time.perf_counter() - t0,
                        workers if scheduler is None else -1, None if out is None else Path(out),
-                       **stats)
+                       notes=notes, **stats)
+
+
+def _say(study: Study, note: str, progress: bool) -> None:
+    """A note of the run as one line on standard error (with ``progress``)."""
+    if progress:
+        print(f"sweep {study.name}: note: {note}", file=sys.stderr, flush=True)
 
 
 def _need_distributed() -> None:
@@ -221,10 +235,14 @@ def _need_distributed() -> None:
                           "pip install 'loomfmu[distributed]'")
 
 
-def _finished(out, keys: list[str], cols: list[str], resume: bool) -> dict[str, dict]:
-    """Rows of ``out`` that belong to this study (by case key) and are whole
-    (a line cut short when a study was killed is run again). Rows of other
-    settings (another FMU, experiment or figures) are dropped from the file."""
+def _finished(out, keys: list[str], cols: list[str], resume: bool, figures: list[str],
+              notes: list[str]) -> dict[str, dict]:
+    """Rows of ``out`` that belong to this study (by case key) and are whole.
+    A corrupt row (cut short when a study was killed, more fields than the
+    header, an unknown status, an ok row whose figure is not a number) is run
+    again, with a note naming the file, the line and what is wrong. Rows of
+    other settings (another FMU, experiment or figures) are dropped from the
+    file."""
     if out is None:
         return {}
     path = Path(out)
@@ -239,15 +257,32 @@ def _finished(out, keys: list[str], cols: list[str], resume: bool) -> dict[str, 
                          f"study's {cols[:6]}...; allowed: this study's table, a new path, "
                          "or resume=False (--fresh) to replace it")
     index = {k: i for i, k in enumerate(keys)}
-    found = store.read_rows(path)
+    found = store.read_lines(path)
     rows = {}
-    for r in found:
-        if r.get("key") in index and r.get("status") in STATUSES and None not in r.values():
-            r["index"] = index[r["key"]]
-            rows[r["key"]] = r
-    if len(rows) < len(found):  # rows of other settings or cut short: keep only ours
+    for line, r, problem in found:
+        if r.get("key") not in index:
+            continue   # another setting's row
+        problem = problem or _row_problem(r, figures)
+        if problem is not None:
+            notes.append(f"{path}:{line}: case {index[r['key']]} is run again: {problem}")
+            continue
+        r["index"] = index[r["key"]]
+        rows[r["key"]] = r
+    if len(rows) < len(found):  # rows of other settings or corrupt: keep only ours
         store.write_rows(path, cols, list(rows.values()))
     return rows
+
+
+def _row_problem(row: dict, figures: list[str]) -> str | None:
+    """What is wrong with a row of this study read back (None: nothing)."""
+    if row.get("status") not in STATUSES:
+        return f"status {row.get('status')!r:.40} is not one of {', '.join(STATUSES)}"
+    if row["status"] == "ok":
+        for f in figures:
+            v = row.get(f)
+            if not isinstance(v, (int, float)) or isinstance(v, bool):
+                return f"figure {f} = {v!r:.40} is not a number"
+    return None
 
 
 def _dask_run(study, blob, pending, where, progress, appender,
