@@ -180,6 +180,18 @@ def test_a_corrupt_row_is_named_by_file_and_line_and_its_case_run_again(swept, b
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("reuse", [True, False])
+def test_an_input_outside_its_range_is_a_warning_with_the_fmus_line_not_ok(blob, reuse):
+    study = _study(cases=grid(omega=[60.0, 1000.0]))   # omega's range: [0, 500] rad/s
+    rows = run_serial(study, blob=blob, reuse=reuse)
+    assert [r["status"] for r in rows] == ["ok", "warning"]
+    assert rows[0]["message"] == ""
+    assert rows[1]["message"].startswith("log: [logStatusWarning] t = 0: input omega = 1000 "
+                                         "is outside its range [0, 500]"), rows[1]["message"]
+    assert math.isfinite(rows[1]["max_N_rem"])            # the figures are kept
+
+
+@pytest.mark.slow
 def test_invalid_case_is_refused_before_running(blob, tmp_path):
     study = Study("heald_frame_rigid", cases=lists(preset=[0, 999], omega=[60.0, 60.0]),
                   figures=[Figure("max", "N_rem")], stop_time=0.1, output_interval=1e-3,

@@ -7,8 +7,10 @@
     loomfmu sweep run MODEL --grid b1=0.008,0.012 --figure max_abs:x2_out --stop 0.42
 
 Each writes OUT_DIR/<study>.csv (one row per case, with its status and the
-FMU's log line when it failed) and the charts; rerunning resumes (finished
-cases are skipped) unless --fresh. Exit 1 if a case failed.
+FMU's log line when it failed or warned) and the charts; rerunning resumes
+(finished cases are skipped) unless --fresh. Exit 1 if a case failed or
+completed with a warning of the FMU (status "warning", e.g. an input outside
+its range).
 """
 from __future__ import annotations
 
@@ -214,11 +216,13 @@ def main(argv=None, prog: str = "loomfmu sweep") -> int:
         md.write_text(trends_markdown(table, study.fixed["ecc"]))
         written += [md, charts.trends_chart(table, args.out_dir / "trends.png")]
     failed = res.failed
+    warned = sum(r["status"] == "warning" for r in failed)
     where = (f"{args.workers} local workers" if args.scheduler is None
              else f"workers of {args.scheduler}")
     print(f"{study.name}: {len(res.rows)} cases, {res.executed} run now "
           f"({where}), {res.skipped} "
-          f"resumed from {out}, {len(failed)} failed; {res.wall_s:.1f} s")
+          f"resumed from {out}, {len(failed) - warned} failed, {warned} with a warning; "
+          f"{res.wall_s:.1f} s")
     for r in failed[:10]:
         print(f"  case {r['index']} {r['status']}: {r['message']}")
     for path in written:

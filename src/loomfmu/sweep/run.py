@@ -63,6 +63,8 @@ class StudyResult:
 
     @property
     def failed(self) -> list[dict]:
+        """The rows that are not "ok" (failed, refused, or completed with a
+        warning of the FMU)."""
         return [r for r in self.rows if r["status"] != "ok"]
 
 
@@ -277,7 +279,7 @@ def _row_problem(row: dict, figures: list[str]) -> str | None:
     """What is wrong with a row of this study read back (None: nothing)."""
     if row.get("status") not in STATUSES:
         return f"status {row.get('status')!r:.40} is not one of {', '.join(STATUSES)}"
-    if row["status"] == "ok":
+    if row["status"] in ("ok", "warning"):   # completed: every figure is a number
         for f in figures:
             v = row.get(f)
             if not isinstance(v, (int, float)) or isinstance(v, bool):
