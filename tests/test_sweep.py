@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import http.server
 import math
+import re
 import signal
 import socket
 import threading
@@ -628,3 +629,69 @@ def test_slots_of_threads_threading_does_not_know_stay_in_their_hands(blob):
     while len(done) < 4 and time.monotonic() < deadline:
         time.sleep(0.05)
     assert len(done) == 4 and not results, results[:3]
+
+
+@pytest.mark.slow
+def test_sigint_keeps_the_rows_and_says_how_to_resume_in_one_line(blob, tmp_path):
+    """^C during `loomfmu sweep` (SIGINT to its process group, workers
+    included): exit 130, one line on standard error (no traceback) naming the
+    rows kept, and the results file keeps them."""
+    import os
+    import subprocess
+    import sys
+    fmu = tmp_path / blob.name
+    fmu.write_bytes(blob.data)
+    out_dir = tmp_path / "out"
+    omegas = ",".join(str(40.0 + 0.1 * i) for i in range(200))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "loomfmu", "sweep", "run", "heald_frame_rigid", "--grid",
+         f"omega={omegas}", "--figure", "max:N_rem", "--stop", "1", "--fmu", str(fmu),
+         "--workers", "2", "--out-dir", str(out_dir)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env={**os.environ, "LOOMFMU_PROGRESS": "off"}, start_new_session=True)
+    csv_path = out_dir / "heald_frame_rigid.csv"
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and proc.poll() is None:
+        if csv_path.exists() and len(csv_path.read_text().splitlines()) >= 4:
+            break
+        time.sleep(0.05)
+    assert proc.poll() is None, proc.communicate()
+    os.killpg(proc.pid, signal.SIGINT)   # as ^C in a terminal: the workers get it too
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 130, (proc.returncode, stdout, stderr)
+    assert "Traceback" not in stderr and stderr.count("\n") == 1, stderr
+    kept = store.read_rows(csv_path)
+    assert 3 <= len(kept) < 200 and all(r["status"] == "ok" for r in kept)
+    assert stderr.startswith(f"loomfmu sweep: interrupted: {len(kept)} finished case(s) kept "
+                             f"in {csv_path}; run the same command again to resume"), stderr
+
+
+def _dying_prepare(marker):
+    """A prepare (pickled by value: its module is __main__) whose worker dies
+    the first time it sees omega = 60."""
+    ns = {"__name__": "__main__"}
+    exec(f"""
+import os
+def prepare(case, fixed):
+    if case["omega"] == 60.0 and not os.path.exists({str(marker)!r}):
+        open({str(marker)!r}, "w").close()
+        os._exit(1)
+    return {{**fixed, **case}}, None
+""", ns)
+    return ns["prepare"]
+
+
+@pytest.mark.slow
+def test_a_case_whose_worker_is_lost_is_run_again_and_said(blob, tmp_path, capsys):
+    marker = tmp_path / "died"
+    study = _study(cases=grid(omega=[40.0, 60.0, 80.0]), prepare=_dying_prepare(marker))
+    res = run_study(study, workers=2, blob=blob, progress=True)
+    assert marker.exists()
+    assert [r["status"] for r in res.rows] == ["ok", "ok", "ok"]
+    serial = run_serial(_study(cases=grid(omega=[40.0, 60.0, 80.0])), blob=blob)
+    assert [r["max_N_rem"] for r in res.rows] == [r["max_N_rem"] for r in serial]
+    assert len(res.notes) == 1 and re.match(
+        r"case\(s\) 1 ran again after the worker running them was lost \(1 time\(s\)\)",
+        res.notes[0]), \
+        res.notes
+    assert f"sweep small: note: {res.notes[0]}" in capsys.readouterr().err

@@ -10,7 +10,8 @@ Each writes OUT_DIR/<study>.csv (one row per case, with its status and the
 FMU's log line when it failed or warned) and the charts; rerunning resumes
 (finished cases are skipped) unless --fresh. Exit 1 if a case failed or
 completed with a warning of the FMU (status "warning", e.g. an input outside
-its range).
+its range); 130 when interrupted (SIGINT, ^C), with one line saying how many
+finished cases the results file kept and how to resume.
 """
 from __future__ import annotations
 
@@ -173,6 +174,22 @@ def _run(study, out: Path, args):
                      connect_timeout=args.connect_timeout)
 
 
+def _interrupted(prog: str, out: Path) -> int:
+    """Exit code 130 (as a shell's for SIGINT) with one line: what was kept, and
+    how to resume."""
+    import signal
+
+    from loomfmu.sweep import store
+    signal.signal(signal.SIGINT, signal.SIG_IGN)   # a second ^C must not cut the line
+    try:
+        kept = len(store.read_rows(out))
+    except (OSError, ValueError):
+        kept = 0
+    print(f"{prog}: interrupted: {kept} finished case(s) kept in {out}; run the same "
+          "command again to resume (finished cases are skipped)", file=sys.stderr, flush=True)
+    return 130
+
+
 def _check_out_dir(out_dir: Path, out: Path) -> None:
     """OUT_DIR is (or can be made) a writable directory and OUT_DIR/<study>.csv
     is not a directory: checked before any case runs (ValueError, exit 2)."""
@@ -194,6 +211,8 @@ def main(argv=None, prog: str = "loomfmu sweep") -> int:
     except (ValueError, ImportError) as exc:  # ImportError: dask.distributed missing
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # ^C: the finished rows are in OUT, say so in one line
+        return _interrupted(prog, out)
     written = [out]
     if args.cmd == "design-map":
         summary = studies.smallest_b1(res.rows, gap)

@@ -77,8 +77,11 @@ def open_client(workers: int, scheduler: str | None, connect_timeout: float):
     from dask.distributed import Client, LocalCluster
     if scheduler is None:
         with dask.config.set(QUIET_WORKERS):  # passed on to the workers by their nannies
+            # preload: the workers ignore SIGINT (a ^C reaches the whole process
+            # group; this process stops them)
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.ERROR)
+                                   dashboard_address=None, silence_logs=logging.ERROR,
+                                   preload=["loomfmu.sweep.worker"])
         return Client(cluster), cluster
     try:
         return Client(scheduler, timeout=connect_timeout), None
@@ -212,7 +215,7 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
     try:
         if pending:
             rows.update(_dask_run(study, blob, pending, (workers, scheduler, connect_timeout),
-                                  progress, appender, stats, batch))
+                                  progress, appender, stats, batch, notes))
     finally:
         if appender is not None:
             appender.close()
@@ -288,14 +291,34 @@ def _row_problem(row: dict, figures: list[str]) -> str | None:
 
 
 def _dask_run(study, blob, pending, where, progress, appender,
-              stats: dict, batch: int) -> dict:
+              stats: dict, batch: int, notes: list[str]) -> dict:
+    """The pending cases on dask; a ^C (SIGINT, in the main thread) stops it
+    without dask's shutdown chatter and raises KeyboardInterrupt."""
+    import signal
+    import threading
+    args = (study, blob, pending, where, progress, appender, stats, batch, notes)
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        return _dask_run_on(*args)
+    levels = {n: logging.getLogger(n).level for n in _DASK_LOGGERS}
+    previous = signal.signal(signal.SIGINT, _on_sigint)
+    try:
+        return _dask_run_on(*args)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        for name, level in levels.items():
+            logging.getLogger(name).setLevel(level)
+
+
+def _dask_run_on(study, blob, pending, where, progress, appender, stats: dict, batch: int,
+                 notes: list[str]) -> dict:
     from dask.distributed import as_completed
 
     from loomfmu.progress import Progress
     t0 = time.perf_counter()
     workers, scheduler, connect_timeout = where
     client, cluster = open_client(workers, scheduler, connect_timeout)
-    rows = {}
+    rows, futures = {}, []
     try:
         setup = study.setup()
         remote_blob = client.scatter(blob, broadcast=True)
@@ -306,6 +329,7 @@ def _dask_run(study, blob, pending, where, progress, appender,
         futures = [client.submit(run_batch, remote_blob, setup, chunk,
                                  key=f"{study.name}-{chunk[0][0]}-{chunk[0][1]}", pure=False)
                    for chunk in chunks]
+
         bar = Progress(total=len(pending), desc=f"sweep {study.name}") if progress else None
         try:
             for fut in as_completed(futures):
@@ -318,15 +342,65 @@ def _dask_run(study, blob, pending, where, progress, appender,
         finally:
             if bar is not None:
                 bar.close()
+        for note in _lost_worker_notes(client, futures, chunks):
+            _say(study, note, progress)
+            notes.append(note)
         cpu1 = client.run(_cpu_seconds)
         stats["client_cpu_s"] = time.process_time() - own0
         spent = [cpu1[w] - cpu0.get(w, 0.0) for w in cpu1]
         stats["worker_cpu_s"], stats["busiest_worker_cpu_s"] = sum(spent), max(spent)
+    except KeyboardInterrupt:   # ^C: stop quietly, the rows appended so far stay
+        _silence_dask()
+        try:
+            client.cancel(futures)
+        except Exception:  # noqa: BLE001 (closing anyway)
+            pass
+        raise
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
     return rows
+
+
+_DASK_LOGGERS = ("distributed", "tornado", "asyncio")
+
+
+def _silence_dask() -> None:
+    """No more log records of dask, tornado and asyncio in this process: after
+    an interruption their shutdown chatter (cancelled keys, closed comms, a
+    callback's traceback) says nothing the caller's one line does not."""
+    for name in _DASK_LOGGERS:
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+
+
+def _on_sigint(signum, frame):
+    _silence_dask()   # before dask's own callbacks see the interruption
+    raise KeyboardInterrupt
+
+
+def _lost_worker_notes(client, futures, chunks) -> list[str]:
+    """One note per task that ran again because the worker running it was
+    lost (the scheduler counts such a task as suspicious; a worker that dies
+    on it more often than distributed.scheduler.allowed-failures fails it
+    with KilledWorker instead)."""
+    keys = [f.key for f in futures]
+
+    def suspicious(dask_scheduler, keys=keys):   # pickled by value: any scheduler runs it
+        tasks = dask_scheduler.tasks
+        return {k: tasks[k].suspicious for k in keys if k in tasks}
+
+    try:
+        counts = client.run_on_scheduler(suspicious)
+    except Exception:  # noqa: BLE001 (an older scheduler: the rows are right regardless)
+        return []
+    notes = []
+    for key, chunk in zip(keys, chunks):
+        if counts.get(key):
+            cases = ", ".join(str(i) for i, _, _ in chunk)
+            notes.append(f"case(s) {cases} ran again after the worker running them was "
+                         f"lost ({counts[key]} time(s))")
+    return notes
 
 
 def _modules(study: Study) -> set[str]:

@@ -227,5 +227,14 @@ def run_batch(blob: FmuBlob, setup: Setup, items: list, reuse: bool = True) -> l
     return [run_case(blob, setup, i, k, c, reuse=reuse) for i, k, c in items]
 
 
+def dask_setup(worker) -> None:
+    """Run by a local cluster's worker processes at start (dask's preload):
+    SIGINT is ignored there. A ^C in a terminal reaches every process of the
+    group; the process that started the cluster stops the workers, and
+    without this each worker would print its own KeyboardInterrupt traceback."""
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _worker() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
