@@ -400,7 +400,7 @@ def cases() -> list[Case]:
     # -- drive: parameters, law, cam, tracking ----------------------------------------
     for kw, arg in ((dict(K=NAN), "K"), (dict(K=True), "K"), (dict(K="30"), "K"),
                     (dict(Kx=1.0), "Kx"), (dict(T_c=-1.0), "T_c"), (dict(n_max=0.1), "n_max"),
-                    (dict(tau=INF), "tau")):
+                    (dict(tau=INF), "tau"), (dict(T=0.0), "T"), (dict(K=1e-3), "K")):
         add(f"DriveParams(**{kw!r})", arg, lambda fx, kw=kw: _drive("DriveParams", **kw))
     add("DriveParams.from_rpm(n_min='12000')", "n_min",
         lambda fx: _drive("DriveParams").from_rpm(n_min="12000"))
@@ -642,6 +642,16 @@ def cases() -> list[Case]:
         lambda fx: _symbolic("generalized_forces", 1.0, "qd"))
     add("lagrange_equations(T, V, q, qd, qdd of 3, Q)", "qddot",
         lambda fx: _symbolic("lagrange_equations", "T", "V", "q", "qd", "qdd", "Q"))
+
+    # -- sweep: where the results go (checked before the FMU is built) ---------------
+    def _sweep_out(out):
+        from loomfmu.sweep import Figure, Study, run_study
+        study = Study("heald_frame_rigid", cases=[{"omega": 60.0}],
+                      figures=[Figure("max", "N_rem")], stop_time=0.1, output_interval=0.01)
+        return run_study(study, out=out)
+    add("run_study(study, out='.')", "out", lambda fx: _sweep_out("."))
+    add("run_study(study, out=<a file>/x.csv)", "out",
+        lambda fx: _sweep_out(__file__ + "/x.csv"))
     return C
 
 

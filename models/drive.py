@@ -27,7 +27,7 @@ import casadi as ca
 from loomfmu.declare.checks import check_choice, check_int, check_number
 from loomfmu.declare.model import Model
 from loomfmu.mechanics.drive_law import MAX_HARMONICS
-from loomfmu.mechanics.drive_params import DriveParams
+from loomfmu.mechanics.drive_params import FMU_RANGES, DriveParams
 from loomfmu.mechanics.layer_cam import cam_profile_phi
 from loomfmu.mechanics.layer_cam import f_rad as cam_ratio
 from loomfmu.models.drive_derivation import (
@@ -67,20 +67,25 @@ def build(*, cam: str = "compensated", harmonics: int = 96, m: int = 40,
                stop_time=30.0, step_size=0.01, h_fixed=1e-3,
                options={"cam": cam, "harmonics": harmonics, "m": m, "max_delay": max_delay})
     P = m_.parameter
+
+    def rng(name):  # the bounds DriveParams checks too
+        lo, hi = FMU_RANGES[name][:2]
+        return dict(min=lo, max=hi if name != "tau" else max_delay)
+
     dp = DriveParams()  # the assumed machine values, documented in loomfmu.mechanics.drive_params
-    K = P("K", dp.K * 60.0, unit="rpm/V", description="static gain of the drive", min=1.0,
-          max=1e6, source=SEED + " (9); value " + A + "0-10 V <-> 0-18000 rpm")
-    T = P("T", dp.T, unit="s", description="time constant of the drive", min=1e-6, max=100.0,
+    K = P("K", dp.K * 60.0, unit="rpm/V", description="static gain of the drive", **rng("K"),
+          source=SEED + " (9); value " + A + "0-10 V <-> 0-18000 rpm")
+    T = P("T", dp.T, unit="s", description="time constant of the drive", **rng("T"),
           source=SEED + " (9); value " + A + "ring-frame inertia, inverter ramps")
-    tau = P("tau", dp.tau, unit="s", description="pure delay of the drive", min=0.0,
-            max=max_delay, source=SEED + " (9), printed as t (defect D9); value " + A +
+    tau = P("tau", dp.tau, unit="s", description="pure delay of the drive", **rng("tau"),
+            source=SEED + " (9), printed as t (defect D9); value " + A +
             "regulator dead time and belt slip")
-    k_g = P("k_g", dp.k_g, unit="V/m", description="gain of the layer sensor W_g", min=1e-3,
-            max=1e6, source=SEED + " (3), W_g not given: assumption W_g = k_g")
+    k_g = P("k_g", dp.k_g, unit="V/m", description="gain of the layer sensor W_g", **rng("k_g"),
+            source=SEED + " (3), W_g not given: assumption W_g = k_g")
     r_min = P("r_min", dp.r_min, unit="m", description="cam datum radius (signal zero, n = n_min)",
-              min=0.0, max=1.0, source=SEED + " (3), read as a datum (defect D10); value " + A)
+              **rng("r_min"), source=SEED + " (3), read as a datum (defect D10); value " + A)
     n_min = P("n_min", dp.n_min * 60.0, unit="rpm", description="spindle speed at the set point U_z",
-              min=1.0, max=1e5, source=A + "10-20 krpm as in seed 003")
+              **rng("n_min"), source=A + "10-20 krpm as in seed 003")
     f_rad = P("f_rad", cam_ratio(dp), unit="rad", description="cam angle per spindle revolution",
               min=0.0, max=1.0, source=SEED + " (4), units fixed (defect D11): 2 pi / "
               "(mean speed x double-stroke period) for the assumed law")

@@ -307,9 +307,12 @@ def test_tracking_error_helper():
     (dict(T=-1.0), "T"), (dict(tau=-0.1), "tau"), (dict(T_c=0.0), "T_c"),
     (dict(T_n=-5.0), "T_n"), (dict(n_max=150.0), "n_max"), (dict(D_N=0.015), "D_N"),
     (dict(D_B=0.0), "D_B"), (dict(K=0.0), "K"), (dict(k_g=-1.0), "k_g"),
-    (dict(r_min=float("nan")), "r_min"), (dict(T_g=-0.01), "T_g")])
+    (dict(r_min=float("nan")), "r_min"), (dict(T_g=-0.01), "T_g"),
+    (dict(T=0.0), r"T must be in \[1e-06, 100\] s"), (dict(T=101.0), "T"),
+    (dict(K=1e-3), r"K must be in \[1, 1e\+06\] rpm/V"), (dict(tau=4000.0), "tau"),
+    (dict(r_min=2.0), "r_min"), (dict(n_min=1e4), "n_min"), (dict(k_g=1e7), "k_g")])
 def test_bad_params_raise(kw, field):
-    with pytest.raises(ValueError, match=rf"\b{field}\b"):
+    with pytest.raises(ValueError, match=rf"\b{field}"):
         DriveParams(**kw)
 
 

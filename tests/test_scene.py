@@ -285,10 +285,10 @@ def test_scene_command(fmu_dir, tmp_path, capsys):
     assert main(["export", "two_mass", "--out", str(tmp_path / "x.zip")]) == 2
     capsys.readouterr()
     # output paths and options are checked before the run, in one line
-    for argv, said in ((["--csv", "/nonexistent_dir/x.csv"], "folder /nonexistent_dir does "
-                        "not exist"),
-                       (["--csv", str(tmp_path)], "a folder; allowed: a file name"),
-                       (["--fmu-dir", str(csv)], "not a folder"),
+    for argv, said in ((["--csv", str(csv / "x.csv")], f"cannot be made ('{csv}' is a file)"),
+                       (["--csv", str(tmp_path)], "an existing directory, not a file; allowed"),
+                       (["--csv", "/proc/x.csv"], "not writable"),
+                       (["--fmu-dir", str(csv)], "an existing file, not a directory"),
                        (["--output-derivatives", "--extrapolation", "0"],
                         "output_derivatives = True with extrapolation = 0"),
                        (["--rtol", "nan", "--adaptive"], "rtol = nan")):

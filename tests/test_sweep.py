@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import http.server
 import math
+import re
 import signal
 import socket
 import threading
@@ -144,6 +145,54 @@ def test_resume_skips_finished_cases(swept, blob, tmp_path):
 
 
 @pytest.mark.slow
+def test_a_corrupt_row_is_named_by_file_and_line_and_its_case_run_again(swept, blob,
+                                                                      tmp_path, capsys):
+    result, out = swept
+    lines = out.read_text().splitlines()
+    cols = lines[0].split(",")
+    status, first_fig = cols.index("status"), cols.index(FIGS[0])
+    ok_line = next(i for i, r in enumerate(csv.reader(lines[1:]), 1) if r[status] == "ok"
+                   and i > 2)
+    lines[1] += ",surplus"                                  # one field too many
+    fields = next(csv.reader([lines[2]]))
+    fields[status] = "bogus"                                 # an unknown status
+    lines[2] = ",".join(fields)
+    fields = next(csv.reader([lines[ok_line]]))
+    fields[first_fig] = "abc"                                # an ok row's figure
+    lines[ok_line] = ",".join(fields)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(lines) + "\n")
+    again = run_study(_study(), out=bad, workers=1, blob=blob, progress=True)
+    assert (again.executed, again.skipped) == (3, 6)
+    assert len(again.notes) == 3, again.notes
+    assert again.notes[0].startswith(f"{bad}:2: case 0 is run again: ")
+    assert "fields, the header has" in again.notes[0]
+    assert again.notes[1].startswith(f"{bad}:3: case 1 is run again: status 'bogus' is not "
+                                     "one of ok, ")
+    assert again.notes[2].startswith(f"{bad}:{ok_line + 1}: case {ok_line - 1} is run again: "
+                                     f"figure {FIGS[0]} = 'abc' is not a number")
+    err = capsys.readouterr().err
+    assert all(f"sweep small: note: {n}" in err for n in again.notes) and "Traceback" not in err
+    for a, b in zip(again.rows, result.rows):                # rerun: as before
+        assert a["status"] == b["status"] and a["message"] == b["message"]
+        if a["status"] == "ok":
+            assert [a[f].hex() for f in FIGS] == [b[f].hex() for f in FIGS]
+    assert run_study(_study(), out=bad, workers=1, blob=blob, progress=False).notes == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("reuse", [True, False])
+def test_an_input_outside_its_range_is_a_warning_with_the_fmus_line_not_ok(blob, reuse):
+    study = _study(cases=grid(omega=[60.0, 1000.0]))   # omega's range: [0, 500] rad/s
+    rows = run_serial(study, blob=blob, reuse=reuse)
+    assert [r["status"] for r in rows] == ["ok", "warning"]
+    assert rows[0]["message"] == ""
+    assert rows[1]["message"].startswith("log: [logStatusWarning] t = 0: input omega = 1000 "
+                                         "is outside its range [0, 500]"), rows[1]["message"]
+    assert math.isfinite(rows[1]["max_N_rem"])            # the figures are kept
+
+
+@pytest.mark.slow
 def test_invalid_case_is_refused_before_running(blob, tmp_path):
     study = Study("heald_frame_rigid", cases=lists(preset=[0, 999], omega=[60.0, 60.0]),
                   figures=[Figure("max", "N_rem")], stop_time=0.1, output_interval=1e-3,
@@ -188,6 +237,8 @@ def _derived(t, y, case):
     (lambda: run_study(_study(), workers=65), "workers"),
     (lambda: run_study(_study(), scheduler="localhost"), "scheduler"),
     (lambda: run_study(_study(), batch=0), "batch"),
+    (lambda: run_study(_study(), out="."), "out = '.': an existing directory"),
+    (lambda: run_study(_study(), out=__file__ + "/x.csv"), "out = "),
 ])
 def test_bad_arguments_name_the_argument_and_the_allowed_range(make, names):
     with pytest.raises(ValueError) as e:
@@ -578,3 +629,69 @@ def test_slots_of_threads_threading_does_not_know_stay_in_their_hands(blob):
     while len(done) < 4 and time.monotonic() < deadline:
         time.sleep(0.05)
     assert len(done) == 4 and not results, results[:3]
+
+
+@pytest.mark.slow
+def test_sigint_keeps_the_rows_and_says_how_to_resume_in_one_line(blob, tmp_path):
+    """^C during `loomfmu sweep` (SIGINT to its process group, workers
+    included): exit 130, one line on standard error (no traceback) naming the
+    rows kept, and the results file keeps them."""
+    import os
+    import subprocess
+    import sys
+    fmu = tmp_path / blob.name
+    fmu.write_bytes(blob.data)
+    out_dir = tmp_path / "out"
+    omegas = ",".join(str(40.0 + 0.1 * i) for i in range(200))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "loomfmu", "sweep", "run", "heald_frame_rigid", "--grid",
+         f"omega={omegas}", "--figure", "max:N_rem", "--stop", "1", "--fmu", str(fmu),
+         "--workers", "2", "--out-dir", str(out_dir)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env={**os.environ, "LOOMFMU_PROGRESS": "off"}, start_new_session=True)
+    csv_path = out_dir / "heald_frame_rigid.csv"
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and proc.poll() is None:
+        if csv_path.exists() and len(csv_path.read_text().splitlines()) >= 4:
+            break
+        time.sleep(0.05)
+    assert proc.poll() is None, proc.communicate()
+    os.killpg(proc.pid, signal.SIGINT)   # as ^C in a terminal: the workers get it too
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 130, (proc.returncode, stdout, stderr)
+    assert "Traceback" not in stderr and stderr.count("\n") == 1, stderr
+    kept = store.read_rows(csv_path)
+    assert 3 <= len(kept) < 200 and all(r["status"] == "ok" for r in kept)
+    assert stderr.startswith(f"loomfmu sweep: interrupted: {len(kept)} finished case(s) kept "
+                             f"in {csv_path}; run the same command again to resume"), stderr
+
+
+def _dying_prepare(marker):
+    """A prepare (pickled by value: its module is __main__) whose worker dies
+    the first time it sees omega = 60."""
+    ns = {"__name__": "__main__"}
+    exec(f"""
+import os
+def prepare(case, fixed):
+    if case["omega"] == 60.0 and not os.path.exists({str(marker)!r}):
+        open({str(marker)!r}, "w").close()
+        os._exit(1)
+    return {{**fixed, **case}}, None
+""", ns)
+    return ns["prepare"]
+
+
+@pytest.mark.slow
+def test_a_case_whose_worker_is_lost_is_run_again_and_said(blob, tmp_path, capsys):
+    marker = tmp_path / "died"
+    study = _study(cases=grid(omega=[40.0, 60.0, 80.0]), prepare=_dying_prepare(marker))
+    res = run_study(study, workers=2, blob=blob, progress=True)
+    assert marker.exists()
+    assert [r["status"] for r in res.rows] == ["ok", "ok", "ok"]
+    serial = run_serial(_study(cases=grid(omega=[40.0, 60.0, 80.0])), blob=blob)
+    assert [r["max_N_rem"] for r in res.rows] == [r["max_N_rem"] for r in serial]
+    assert len(res.notes) == 1 and re.match(
+        r"case\(s\) 1 ran again after the worker running them was lost \(1 time\(s\)\)",
+        res.notes[0]), \
+        res.notes
+    assert f"sweep small: note: {res.notes[0]}" in capsys.readouterr().err

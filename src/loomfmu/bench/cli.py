@@ -11,6 +11,7 @@ from pathlib import Path
 from loomfmu.bench import classic, failures, limit, report
 from loomfmu.bench.scenes import BENCH, load_scene_model
 from loomfmu.bench.sweep import Plan, prepare, work_precision
+from loomfmu.declare.checks import check_output_options
 from loomfmu.progress import Progress
 
 #: most local dask workers (as loomfmu.sweep.run.MAX_WORKERS; not imported
@@ -191,6 +192,9 @@ def _parser(prog: str) -> tuple[argparse.ArgumentParser, dict]:
 def main(argv=None, prog: str = "loomfmu bench") -> int:
     ap, subs = _parser(prog)
     args = ap.parse_args(argv)
+    charts_ = args.command == "charts"   # its --out is a folder, the others' a file
+    check_output_options(args, files=["readme", "page"] + ([] if charts_ else ["out"]),
+                         folders=["out"] if charts_ else [])
     if args.command in ("speed", "friction") and args.repeats < 1:
         subs[args.command].error(f"--repeats {args.repeats}: allowed >= 1")
     if args.command == "friction":

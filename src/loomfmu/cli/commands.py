@@ -11,7 +11,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from loomfmu.declare.checks import MAX_POINTS
+from loomfmu.declare.checks import MAX_POINTS, check_output_options
 from loomfmu.fidelity import LEVELS
 from loomfmu.progress import Progress
 from loomfmu.registry import FIDELITY, MODELS, load_model
@@ -170,6 +170,7 @@ def _verify_with_progress(fmu, model, bar: Progress, **kw) -> dict:
 
 
 def cmd_build(args) -> int:
+    check_output_options(args, folders=["out_dir"])
     check_range("--rtol", args.rtol, 0.0, 1.0)
     check_range("--max-error", args.max_error, 0.0)
     names = args.models or sorted(MODELS)
@@ -337,6 +338,7 @@ def cmd_simulate(args) -> int:
     for flag, value in (("--stop", args.stop), ("--step", args.step)):
         if value is not None:
             check_range(flag, value, 0.0)
+    check_output_options(args, files=["csv", "plot"])
     if args.plot:
         _plot_format_ok(args.plot)
     md, model = _description_of(args.target, options)

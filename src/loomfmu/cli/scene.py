@@ -11,6 +11,7 @@ import sys
 import warnings
 from pathlib import Path
 
+from loomfmu.declare.checks import check_output_options
 from loomfmu.machines.fidelity import add_parser as add_fidelity_parser
 from loomfmu.machines.library import SCENES, load_scene
 from loomfmu.scene.master import MASTERS
@@ -78,27 +79,10 @@ def _list() -> int:
     return 0
 
 
-def check_output(option: str, path: Path | None) -> None:
-    """ValueError (one line, exit 2) unless ``path`` can be written as a file:
-    its folder exists and it is not a folder itself (checked before the run,
-    not after it)."""
-    if path is None:
-        return
-    if path.is_dir():
-        raise ValueError(f"{option} {path}: a folder; allowed: a file name in an existing "
-                         "folder")
-    if not path.parent.is_dir():
-        raise ValueError(f"{option} {path}: folder {path.parent} does not exist; allowed: "
-                         "a file name in an existing folder")
-
-
 def _run(args, prog: str) -> int:
     from loomfmu.scene.run import UNRESOLVED, UnresolvedCoupling, run, unresolved_message
     from loomfmu.scene.system import FMUError
-    check_output("--csv", args.csv)
-    if args.fmu_dir is not None and args.fmu_dir.exists() and not args.fmu_dir.is_dir():
-        raise ValueError(f"--fmu-dir {args.fmu_dir}: not a folder; allowed: a folder (made "
-                         "if missing)")
+    check_output_options(args, files=["csv"], folders=["fmu_dir"])
     s = load_scene(args.scene)
     master = s.master if args.master is None else args.master
     extrapolation = s.extrapolation if args.extrapolation is None else args.extrapolation
@@ -162,6 +146,8 @@ def main(argv=None, prog: str = "loomfmu scene") -> int:
             return fidelity(args)
         from loomfmu.scene.ssp import export_ssp
         out = args.out if args.out is not None else Path(f"{args.scene}.ssp")
+        check_output_options(argparse.Namespace(out=out, fmu_dir=args.fmu_dir),
+                             files=["out"], folders=["fmu_dir"])
         print(f"written: {export_ssp(load_scene(args.scene), out, fmu_dir=args.fmu_dir)}")
         return 0
     except ValueError as exc:

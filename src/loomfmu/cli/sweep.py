@@ -7,17 +7,19 @@
     loomfmu sweep run MODEL --grid b1=0.008,0.012 --figure max_abs:x2_out --stop 0.42
 
 Each writes OUT_DIR/<study>.csv (one row per case, with its status and the
-FMU's log line when it failed) and the charts; rerunning resumes (finished
-cases are skipped) unless --fresh. Exit 1 if a case failed.
+FMU's log line when it failed or warned) and the charts; rerunning resumes
+(finished cases are skipped) unless --fresh. Exit 1 if a case failed or
+completed with a warning of the FMU (status "warning", e.g. an input outside
+its range); 130 when interrupted (SIGINT, ^C), with one line saying how many
+finished cases the results file kept and how to resume.
 """
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
-from loomfmu.declare.checks import check_number
+from loomfmu.declare.checks import check_number, check_writable
 from loomfmu.declare.solvers import SOLVERS
 
 
@@ -172,21 +174,27 @@ def _run(study, out: Path, args):
                      connect_timeout=args.connect_timeout)
 
 
+def _interrupted(prog: str, out: Path) -> int:
+    """Exit code 130 (as a shell's for SIGINT) with one line: what was kept, and
+    how to resume."""
+    import signal
+
+    from loomfmu.sweep import store
+    signal.signal(signal.SIGINT, signal.SIG_IGN)   # a second ^C must not cut the line
+    try:
+        kept = len(store.read_rows(out))
+    except (OSError, ValueError):
+        kept = 0
+    print(f"{prog}: interrupted: {kept} finished case(s) kept in {out}; run the same "
+          "command again to resume (finished cases are skipped)", file=sys.stderr, flush=True)
+    return 130
+
+
 def _check_out_dir(out_dir: Path, out: Path) -> None:
     """OUT_DIR is (or can be made) a writable directory and OUT_DIR/<study>.csv
     is not a directory: checked before any case runs (ValueError, exit 2)."""
-    allowed = "allowed: a directory (existing or to be made) that this user can write"
-    existed = out_dir.exists()
-    if existed and not out_dir.is_dir():
-        raise ValueError(f"--out-dir {str(out_dir)!r}: an existing file, not a "
-                         f"directory; {allowed}")
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"--out-dir {str(out_dir)!r}: cannot be made "
-                         f"({exc.strerror or exc}); {allowed}") from None
-    if existed and not os.access(out_dir, os.W_OK | os.X_OK):
-        raise ValueError(f"--out-dir {str(out_dir)!r}: not writable; {allowed}")
+    check_writable("--out-dir", out_dir, folder=True)
+    out_dir.mkdir(parents=True, exist_ok=True)
     if out.is_dir():
         raise ValueError(f"--out-dir {str(out_dir)!r}: {out.name} in it is a directory; "
                          "allowed: a directory where that name is free or a results file")
@@ -203,6 +211,8 @@ def main(argv=None, prog: str = "loomfmu sweep") -> int:
     except (ValueError, ImportError) as exc:  # ImportError: dask.distributed missing
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # ^C: the finished rows are in OUT, say so in one line
+        return _interrupted(prog, out)
     written = [out]
     if args.cmd == "design-map":
         summary = studies.smallest_b1(res.rows, gap)
@@ -225,11 +235,13 @@ def main(argv=None, prog: str = "loomfmu sweep") -> int:
         md.write_text(trends_markdown(table, study.fixed["ecc"]))
         written += [md, charts.trends_chart(table, args.out_dir / "trends.png")]
     failed = res.failed
+    warned = sum(r["status"] == "warning" for r in failed)
     where = (f"{args.workers} local workers" if args.scheduler is None
              else f"workers of {args.scheduler}")
     print(f"{study.name}: {len(res.rows)} cases, {res.executed} run now "
           f"({where}), {res.skipped} "
-          f"resumed from {out}, {len(failed)} failed; {res.wall_s:.1f} s")
+          f"resumed from {out}, {len(failed) - warned} failed, {warned} with a warning; "
+          f"{res.wall_s:.1f} s")
     for r in failed[:10]:
         print(f"  case {r['index']} {r['status']}: {r['message']}")
     for path in written:

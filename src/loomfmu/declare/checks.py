@@ -225,3 +225,65 @@ def check_text(name: str, value, *, c_string: bool = False) -> str:
         raise ValueError(f"{name} = {_short(value)}: {bad.group()!r} at position "
                          f"{bad.start()}; allowed: {allowed}")
     return value
+
+
+
+def _probe(folder) -> str | None:
+    """None if a file can be created in the existing ``folder``, else why not."""
+    import tempfile
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    return None
+
+
+def check_writable(name: str, path, *, folder: bool = False):
+    """``path`` as a ``pathlib.Path`` if an output can be written there,
+    checked before any work is done: a file (``folder`` False) whose path is
+    not a directory, or a directory (``folder`` True) that is not a file; in
+    both cases the directory it goes in exists or can be made, and this user
+    can write there.  Nothing is created.  ``name`` is the argument (``out``)
+    or the command-line option (``--csv``)."""
+    import os
+    from pathlib import Path
+    allowed = ("allowed: a directory that exists or can be made" if folder else
+               "allowed: a file path whose directory exists or can be made") + \
+        ", writable by this user"
+    if not isinstance(path, (str, os.PathLike)) or not os.fspath(path):
+        raise ValueError(f"{name} = {_short(path)}; {allowed}")
+    p = Path(path)
+    said = f"{name} {str(p)!r}" if name.startswith("-") else f"{name} = {str(p)!r}"
+    if folder and p.exists() and not p.is_dir():
+        raise ValueError(f"{said}: an existing file, not a directory; {allowed}")
+    if not folder and p.is_dir():
+        raise ValueError(f"{said}: an existing directory, not a file; {allowed}")
+    if not folder and p.exists() and not os.access(p, os.W_OK):
+        raise ValueError(f"{said}: not writable; {allowed}")
+    here = p if folder else p.parent
+    existing = next((up for up in (here, *here.parents) if up.exists()), Path("."))
+    if not existing.is_dir():
+        raise ValueError(f"{said}: cannot be made ({str(existing)!r} is a file); {allowed}")
+    why = _probe(existing)
+    if why is not None:
+        where = "" if existing == here else f" in {str(existing)!r}"
+        raise ValueError(f"{said}: not writable{where} ({why}); {allowed}")
+    return p
+
+
+def check_output_options(args, *, files: Iterable[str] = (), folders: Iterable[str] = ()
+                         ) -> None:
+    """:func:`check_writable` on each output option of a parsed command line
+    that is set (``files``, ``folders``: the argparse ``dest`` names, e.g.
+    ``"out_dir"`` for ``--out-dir``), before the command does any work; then
+    the missing directories are made, so that the writes at the end find them."""
+    checked = []
+    for names, folder in ((files, False), (folders, True)):
+        for dest in names:
+            value = getattr(args, dest, None)
+            if value is not None:
+                p = check_writable("--" + dest.replace("_", "-"), value, folder=folder)
+                checked.append(p if folder else p.parent)
+    for p in checked:
+        p.mkdir(parents=True, exist_ok=True)

@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from loomfmu.declare.checks import check_output_options
 from loomfmu.drive import report
 
 
@@ -23,6 +24,7 @@ def main(argv=None, prog: str = "loomfmu drive") -> int:
     k.add_argument("--out", type=Path, default=Path("docs/guides/drive_tracking.md"),
                    help="output file (default: ./docs/drive_tracking.md)")
     args = ap.parse_args(argv)
+    check_output_options(args, files=["out"], folders=["out_dir"])
     if args.cmd == "tracking":
         from loomfmu.drive.tracking import write_tracking
         from loomfmu.progress import Progress

@@ -8,7 +8,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from loomfmu.declare.checks import check_number
+from loomfmu.declare.checks import check_number, check_output_options
 from loomfmu.heald import claims as cl
 
 
@@ -47,6 +47,7 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
     w.add_argument("--out", type=Path, default=Path("docs/guides/heald_tension_input.md"),
                    help="output file (default: ./docs/heald_tension_input.md)")
     args = ap.parse_args(argv)
+    check_output_options(args, files=["out"])
     from loomfmu.progress import Progress
     if args.cmd == "claims":
         with Progress(total=1, desc="heald claims") as bar:

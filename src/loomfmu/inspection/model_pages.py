@@ -12,6 +12,7 @@ import argparse
 import math
 from pathlib import Path
 
+from loomfmu.declare.checks import check_output_options
 from loomfmu.declare.model import Model
 from loomfmu.registry import MODELS, load_model
 
@@ -92,6 +93,7 @@ def main(argv=None, prog: str = "loomfmu docs") -> int:
     ap.add_argument("--out", type=Path, default=Path("docs/reference/models"),
                     help="output folder (default: ./docs/models)")
     args = ap.parse_args(argv)
+    check_output_options(args, folders=["out"])
     args.out.mkdir(parents=True, exist_ok=True)
     for name in sorted(MODELS):
         path = args.out / f"{name}.md"

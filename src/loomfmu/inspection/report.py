@@ -23,6 +23,7 @@ from pathlib import Path
 import casadi as ca
 import sympy
 
+from loomfmu.declare.checks import check_writable
 from loomfmu.export.codegen import generate_sources
 from loomfmu.export.dae import DaeForm, dae_form
 from loomfmu.inspection import readable
@@ -369,13 +370,13 @@ def main(argv=None, prog: str = "loomfmu inspect") -> int:
         if str(args.out) == "-":
             ap.error("--out - prints one report: give one MODEL and one --format")
         out_dir = args.out or (ALL_OUT if args.all else Path("."))
-        if out_dir.exists() and not out_dir.is_dir():
-            ap.error(f"--out {out_dir}: a file; with --all or several formats it is a "
-                     "directory")
+        check_writable("--out", out_dir, folder=True)  # a directory with --all or formats
         names = sorted(MODELS) if args.all else [args.model]
         for path in write_reports(names, formats, out_dir):
             print(f"written: {path}")
         return 0
+    if args.out is not None and str(args.out) != "-":
+        check_writable("--out", args.out)
     text = report(load_model(args.model), formats[0])
     if str(args.out) == "-":
         sys.stdout.write(text)

@@ -480,6 +480,9 @@ def add_parser(sub) -> None:
 
 def main(args) -> int:
     import json
+
+    from loomfmu.declare.checks import check_output_options
+    check_output_options(args, files=["json", "chart"], folders=["fmu_dir"])
     opts = {}
     for item in args.option:
         name, sep, value = item.partition("=")

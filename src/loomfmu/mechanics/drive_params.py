@@ -16,6 +16,19 @@ from loomfmu.declare.checks import check_names, is_real
 #: rev/s per rpm
 RPM = 1.0 / 60.0
 
+#: the range each field has as a parameter of the drive FMU (models/drive.py
+#: declares its parameters with these bounds): name -> (lo, hi, FMU unit,
+#: FMU units per unit of this class).  tau's upper bound in an FMU is its
+#: ``max_delay`` option, at most 3600 s.
+FMU_RANGES = {
+    "K": (1.0, 1e6, "rpm/V", 60.0),
+    "T": (1e-6, 100.0, "s", 1.0),
+    "tau": (0.0, 3600.0, "s", 1.0),
+    "k_g": (1e-3, 1e6, "V/m", 1.0),
+    "r_min": (0.0, 1.0, "m", 1.0),
+    "n_min": (1.0, 1e5, "rpm", 60.0),
+}
+
 
 def _f(default: float, unit: str, description: str, source: str):
     return field(default=default, metadata=dict(unit=unit, description=description,
@@ -74,10 +87,15 @@ class DriveParams:
             v = getattr(self, name)
             if v <= 0:
                 out.append(f"{name} must be > 0 ({unit[name]}), got {v!r}")
-        for name in ("T", "tau", "T_g"):
+        if self.T_g < 0:
+            out.append(f"T_g must be >= 0 (s), got {self.T_g!r}")
+        for name, (lo, hi, fmu_unit, scale) in FMU_RANGES.items():
             v = getattr(self, name)
-            if v < 0:
-                out.append(f"{name} must be >= 0 (s), got {v!r}")
+            if (name not in positive or v > 0) and not lo <= v * scale <= hi:
+                allowed = f"[{lo:g}, {hi:g}] {fmu_unit}"
+                if scale != 1.0:
+                    allowed += f" = [{lo / scale:g}, {hi / scale:g}] {unit[name]}"
+                out.append(f"{name} must be in {allowed} (the drive FMU's range), got {v!r}")
         if self.D_N <= self.D_B:
             out.append(f"D_N must be > D_B = {self.D_B!r} m, got {self.D_N!r}")
         if self.n_max <= self.n_min:

@@ -68,16 +68,23 @@ def run_ssp(ssp, refs: list[tuple[str, str]], *, step: float, stop: float,
     """Run the SSP file ``ssp`` with libcosim's fixed-step algorithm; record
     ``refs`` (component, variable) at every step.  Returns a structured array
     like :class:`loomfmu.scene.Result`'s data (``time`` and
-    ``component.variable`` fields)."""
+    ``component.variable`` fields).  A damaged ``ssp`` (see
+    :func:`loomfmu.scene.ssp.validate_ssd`) is a ValueError naming each
+    problem, before libcosim sees it."""
     try:
         from libcosimpy.CosimExecution import CosimExecution
         from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
         from libcosimpy.CosimObserver import CosimObserver
     except ImportError as exc:
         raise RuntimeError("libcosimpy is not installed (pip install libcosimpy)") from exc
+    from loomfmu.scene.ssp import validate_ssd
     ssp = Path(ssp)
     if not ssp.is_file():
         raise ValueError(f"ssp = {str(ssp)!r}: no such file; allowed: an .ssp file")
+    problems = validate_ssd(ssp)   # libcosim would only say "check if path is correct"
+    if problems:
+        raise ValueError(f"ssp = {str(ssp)!r}: " + "; ".join(problems) +
+                         "; allowed: an .ssp file that loomfmu.scene.ssp.validate_ssd passes")
     h_ns = step_ns(step)
     n = int(round(check_number("stop", stop, lo=step, unit="s") * NS / h_ns))
     if quiet:

@@ -130,16 +130,83 @@ def ssd_text(scene: Scene, *, step: float | None = None) -> str:
     return text + "\n"
 
 
-def validate_ssd(text: str) -> list[str]:
-    """Problems of an SSD against the SSP 1.0 schema (shipped with FMPy)."""
+def validate_ssd(source) -> list[str]:
+    """Every problem of an SSD, one message each (empty: none).
+
+    ``source`` is the SSD's text (it starts with ``<``) or the path of an
+    ``.ssp`` file.  The SSD is checked against the SSP 1.0 schema (shipped
+    with FMPy), and every parameter value must be a finite number; an
+    ``.ssp`` must also be a zip archive holding ``SystemStructure.ssd`` and,
+    for each component, its ``source`` as an FMU (a zip archive with a
+    ``modelDescription.xml``)."""
+    if isinstance(source, str) and source.lstrip().startswith("<"):
+        return _ssd_problems(source.encode())[0]
+    return _ssp_problems(Path(source))
+
+
+def _ssd_problems(data: bytes, where: str = ""):
+    """(problems, parsed document or None) of an SSD's bytes."""
+    import math
+
     import fmpy.ssp
     from lxml import etree
+    try:
+        doc = etree.fromstring(data)
+    except etree.XMLSyntaxError as exc:
+        return [f"{where}not well-formed XML: {exc}"], None
     schema = etree.XMLSchema(file=str(Path(fmpy.ssp.__file__).parent / "schema" /
                                       "SystemStructureDescription.xsd"))
-    doc = etree.fromstring(text.encode())
-    if schema.validate(doc):
-        return []
-    return [f"line {e.line}: {e.message}" for e in schema.error_log]
+    problems = [] if schema.validate(doc) else \
+        [f"{where}line {e.line}: {e.message}" for e in schema.error_log]
+    for el in doc.iter(_q(SSV, "Real"), _q(SSV, "Integer")):
+        value = el.get("value")
+        try:
+            finite = math.isfinite(float(value))
+        except (TypeError, ValueError):
+            finite = False
+        if not finite:
+            par = el.getparent()
+            comp = next((a.get("name") for a in el.iterancestors(_q(SSD, "Component"))), "?")
+            problems.append(f"{where}line {el.sourceline}: {comp}."
+                            f"{par.get('name') if par is not None else '?'} = {value!r}; "
+                            "allowed: a finite number")
+    return problems, doc
+
+
+def _ssp_problems(path: Path) -> list[str]:
+    import io
+    if not path.is_file():
+        return [f"{path}: no such file"]
+    if not zipfile.is_zipfile(path):
+        return [f"{path}: not a zip archive (an .ssp is one)"]
+    try:
+        with zipfile.ZipFile(path) as z:
+            names = set(z.namelist())
+            if "SystemStructure.ssd" not in names:
+                return [f"{path}: no SystemStructure.ssd in the archive"]
+            problems, doc = _ssd_problems(z.read("SystemStructure.ssd"), "SystemStructure.ssd ")
+            if doc is None:
+                return problems
+            for comp in doc.iter(_q(SSD, "Component")):
+                name, source = comp.get("name"), comp.get("source")
+                if source not in names:
+                    problems.append(f"component {name}: its source {source!r} is not in the "
+                                    f"archive (it holds: {', '.join(sorted(names))})")
+                    continue
+                try:
+                    with zipfile.ZipFile(io.BytesIO(z.read(source))) as fmu:
+                        if "modelDescription.xml" not in fmu.namelist():
+                            problems.append(f"component {name}: {source} has no "
+                                            "modelDescription.xml (not an FMU)")
+                        elif fmu.testzip() is not None:
+                            problems.append(f"component {name}: {source} is damaged "
+                                            f"({fmu.testzip()} does not check)")
+                except zipfile.BadZipFile as exc:
+                    problems.append(f"component {name}: {source} is not an FMU, or is cut "
+                                    f"short ({exc})")
+    except (zipfile.BadZipFile, OSError, EOFError) as exc:
+        return [f"{path}: a damaged zip archive ({exc})"]
+    return problems
 
 
 def export_ssp(scene: Scene, out, *, fmu_dir=None, fmus: dict | None = None) -> Path:

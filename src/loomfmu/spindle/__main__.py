@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from loomfmu.declare.checks import check_number
+from loomfmu.declare.checks import check_number, check_output_options
 from loomfmu.progress import Progress
 from loomfmu.spindle.study import DOCS, WORK_RPM, Spindle, write_calibration
 from loomfmu.spindle.trends import STUDIES, write_charts, write_trends
@@ -77,6 +77,7 @@ def main(argv=None, prog: str = "loomfmu rotor") -> int:
             ap.exit(2, f"{prog} critical: error: {exc}\n")
     if args.set or args.speed != WORK_RPM:
         ap.error("--set and --speed apply to the command critical")
+    check_output_options(args, folders=["out"])
     todo = ["calibrate", "trends", "charts"] if args.command == "all" else [args.command]
     with Progress(total=len(todo), desc="rotor") as bar:
         for what in todo:

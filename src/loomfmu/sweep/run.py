@@ -16,11 +16,12 @@ import dataclasses
 import hashlib
 import logging
 import os
+import sys
 import tempfile
 import time
 from pathlib import Path
 
-from loomfmu.declare.checks import check_bool, check_int, check_number
+from loomfmu.declare.checks import check_bool, check_int, check_number, check_writable
 from loomfmu.sweep import store
 from loomfmu.sweep.connect import MAX_CONNECT_TIMEOUT, check_scheduler, refused
 from loomfmu.sweep.study import Study, case_key
@@ -44,7 +45,10 @@ class StudyResult:
     client_cpu_s: CPU seconds the workers and this process (client and, for
     a LocalCluster, the scheduler) spent from the first task to the last;
     busiest_worker_cpu_s: the most any one worker spent (how evenly the work
-    was split, whatever else the machine runs)."""
+    was split, whatever else the machine runs); notes: what the run had to
+    mend, one line each (a corrupt row of ``out`` run again, a case run again
+    after its worker was lost), also printed to standard error with
+    ``progress``."""
     rows: list
     executed: int
     skipped: int
@@ -55,9 +59,12 @@ class StudyResult:
     worker_cpu_s: float = 0.0
     client_cpu_s: float = 0.0
     busiest_worker_cpu_s: float = 0.0
+    notes: list = dataclasses.field(default_factory=list)
 
     @property
     def failed(self) -> list[dict]:
+        """The rows that are not "ok" (failed, refused, or completed with a
+        warning of the FMU)."""
         return [r for r in self.rows if r["status"] != "ok"]
 
 
@@ -70,8 +77,11 @@ def open_client(workers: int, scheduler: str | None, connect_timeout: float):
     from dask.distributed import Client, LocalCluster
     if scheduler is None:
         with dask.config.set(QUIET_WORKERS):  # passed on to the workers by their nannies
+            # preload: the workers ignore SIGINT (a ^C reaches the whole process
+            # group; this process stops them)
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.ERROR)
+                                   dashboard_address=None, silence_logs=logging.ERROR,
+                                   preload=["loomfmu.sweep.worker"])
         return Client(cluster), cluster
     try:
         return Client(scheduler, timeout=connect_timeout), None
@@ -183,6 +193,8 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
                                    hi=MAX_CONNECT_TIMEOUT, lo_open=True, unit="s")
     if out is not None and not isinstance(out, (str, Path)):
         raise ValueError(f"out = {out!r:.60}; allowed: None or a .csv path")
+    if out is not None:
+        out = check_writable("out", out)
     _need_distributed()
     if scheduler is not None:
         check_scheduler(scheduler, connect_timeout)
@@ -190,7 +202,10 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
     _check_fmu(study, blob)
     keys = _keys(study, blob)
     cols = store.columns(study.case_names, [f.name for f in study.figures])
-    done = _finished(out, keys, cols, resume)
+    notes: list[str] = []
+    done = _finished(out, keys, cols, resume, [f.name for f in study.figures], notes)
+    for note in notes:
+        _say(study, note, progress)
     pending = [(i, k, c) for i, (k, c) in enumerate(zip(keys, study.cases)) if k not in done]
     t0 = time.perf_counter()
     rows = dict(done)
@@ -200,7 +215,7 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
     try:
         if pending:
             rows.update(_dask_run(study, blob, pending, (workers, scheduler, connect_timeout),
-                                  progress, appender, stats, batch))
+                                  progress, appender, stats, batch, notes))
     finally:
         if appender is not None:
             appender.close()
@@ -209,7 +224,13 @@ def run_study(study: Study, *, out: Path | str | None = None, workers: int = 2,
         store.write_rows(Path(out), cols, ordered)
     return StudyResult(ordered, len(pending), len(done), time.perf_counter() - t0,
                        workers if scheduler is None else -1, None if out is None else Path(out),
-                       **stats)
+                       notes=notes, **stats)
+
+
+def _say(study: Study, note: str, progress: bool) -> None:
+    """A note of the run as one line on standard error (with ``progress``)."""
+    if progress:
+        print(f"sweep {study.name}: note: {note}", file=sys.stderr, flush=True)
 
 
 def _need_distributed() -> None:
@@ -219,10 +240,14 @@ def _need_distributed() -> None:
                           "pip install 'loomfmu[distributed]'")
 
 
-def _finished(out, keys: list[str], cols: list[str], resume: bool) -> dict[str, dict]:
-    """Rows of ``out`` that belong to this study (by case key) and are whole
-    (a line cut short when a study was killed is run again). Rows of other
-    settings (another FMU, experiment or figures) are dropped from the file."""
+def _finished(out, keys: list[str], cols: list[str], resume: bool, figures: list[str],
+              notes: list[str]) -> dict[str, dict]:
+    """Rows of ``out`` that belong to this study (by case key) and are whole.
+    A corrupt row (cut short when a study was killed, more fields than the
+    header, an unknown status, an ok row whose figure is not a number) is run
+    again, with a note naming the file, the line and what is wrong. Rows of
+    other settings (another FMU, experiment or figures) are dropped from the
+    file."""
     if out is None:
         return {}
     path = Path(out)
@@ -237,26 +262,63 @@ def _finished(out, keys: list[str], cols: list[str], resume: bool) -> dict[str, 
                          f"study's {cols[:6]}...; allowed: this study's table, a new path, "
                          "or resume=False (--fresh) to replace it")
     index = {k: i for i, k in enumerate(keys)}
-    found = store.read_rows(path)
+    found = store.read_lines(path)
     rows = {}
-    for r in found:
-        if r.get("key") in index and r.get("status") in STATUSES and None not in r.values():
-            r["index"] = index[r["key"]]
-            rows[r["key"]] = r
-    if len(rows) < len(found):  # rows of other settings or cut short: keep only ours
+    for line, r, problem in found:
+        if r.get("key") not in index:
+            continue   # another setting's row
+        problem = problem or _row_problem(r, figures)
+        if problem is not None:
+            notes.append(f"{path}:{line}: case {index[r['key']]} is run again: {problem}")
+            continue
+        r["index"] = index[r["key"]]
+        rows[r["key"]] = r
+    if len(rows) < len(found):  # rows of other settings or corrupt: keep only ours
         store.write_rows(path, cols, list(rows.values()))
     return rows
 
 
+def _row_problem(row: dict, figures: list[str]) -> str | None:
+    """What is wrong with a row of this study read back (None: nothing)."""
+    if row.get("status") not in STATUSES:
+        return f"status {row.get('status')!r:.40} is not one of {', '.join(STATUSES)}"
+    if row["status"] in ("ok", "warning"):   # completed: every figure is a number
+        for f in figures:
+            v = row.get(f)
+            if not isinstance(v, (int, float)) or isinstance(v, bool):
+                return f"figure {f} = {v!r:.40} is not a number"
+    return None
+
+
 def _dask_run(study, blob, pending, where, progress, appender,
-              stats: dict, batch: int) -> dict:
+              stats: dict, batch: int, notes: list[str]) -> dict:
+    """The pending cases on dask; a ^C (SIGINT, in the main thread) stops it
+    without dask's shutdown chatter and raises KeyboardInterrupt."""
+    import signal
+    import threading
+    args = (study, blob, pending, where, progress, appender, stats, batch, notes)
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        return _dask_run_on(*args)
+    levels = {n: logging.getLogger(n).level for n in _DASK_LOGGERS}
+    previous = signal.signal(signal.SIGINT, _on_sigint)
+    try:
+        return _dask_run_on(*args)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        for name, level in levels.items():
+            logging.getLogger(name).setLevel(level)
+
+
+def _dask_run_on(study, blob, pending, where, progress, appender, stats: dict, batch: int,
+                 notes: list[str]) -> dict:
     from dask.distributed import as_completed
 
     from loomfmu.progress import Progress
     t0 = time.perf_counter()
     workers, scheduler, connect_timeout = where
     client, cluster = open_client(workers, scheduler, connect_timeout)
-    rows = {}
+    rows, futures = {}, []
     try:
         setup = study.setup()
         remote_blob = client.scatter(blob, broadcast=True)
@@ -267,6 +329,7 @@ def _dask_run(study, blob, pending, where, progress, appender,
         futures = [client.submit(run_batch, remote_blob, setup, chunk,
                                  key=f"{study.name}-{chunk[0][0]}-{chunk[0][1]}", pure=False)
                    for chunk in chunks]
+
         bar = Progress(total=len(pending), desc=f"sweep {study.name}") if progress else None
         try:
             for fut in as_completed(futures):
@@ -279,15 +342,65 @@ def _dask_run(study, blob, pending, where, progress, appender,
         finally:
             if bar is not None:
                 bar.close()
+        for note in _lost_worker_notes(client, futures, chunks):
+            _say(study, note, progress)
+            notes.append(note)
         cpu1 = client.run(_cpu_seconds)
         stats["client_cpu_s"] = time.process_time() - own0
         spent = [cpu1[w] - cpu0.get(w, 0.0) for w in cpu1]
         stats["worker_cpu_s"], stats["busiest_worker_cpu_s"] = sum(spent), max(spent)
+    except KeyboardInterrupt:   # ^C: stop quietly, the rows appended so far stay
+        _silence_dask()
+        try:
+            client.cancel(futures)
+        except Exception:  # noqa: BLE001 (closing anyway)
+            pass
+        raise
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
     return rows
+
+
+_DASK_LOGGERS = ("distributed", "tornado", "asyncio")
+
+
+def _silence_dask() -> None:
+    """No more log records of dask, tornado and asyncio in this process: after
+    an interruption their shutdown chatter (cancelled keys, closed comms, a
+    callback's traceback) says nothing the caller's one line does not."""
+    for name in _DASK_LOGGERS:
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+
+
+def _on_sigint(signum, frame):
+    _silence_dask()   # before dask's own callbacks see the interruption
+    raise KeyboardInterrupt
+
+
+def _lost_worker_notes(client, futures, chunks) -> list[str]:
+    """One note per task that ran again because the worker running it was
+    lost (the scheduler counts such a task as suspicious; a worker that dies
+    on it more often than distributed.scheduler.allowed-failures fails it
+    with KilledWorker instead)."""
+    keys = [f.key for f in futures]
+
+    def suspicious(dask_scheduler, keys=keys):   # pickled by value: any scheduler runs it
+        tasks = dask_scheduler.tasks
+        return {k: tasks[k].suspicious for k in keys if k in tasks}
+
+    try:
+        counts = client.run_on_scheduler(suspicious)
+    except Exception:  # noqa: BLE001 (an older scheduler: the rows are right regardless)
+        return []
+    notes = []
+    for key, chunk in zip(keys, chunks):
+        if counts.get(key):
+            cases = ", ".join(str(i) for i, _, _ in chunk)
+            notes.append(f"case(s) {cases} ran again after the worker running them was "
+                         f"lost ({counts[key]} time(s))")
+    return notes
 
 
 def _modules(study: Study) -> set[str]:

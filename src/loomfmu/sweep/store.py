@@ -41,15 +41,44 @@ def _value(text: str | None):
         return text
 
 
+_TEXT_COLUMNS = ("key", "message", "worker", "status")
+
+
+def _typed(cols: list[str], fields: list[str]) -> dict:
+    row = {k: (v if k in _TEXT_COLUMNS else _value(v)) for k, v in zip(cols, fields)}
+    row.update({k: None for k in cols[len(fields):]})   # a line cut short
+    return row
+
+
 def read_rows(path: Path) -> list[dict]:
     """The rows of a results file (missing file: none), values typed back:
-    ints, floats (bit for bit), booleans, text."""
+    ints, floats (bit for bit), booleans, text; a line cut short has None in
+    its missing columns, a line with more fields than the header keeps the
+    header's columns."""
+    return [row for _, row, _ in read_lines(path)]
+
+
+def read_lines(path: Path) -> list[tuple[int, dict, str | None]]:
+    """Each row of a results file with its line number and what is wrong with
+    its shape (None: nothing): fewer or more fields than the header."""
     path = Path(path)
     if not path.exists():
         return []
+    out = []
     with path.open(newline="") as f:
-        return [{k: (v if k in ("key", "message", "worker", "status") else _value(v))
-                 for k, v in r.items()} for r in csv.DictReader(f)]
+        reader = csv.reader(f)
+        cols = next(reader, None)
+        if cols is None:
+            return []
+        for fields in reader:
+            if not fields:
+                continue
+            problem = None
+            if len(fields) != len(cols):
+                problem = (f"{len(fields)} fields, the header has {len(cols)}"
+                           + (" (a line cut short)" if len(fields) < len(cols) else ""))
+            out.append((reader.line_num, _typed(cols, fields[:len(cols)]), problem))
+    return out
 
 
 def header_of(path: Path) -> list[str] | None:

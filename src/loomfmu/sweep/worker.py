@@ -6,8 +6,10 @@ starts with ``fmi2Reset`` on the same instance, as FMPy's parameter-variation
 example does. A case that fails (the FMU returned Discard/Error, or the
 case's values were refused before running) comes back as a row with its
 status and the FMU's last log line: it is never lost and never stops the
-study. ``reuse=False`` runs the plain loop instead: ``fmpy.simulate_fmu``
-with a fresh instance per case (the serial baseline the sweep is compared
+study. A case that completed while the FMU logged a warning (an input
+outside its range, say) is "warning" with that log line, not "ok".
+``reuse=False`` runs the plain loop instead: ``fmpy.simulate_fmu`` with a
+fresh instance per case (the serial baseline the sweep is compared
 with).
 """
 from __future__ import annotations
@@ -31,8 +33,9 @@ from loomfmu.verification import fmpy_logger
 
 #: FMI status codes -> the status a row records
 FMI_STATUS = {2: "discard", 3: "error", 4: "fatal"}
-#: statuses a row can have
-STATUSES = ("ok", "discard", "error", "fatal", "invalid", "failed")
+#: statuses a row can have ("warning": the run completed but the FMU logged a
+#: warning, e.g. an input outside its range; the message is its log line)
+STATUSES = ("ok", "warning", "discard", "error", "fatal", "invalid", "failed")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -202,6 +205,10 @@ def run_case(blob: FmuBlob, setup: Setup, index: int, key: str, case: dict,
         row.update(status=status, message=_message(slot.log, exc))
         slot.drop_instance()  # a fresh instance for the next case
     else:
+        warned = [text for status, text in slot.log if status == 1]
+        if warned:  # completed, but not "ok": the FMU said its answer may not hold
+            tail = f" ... ({len(warned)} warnings)" if len(warned) > 1 else ""
+            row.update(status="warning", message=f"log: {warned[0]}{tail}")
         t = np.asarray(res["time"])
         y = {n: np.asarray(res[n]) for n in setup.outputs}
         try:
@@ -218,6 +225,15 @@ def run_case(blob: FmuBlob, setup: Setup, index: int, key: str, case: dict,
 def run_batch(blob: FmuBlob, setup: Setup, items: list, reuse: bool = True) -> list[dict]:
     """run_case for each (index, key, case) of ``items``, in order."""
     return [run_case(blob, setup, i, k, c, reuse=reuse) for i, k, c in items]
+
+
+def dask_setup(worker) -> None:
+    """Run by a local cluster's worker processes at start (dask's preload):
+    SIGINT is ignored there. A ^C in a terminal reaches every process of the
+    group; the process that started the cluster stops the workers, and
+    without this each worker would print its own KeyboardInterrupt traceback."""
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _worker() -> str:
