@@ -193,10 +193,13 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
     ap, subs = _parser(prog)
     args = ap.parse_args(argv)
     charts_ = args.command == "charts"   # its --out is a folder, the others' a file
-    check_output_options(args, files=["readme", "page"] + ([] if charts_ else ["out"]),
-                         folders=["out"] if charts_ else [])
+    outputs = {"files": ["readme", "page"] + ([] if charts_ else ["out"]),
+               "folders": ["out"] if charts_ else []}
+    check_output_options(args, **outputs, make=False)
     if args.command in ("speed", "friction") and args.repeats < 1:
         subs[args.command].error(f"--repeats {args.repeats}: allowed >= 1")
+    if not charts_:
+        check_output_options(args, **outputs)
     if args.command == "friction":
         return classic.main_friction(args)
     if args.command == "speed":
@@ -220,6 +223,7 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
         except (ValueError, ImportError) as exc:
             print(f"{prog}: error: {exc}", file=sys.stderr)
             return 2
+    check_output_options(args, files=["readme", "page"], folders=["out"])  # now make them
     out = args.out
     readme = args.readme
     if readme is None and not args.quick and out == Path("docs/results/bench") and \

@@ -272,12 +272,14 @@ def check_writable(name: str, path, *, folder: bool = False):
     return p
 
 
-def check_output_options(args, *, files: Iterable[str] = (), folders: Iterable[str] = ()
-                         ) -> None:
+def check_output_options(args, *, files: Iterable[str] = (), folders: Iterable[str] = (),
+                         make: bool = True) -> None:
     """:func:`check_writable` on each output option of a parsed command line
     that is set (``files``, ``folders``: the argparse ``dest`` names, e.g.
     ``"out_dir"`` for ``--out-dir``), before the command does any work; then
-    the missing directories are made, so that the writes at the end find them."""
+    the missing directories are made (unless ``make`` is false: a command
+    with more checks to do makes them after those), so that the writes at
+    the end find them."""
     checked = []
     for names, folder in ((files, False), (folders, True)):
         for dest in names:
@@ -285,5 +287,5 @@ def check_output_options(args, *, files: Iterable[str] = (), folders: Iterable[s
             if value is not None:
                 p = check_writable("--" + dest.replace("_", "-"), value, folder=folder)
                 checked.append(p if folder else p.parent)
-    for p in checked:
+    for p in checked if make else ():
         p.mkdir(parents=True, exist_ok=True)

@@ -370,13 +370,19 @@ def main(argv=None, prog: str = "loomfmu inspect") -> int:
         if str(args.out) == "-":
             ap.error("--out - prints one report: give one MODEL and one --format")
         out_dir = args.out or (ALL_OUT if args.all else Path("."))
-        check_writable("--out", out_dir, folder=True)  # a directory with --all or formats
+        try:  # a directory with --all or several formats
+            check_writable("--out", out_dir, folder=True)
+        except ValueError as exc:
+            ap.error(str(exc))
         names = sorted(MODELS) if args.all else [args.model]
         for path in write_reports(names, formats, out_dir):
             print(f"written: {path}")
         return 0
     if args.out is not None and str(args.out) != "-":
-        check_writable("--out", args.out)
+        try:
+            check_writable("--out", args.out)
+        except ValueError as exc:
+            ap.error(str(exc))
     text = report(load_model(args.model), formats[0])
     if str(args.out) == "-":
         sys.stdout.write(text)
