@@ -373,7 +373,7 @@ def main(argv=None, prog: str = "loomfmu inspect") -> int:
         try:  # a directory with --all or several formats
             check_writable("--out", out_dir, folder=True)
         except ValueError as exc:
-            ap.error(str(exc))
+            ap.exit(2, f"{ap.prog}: error: {exc}\n")
         names = sorted(MODELS) if args.all else [args.model]
         for path in write_reports(names, formats, out_dir):
             print(f"written: {path}")
@@ -382,7 +382,7 @@ def main(argv=None, prog: str = "loomfmu inspect") -> int:
         try:
             check_writable("--out", args.out)
         except ValueError as exc:
-            ap.error(str(exc))
+            ap.exit(2, f"{ap.prog}: error: {exc}\n")
     text = report(load_model(args.model), formats[0])
     if str(args.out) == "-":
         sys.stdout.write(text)
