@@ -646,7 +646,7 @@ def test_inspect_all_out_must_be_a_directory(tmp_path, capsys):
     f.write_text("x")
     with pytest.raises(SystemExit) as exc:
         inspect_report.main(["--all", "--out", str(f)])
-    assert exc.value.code == 2 and "a file" in capsys.readouterr().err
+    assert exc.value.code == 2 and "an existing file, not a directory" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("name", QUICK)
