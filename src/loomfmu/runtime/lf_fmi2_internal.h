@@ -41,7 +41,9 @@
 #define RUNNING (LF_ST_STEP_COMPLETE | LF_ST_STEP_FAILED)
 
 /* der(x_k) is Real vr LF_NREAL + k (read only) */
-#define F2_N_REAL ((unsigned)(LF_NREAL + LF_NX))
+/* der(x_k) has value reference LF_NREAL + k only where the model description
+ * declares it: in builds with model exchange */
+#define F2_N_REAL ((unsigned)(LF_NREAL + (LF_HAS_ME ? LF_NX : 0)))
 
 /* What the facade keeps per instance (the instance's log_env). */
 typedef struct {

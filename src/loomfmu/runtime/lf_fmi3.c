@@ -52,8 +52,19 @@ int lf_fmi3_state(LfInstance *inst) {
 
 int lf_fmi3_allowed(fmi3Instance c, const char *fn, int mask) {
     LfInstance *inst = lf_fmi3_live(c);
+    int now;
     if (!inst) return 0; /* NULL, freed or not an instance: nothing to log through */
-    return lf_check_state(inst, fn, lf_fmi3_state(inst), mask, state_names, N_STATE_NAMES);
+    now = lf_fmi3_state(inst);
+    if (now == F3_STEP_DISCARDED && (mask & F3_STEP) && !(mask & F3_STEP_DISCARDED)) {
+        /* said plainly: both states are FMI 3.0's StepMode */
+        lf_log(inst, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s must not be called after "
+               "fmi3DoStep returned fmi3Discard (the step was not completed): read the values "
+               "of the last completed step, restore an FMU state (fmi3SetFMUState), or "
+               "fmi3Terminate or fmi3Reset",
+               inst->run.t, fn);
+        return 0;
+    }
+    return lf_check_state(inst, fn, now, mask, state_names, N_STATE_NAMES);
 }
 
 int lf_fmi3_cs_instance(fmi3Instance c, const char *fn, int mask) {
@@ -109,6 +120,11 @@ static void instantiate_error(fmi3LogMessageCallback log, fmi3InstanceEnvironmen
     if (!log) return;
     snprintf(buf, sizeof buf, "%s: %s", fn, message);
     log(env, fmi3Error, "logStatusError", buf);
+}
+
+void lf_fmi3_refuse_instantiation(const char *fn, fmi3InstanceEnvironment env,
+                                  fmi3LogMessageCallback log, const char *why) {
+    instantiate_error(log, env, fn, why);
 }
 
 void lf_fmi3_refuse_interface(const char *fn, fmi3InstanceEnvironment env,

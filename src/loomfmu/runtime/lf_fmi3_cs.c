@@ -46,8 +46,15 @@ fmi3Instance fmi3InstantiateCoSimulation(
     /* providesIntermediateUpdate is false: the callback is never called and
      * intermediate variables are not provided (FMI 3.0 lets the FMU ignore
      * them) */
-    (void)requiredIntermediateVariables;
-    (void)nRequiredIntermediateVariables;
+    if (!requiredIntermediateVariables && nRequiredIntermediateVariables > 0) {
+        char why[256];
+        snprintf(why, sizeof why, "requiredIntermediateVariables is NULL but "
+                 "nRequiredIntermediateVariables = %zu; allowed: an array of that many value "
+                 "references, or 0; not instantiated", nRequiredIntermediateVariables);
+        lf_fmi3_refuse_instantiation("fmi3InstantiateCoSimulation", instanceEnvironment,
+                                     logMessage, why);
+        return NULL;
+    }
     (void)intermediateUpdate;
     c = lf_fmi3_new("fmi3InstantiateCoSimulation", F3_CS, instanceName, instantiationToken,
                     loggingOn, instanceEnvironment, logMessage);

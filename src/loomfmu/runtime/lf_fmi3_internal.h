@@ -91,6 +91,9 @@ LfInstance *lf_fmi3_new(const char *fn, F3Interface kind, fmi3String name, fmi3S
                         fmi3Boolean logging_on, fmi3InstanceEnvironment env,
                         fmi3LogMessageCallback log_message);
 /* Logs that the FMU does not declare `interface` (instantiation refused). */
+/* An fmi3Instantiate* refused for an illegal argument: ``why`` logged (no instance) */
+void lf_fmi3_refuse_instantiation(const char *fn, fmi3InstanceEnvironment env,
+                                  fmi3LogMessageCallback log, const char *why);
 void lf_fmi3_refuse_interface(const char *fn, fmi3InstanceEnvironment env,
                               fmi3LogMessageCallback log, const char *interface);
 /* Sets the runtime's and the facade's state after an error (fmi3Error). */
