@@ -16,7 +16,8 @@ from loomfmu.bench.scenes import BENCH
 @pytest.mark.slow
 def test_charts_command_runs_on_one_model(tmp_path):
     assert main(["charts", "--quick", "--models", "drive", "--out", str(tmp_path)]) == 0
-    rows = list(csv.DictReader((tmp_path / "points.csv").open()))
+    with (tmp_path / "points.csv").open() as f:
+        rows = list(csv.DictReader(f))
     assert (tmp_path / "drive_wp.png").stat().st_size > 0
     assert (tmp_path / "drive_delay.png").stat().st_size > 0
     assert "| drive |" in (tmp_path / "summary.md").read_text()

@@ -255,7 +255,7 @@ def test_simulate_an_fmu_writes_csv_and_plot(built, tmp_path):
               "--csv", tmp_path / "r.csv", "--plot", tmp_path / "r.png")
     assert res.returncode == 0, res.stderr
     assert "h " in res.stdout and " m\n" in res.stdout
-    rows = list(csv.reader((tmp_path / "r.csv").open()))
+    rows = list(csv.reader((tmp_path / "r.csv").read_text().splitlines()))
     assert rows[0] == ["time [s]", "h [m]", "T [N]"]
     assert len(rows) == 1 + 21 and float(rows[-1][0]) == pytest.approx(0.2)
     assert (tmp_path / "r.png").read_bytes()[:4] == b"\x89PNG"
@@ -277,7 +277,7 @@ def test_simulate_names_the_solver_that_ran_and_keeps_the_default_step(built, tm
     assert res.returncode == 0, res.stderr
     assert "solver rk4" in res.stdout
     # the DefaultExperiment's step (1 ms), not one FMPy widens for long runs
-    rows = list(csv.reader((tmp_path / "a.csv").open()))
+    rows = list(csv.reader((tmp_path / "a.csv").read_text().splitlines()))
     assert len(rows) == 1 + 2001
     res2 = run("simulate", fmu, "--solver", "rk4", "--stop", "2", "--output", "h",
                "--csv", tmp_path / "b.csv")
