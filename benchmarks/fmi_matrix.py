@@ -36,8 +36,8 @@ validation problem, or failed to run.
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
 import json
-import os
 import platform
 import subprocess
 import sys
@@ -273,13 +273,11 @@ def main(argv=None) -> int:
     bad = [r for r in rows if r["build"] != "ok" or r["problems"] or r["run"] != "ok"]
     summary = f"{len(rows) - len(bad)} of {len(rows)} variants built with 0 problems and ran"
     print(summary)
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                            text=True, cwd=Path(__file__).parent).stdout.strip()
     dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
                            capture_output=True, text=True, cwd=Path(__file__).parent).stdout
     meta = {"command": "python benchmarks/fmi_matrix.py " + " ".join(argv or sys.argv[1:]),
             "rtol": args.rtol,
-            "commit": commit or os.environ.get("FMI_MATRIX_COMMIT", "not a git checkout"),
+            "version": importlib.metadata.version("loomfmu"),
             "uncommitted_files": [ln[3:] for ln in dirty.splitlines()], "fmpy": fmpy.__version__,
             "python": platform.python_version(), "seconds": round(time.perf_counter() - t_start),
             "summary": summary}

@@ -226,16 +226,16 @@ def run_counters(exe: Path, fmu: Path, solver: str, rtol: float, interp: bool,
 COST_KEYS = ("rhs_us", "jac_us", "factor_us", "solve_us", "dense_factor_us", "dense_solve_us")
 
 
-def git_commit() -> str:
-    """The commit measured (with '+dirty' when the tree differs from it)."""
+def loomfmu_version() -> str:
+    """The loomfmu version measured, with '+changes' when the tree differs from
+    its last commit (figures say the version, not a commit)."""
+    from importlib import metadata
     try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT,
-                              capture_output=True, text=True, check=True).stdout.strip()
         dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
                                cwd=ROOT, capture_output=True, text=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-    return head + ("+dirty" if dirty else "")
+    except OSError:
+        dirty = ""
+    return metadata.version("loomfmu") + ("+changes" if dirty else "")
 
 
 def load_average() -> list[float]:
@@ -278,7 +278,7 @@ def main_counters(args) -> int:
     result = {"scene": {"model": args.model, "ramp_s": RAMP, "hold_s": HOLD, "dt_s": DT,
                         "top_rpm": TOP_RPM, "rtol": args.rtol, "atol": 1e-12,
                         "repeats": args.repeats, "timing": "CPU time of the C driver, median"},
-              "commit": git_commit(), "load_average": load_average(),
+              "version": loomfmu_version(), "load_average": load_average(),
               "command": "python benchmarks/spindle_runup.py --counters --solvers "
                          + " ".join(args.solvers) + f" --repeats {args.repeats}",
               "rows": rows}

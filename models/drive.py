@@ -94,15 +94,15 @@ def build(*, cam: str = "compensated", harmonics: int = 96, m: int = 40,
                source="model option")
     A0, Aj, Bj = cam_table(cam, harmonics, m)
     a0 = P("cam_A0", A0, unit="m", description="cam profile: mean radius", min=0.0, max=1.0,
-           source="loomfmu.drive.cam_profile_phi (seed 001 (3), (8))")
+           source="loomfmu.mechanics.layer_cam.cam_profile_phi (seed 001 (3), (8))")
     coeffs = []
     for j in range(1, harmonics + 1):
         coeffs.append((P(f"cam_A{j}", Aj[j - 1], unit="m", min=-1.0, max=1.0,
                          description=f"cam profile: cos({j} phi) coefficient",
-                         source="loomfmu.drive.cam_profile_phi"),
+                         source="loomfmu.mechanics.layer_cam.cam_profile_phi"),
                        P(f"cam_B{j}", Bj[j - 1], unit="m", min=-1.0, max=1.0,
                          description=f"cam profile: sin({j} phi) coefficient",
-                         source="loomfmu.drive.cam_profile_phi")))
+                         source="loomfmu.mechanics.layer_cam.cam_profile_phi")))
     u_ext = m_.input("u_ext", 0.0, unit="V", description="external control signal added to "
                      "the drive input", min=-100.0, max=100.0)
     n = m_.state("n", 12000.0, unit="rpm", description="spindle speed")

@@ -135,11 +135,11 @@ def cam_quantities(m, phi, n, r, coeffs, a0, f_rad) -> None:
     Q("A_j", ca.vertcat(a0, *[a for a, _ in coeffs]), unit="m", description="cam table: "
       "A_0 (mean radius) and the cos(j phi) coefficients, FMU parameters cam_A0, cam_A1, "
       "... (the cam radius in time resampled at the cam angle and transformed by FFT)",
-      symbol="A_j", source="derived: loomfmu.drive.cam_profile_phi from r(t) of " + SEED
+      symbol="A_j", source="derived: loomfmu.mechanics.layer_cam.cam_profile_phi from r(t) of " + SEED
       + " (3) and phi(t) of (4)", group=CAM)
     Q("B_j", ca.vertcat(*[b for _, b in coeffs]), unit="m", description="cam table: the "
       "sin(j phi) coefficients, FMU parameters cam_B1, ...", symbol="B_j",
-      source="derived: loomfmu.drive.cam_profile_phi", group=CAM)
+      source="derived: loomfmu.mechanics.layer_cam.cam_profile_phi", group=CAM)
     Q("r_cam", r, unit="m", description="cam radius at the follower, the cam series "
       "r(phi) = A_0 + sum_j A_j cos j phi + B_j sin j phi; " + defect_note("D10"),
       symbol=r"r(\varphi)", source=SEED + " (3) (the profile in polar form)", group=CAM)

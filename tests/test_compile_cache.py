@@ -83,6 +83,7 @@ def test_key_follows_headers_macros_and_flags_not_paths(tmp_path):
     assert _key("gcc", flags, ["-I", str(tmp_path / "y")], tmp_path / "y" / "f.c") != kx
 
 
+@pytest.mark.slow
 def test_compile_error_is_reported_and_not_cached(tmp_path, monkeypatch):
     from loomfmu.fmu.builder import BuildError
     cache = tmp_path / "cache"
@@ -161,6 +162,7 @@ def test_a_failed_write_leaves_no_partial_file(tmp_path, monkeypatch):
     assert len(simulate_fmu(str(result.path), stop_time=0.01)) > 1
 
 
+@pytest.mark.slow
 def test_a_missing_compiler_is_a_build_error_naming_it(tmp_path):
     from loomfmu.fmu.builder import BuildError
     (tmp_path / "f.c").write_text("int f(void) { return 1; }\n")

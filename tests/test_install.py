@@ -29,8 +29,13 @@ def test_wheel_holds_every_package_models_and_runtime(tmp_path):
         assert f"{pkg}/__init__.py" in names, f"{pkg} missing from the wheel"
     for model in (ROOT / "models").glob("*.py"):
         assert f"loomfmu/models/{model.name}" in names
-    for src in (ROOT / "src/loomfmu/runtime").iterdir():
-        if src.suffix in (".c", ".h"):
-            assert f"loomfmu/runtime/{src.name}" in names
+    tracked = subprocess.run(["git", "ls-files", "src/loomfmu"], cwd=ROOT, capture_output=True,
+                             text=True).stdout.split()
+    data = [f for f in tracked if not f.endswith(".py")] or [
+        p.relative_to(ROOT).as_posix() for p in (ROOT / "src/loomfmu").rglob("*.[ch]")]
+    assert any(f.endswith("lf_model.h") for f in data) and any(
+        f.endswith("limit_driver.c") for f in data)
+    for f in data:  # every file a command reads at run time: the C runtime, bench's driver
+        assert f[len("src/"):] in names, f"{f} missing from the wheel (package data)"
     entry = next(n for n in names if n.endswith("entry_points.txt"))
     assert "loomfmu = loomfmu.cli:main" in zipfile.ZipFile(wheel).read(entry).decode()

@@ -8,6 +8,7 @@ packages on one layer do not import each other.
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -67,17 +68,52 @@ def imports(name: str, path: Path, known: set[str]) -> set[str]:
                 base = ".".join(parts + ([node.module] if node.module else []))
             targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in known else base
                        for a in node.names]
-        elif (isinstance(node, ast.Call) and getattr(node.func, "attr", None) == "import_module"
-              and node.args and isinstance(node.args[0], ast.Constant)):
-            targets = [node.args[0].value]
+        elif isinstance(node, ast.Call) and _dynamic_import(node):
+            targets = [_import_target(node.args[0]) if node.args else ""]
+        elif (isinstance(node, ast.Constant) and isinstance(node.value, str)
+              and MODULE_NAME.match(node.value)):
+            targets = [node.value]   # a module named in a string: a dispatch table, -m
         else:
             continue
         for t in targets:
+            if t == "" and name not in DYNAMIC_IMPORTERS:
+                raise AssertionError(f"{path}:{node.lineno}: an import by a computed name; "
+                                     "name the module, or add the module to DYNAMIC_IMPORTERS "
+                                     "with the reason")
             while t and t not in known:  # "loomfmu.x.attr" -> the module "loomfmu.x"
                 t = t.rpartition(".")[0]
             if t and t.startswith("loomfmu") and t != name:
                 out.add(t)
     return out
+
+
+#: a string that is a whole loomfmu module name ("loomfmu.heald.claims")
+MODULE_NAME = re.compile(r"^loomfmu(\.\w+)+$")
+
+
+def _dynamic_import(node: ast.Call) -> bool:
+    """importlib.import_module(...), import_module(...) or __import__(...)."""
+    name = getattr(node.func, "attr", None) or getattr(node.func, "id", None)
+    return name in ("import_module", "__import__")
+
+
+def _import_target(arg) -> str:
+    """The module a dynamic import names: a constant, or an f-string's
+    constant prefix (``f"loomfmu.models.{m}"`` names the package
+    ``loomfmu.models``); anything else names "" (refused below)."""
+    if isinstance(arg, ast.Constant) and isinstance(arg.value, str):
+        return arg.value
+    if isinstance(arg, ast.JoinedStr) and arg.values and isinstance(arg.values[0], ast.Constant):
+        return arg.values[0].value.rstrip(".")
+    return ""
+
+
+#: modules that import by a name computed at run time, and why
+DYNAMIC_IMPORTERS = {
+    "loomfmu.cli.dispatch": "hands a subcommand to the module ANALYSES names",
+    "loomfmu": "loads the lazy names of its front door (_LAZY) on first use",
+    "loomfmu.sweep.run": "imports, in each worker, the modules its study names",
+}
 
 
 def graph() -> dict[str, set[str]]:
@@ -181,3 +217,29 @@ def test_every_package_says_what_it_owns():
         if init.parent != SRC and init.parent.parent == SRC:
             assert "import" in doc.lower(), (
                 f"{init.relative_to(ROOT)}: the docstring does not say what it may import")
+
+
+def test_every_folder_of_code_is_a_package():
+    """A folder of modules without __init__.py passes the layer checks but is
+    left out of the wheel (setup.py finds packages by their __init__.py)."""
+    for base in (SRC, MODELS):
+        for folder in [base, *(p for p in base.rglob("*") if p.is_dir())]:
+            if "__pycache__" in folder.parts or not any(folder.glob("*.py")):
+                continue
+            assert (folder / "__init__.py").is_file(), f"{folder.relative_to(ROOT)}: no __init__.py"
+
+
+def test_dynamic_imports_are_seen(tmp_path):
+    """Imports by import_module, __import__, an f-string prefix or a module
+    name in a string count; an import by a computed name is refused."""
+    probe = tmp_path / "probe.py"
+    probe.write_text("from importlib import import_module\n"
+                     "import_module('loomfmu.heald')\n__import__('loomfmu.drive')\n"
+                     "import importlib\nimportlib.import_module(f'loomfmu.spindle.{1}')\n"
+                     "TABLE = {'h': 'loomfmu.machines.loom'}\n")
+    known = set(modules())
+    got = imports("loomfmu.scene.probe", probe, known)
+    assert {"loomfmu.heald", "loomfmu.drive", "loomfmu.spindle", "loomfmu.machines.loom"} <= got
+    probe.write_text("import importlib\nM = 'x'\nimportlib.import_module(M)\n")
+    with pytest.raises(AssertionError, match="computed name"):
+        imports("loomfmu.scene.probe", probe, known)

@@ -199,7 +199,7 @@ def test_readme_scene_example_runs(tmp_path, capsys):
 #: of its own (not a number's digits, a path, an anchor or a 0x literal)
 COMMIT_ID = re.compile(r"(?<![\w.#/-])(?=[0-9a-f]*[a-f])(?=[0-9a-f]*[0-9])[0-9a-f]{7,40}(?![\w-])")
 #: an issue number or the history of a work session
-HISTORY = re.compile(r"\bissues? ?#?\d+|\b(this|that|the|previous|last|a) session\b|"
+HISTORY = re.compile(r"\bissues?[-_ ]?#?\d+|\b(PR|GH)[- ]?#\d+|\b(this|that|the|previous|last|a) session\b|"
                      r"\bsession'?s\b|\b(until|at|since|before|after) commit\b", re.I)
 HISTORY_EXEMPT = {ROOT / "CHANGELOG.md",
                   ROOT / "tests" / "test_repo.py"}  # its examples of what the check finds
@@ -208,7 +208,9 @@ HISTORY_EXEMPT = {ROOT / "CHANGELOG.md",
 def history_files() -> list[Path]:
     docs = ROOT / "docs"
     files = [ROOT / "README.md", ROOT / "CONTRIBUTING.md", *docs.rglob("*.md"),
-             *docs.rglob("*.html"), ROOT / "build_fmu.py"]
+             *docs.rglob("*.html"), *docs.rglob("*.json"), *docs.rglob("*.py"),
+             ROOT / "build_fmu.py", ROOT / "setup.py", ROOT / "pyproject.toml",
+             ROOT / ".ci" / "run"]
     for folder in ("src", "models", "benchmarks", "tests"):
         for ext in ("*.py", "*.c", "*.h"):
             files += [p for p in (ROOT / folder).rglob(ext) if ".egg-info" not in str(p)]

@@ -148,10 +148,10 @@ def _parser(prog: str) -> tuple[argparse.ArgumentParser, dict]:
                    help="--dask: address of a running dask scheduler (tcp://host:8786) "
                         "instead of a local cluster (default: none, a local cluster)")
     c.add_argument("--readme", type=Path, default=None,
-                   help="page whose marked bench section to rewrite (default: ./docs/speed.md "
+                   help="page whose marked bench section to rewrite (default: docs/guides/speed.md "
                         "when --out is docs/results/bench, full runs only)")
     c.add_argument("--out", type=Path, default=Path("docs/results/bench"),
-                   help="output folder (default ./docs/bench)")
+                   help="output folder (default %(default)s)")
     s = _command(sub, "speed", "time at a target error of one model's FMU against scipy "
                  "-> docs/results/speed.json")
     s.add_argument("--model", default="heald_frame", help="the model (default heald_frame)")
@@ -161,13 +161,13 @@ def _parser(prog: str) -> tuple[argparse.ArgumentParser, dict]:
                    help="scene lengths as multiples of the model's default experiment "
                         "(default 1 10)")
     s.add_argument("--out", type=Path, default=Path("docs/results/speed.json"),
-                   help="the JSON file (default ./docs/speed.json)")
+                   help="the JSON file (default %(default)s)")
     f = _command(sub, "friction", "backrest: regularized against event-driven friction, "
                  "error and cost as eps shrinks -> docs/results/friction.json")
     f.add_argument("--repeats", type=int, default=5,
                    help="timed runs per point, the median kept (>= 1; default 5)")
     f.add_argument("--out", type=Path, default=Path("docs/results/friction.json"),
-                   help="the JSON file (default ./docs/friction.json)")
+                   help="the JSON file (default %(default)s)")
     lim = _command(sub, "limit", "each model's verification run at C level against its "
                    "method's limit, FMPy beside it -> docs/results/limit.json, limit.md")
     lim.add_argument("--models", nargs="+", default=None, metavar="MODEL",
@@ -182,9 +182,9 @@ def _parser(prog: str) -> tuple[argparse.ArgumentParser, dict]:
     lim.add_argument("--fmpy-repeats", type=int, default=5,
                      help="FMPy runs per row, the median kept (0: none; 0 ... 64; default 5)")
     lim.add_argument("--out", type=Path, default=None,
-                     help="the JSON file (default ./docs/limit.json)")
+                     help="the JSON file (default docs/results/limit.json)")
     lim.add_argument("--page", type=Path, default=None,
-                     help="the markdown page to write (default ./docs/limit.md when --out "
+                     help="the markdown page to write (default docs/guides/limit.md when --out "
                           "is not given, else none)")
     return ap, {"charts": c, "speed": s, "friction": f, "limit": lim}
 
@@ -205,7 +205,11 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
     if args.command == "speed":
         return classic.main_speed(args)
     if args.command == "limit":
-        return _main_limit(subs["limit"], args)
+        try:
+            return _main_limit(subs["limit"], args)
+        except RuntimeError as exc:  # the C driver missing or failing: the work failed
+            print(f"{prog} limit: failed: {str(exc).splitlines()[0]}", file=sys.stderr)
+            return 1
     ap = subs["charts"]
     if args.models is None:
         args.models = list(BENCH)

@@ -202,17 +202,13 @@ def limit(models=None, solvers=SOLVERS, *, repeats: int = 5, best_of: int = 5,
                 on_model(name, got)
     return {"rows": rows, "wall_seconds": time.perf_counter() - t0, "repeats": repeats,
             "best_of": best_of, "fmpy_repeats": fmpy_repeats, "cpus": os.cpu_count(),
-            "commit": _commit()}
+            "version": _version()}
 
 
-def _commit() -> str | None:
-    """The source tree's git commit (None outside a git checkout)."""
-    try:
-        proc = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                              text=True, cwd=Path(__file__).parent, timeout=10)
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return proc.stdout.strip() or None if proc.returncode == 0 else None
+def _version() -> str:
+    """The loomfmu version measured (figures say the version, not a commit)."""
+    from importlib import metadata
+    return metadata.version("loomfmu")
 
 
 def _measure_c_only(name, solvers, work: Path, repeats, best_of) -> list[dict]:

@@ -35,7 +35,7 @@ def _common(p: argparse.ArgumentParser) -> None:
                         "default 10): no answer, a closed port or another service there "
                         "is an error (exit 2)")
     p.add_argument("--out-dir", type=Path, default=Path("docs/results/sweep"),
-                   help="tables and charts (default: ./docs/sweep)")
+                   help="tables and charts (default: %(default)s)")
     p.add_argument("--fresh", action="store_true",
                    help="start over instead of resuming from OUT_DIR/<study>.csv")
     p.add_argument("--batch", type=int, default=1,

@@ -15,14 +15,14 @@ def main(argv=None, prog: str = "loomfmu drive") -> int:
     sub = ap.add_subparsers(dest="cmd", required=True)
     t = sub.add_parser("table", help="law constants, Fourier coefficients, cam -> docs/guides/drive_law.md")
     t.add_argument("--out", type=Path, default=Path("docs/guides/drive_law.md"),
-                   help="output file (default: ./docs/drive_law.md)")
+                   help="output file (default: %(default)s)")
     c = sub.add_parser("charts", help="speed law, cam profile, error vs m -> docs/results/drive/*.png")
     c.add_argument("--out-dir", type=Path, default=Path("docs/results/drive"),
-                   help="output folder (default: ./docs/drive)")
+                   help="output folder (default: %(default)s)")
     k = sub.add_parser("tracking", help="drive FMU with compensated / uncompensated cam "
                        "-> docs/guides/drive_tracking.md")
     k.add_argument("--out", type=Path, default=Path("docs/guides/drive_tracking.md"),
-                   help="output file (default: ./docs/drive_tracking.md)")
+                   help="output file (default: %(default)s)")
     args = ap.parse_args(argv)
     check_output_options(args, files=["out"], folders=["out_dir"])
     if args.cmd == "tracking":

@@ -156,7 +156,7 @@ def dae_form(model: Model) -> DaeForm:
                              "derivatives or algebraic variables")
     if model.delays and model.events:
         # the runtime does not yet keep the history across the redone step
-        # and the jump of an event (docs/code_review.md, R4)
+        # and the jump of an event
         raise ValueError(f"model {model.name}: delays together with event indicators are "
                          "not supported")
     d, g, gdot, tau = _delays(model, x, w)

@@ -17,10 +17,10 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
     sub = ap.add_subparsers(dest="cmd", required=True)
     c = sub.add_parser("claims", help="check the seeds' claims -> docs/guides/heald_claims.md")
     c.add_argument("--out", type=Path, default=Path("docs/guides/heald_claims.md"),
-                   help="output file (default: ./docs/heald_claims.md)")
+                   help="output file (default: %(default)s)")
     f = sub.add_parser("fidelity", help="rigid/planar vs spatial -> docs/guides/heald_fidelity.md")
     f.add_argument("--out", type=Path, default=Path("docs/guides/heald_fidelity.md"),
-                   help="output file (default: ./docs/heald_fidelity.md)")
+                   help="output file (default: %(default)s)")
     d = sub.add_parser("design", help="slat width b1 for a given gap to the next frame",
                        description="The smallest slat width b1 whose largest horizontal "
                        "mid-section displacement max |x2| over two frame cycles of the "
@@ -45,7 +45,7 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
                        "the geometry tension, shared defaults, the frame in opposition -> "
                        "docs/guides/heald_tension_input.md")
     w.add_argument("--out", type=Path, default=Path("docs/guides/heald_tension_input.md"),
-                   help="output file (default: ./docs/heald_tension_input.md)")
+                   help="output file (default: %(default)s)")
     args = ap.parse_args(argv)
     check_output_options(args, files=["out"])
     from loomfmu.progress import Progress

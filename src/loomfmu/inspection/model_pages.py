@@ -91,7 +91,7 @@ def _fidelity_section(name: str) -> list[str]:
 def main(argv=None, prog: str = "loomfmu docs") -> int:
     ap = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("docs/reference/models"),
-                    help="output folder (default: ./docs/models)")
+                    help="output folder (default: %(default)s)")
     args = ap.parse_args(argv)
     check_output_options(args, folders=["out"])
     args.out.mkdir(parents=True, exist_ok=True)

@@ -1,6 +1,6 @@
 /* loomfmu shared runtime: the base every runtime file stands on: logging
  * and the CasADi work arrays of the generated functions.  It calls no other
- * runtime file (the layers: docs/runtime.md). */
+ * runtime file (the layers: docs/guides/runtime.md). */
 #include <stdarg.h>
 #include <stdio.h>
 

@@ -2,7 +2,7 @@
  *
  * A model contributes CasADi-generated functions with the fixed argument
  * list (t, x, w, u, p, q, d, u_rate, d_rate, k) and one `const LfModel lf_model` (model_decl.c),
- * both written by loomfmu.codegen from the Python declaration.  Nothing here
+ * both written by loomfmu.export.codegen from the Python declaration.  Nothing here
  * is written by hand per model.
  *
  * w = [der(x); z] are the unknowns of the model's equations F = 0: given in
@@ -35,7 +35,7 @@ typedef struct {
     LfCasadiWork work;
 } LfFunction;
 
-/* in the order of loomfmu.codegen.FUNCTIONS */
+/* in the order of loomfmu.export.codegen.FUNCTIONS */
 enum {
     LF_FN_WSOL = 0,   /* -> w                        (explicit models) */
     LF_FN_WJAC = 1,   /* -> dw/dx, dw/dt             (explicit models) */

@@ -1,6 +1,6 @@
 /* loomfmu shared runtime: the model instance's life cycle (instantiate,
  * reset, free) and getting/setting values: what the FMI facades call,
- * above the step loop's files (the layers: lf_internal.h, docs/runtime.md).
+ * above the step loop's files (the layers: lf_internal.h, docs/guides/runtime.md).
  * Logging and the work arrays are lf_base.c's, calls of the generated
  * functions lf_eval.c's, the outputs lf_outputs.c's. */
 #include <math.h>

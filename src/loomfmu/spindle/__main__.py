@@ -64,7 +64,7 @@ def main(argv=None, prog: str = "loomfmu rotor") -> int:
                          "Campbell, unbalance response, compliance -> OUT/spindle/*.png; all: the "
                          "three in turn")
     ap.add_argument("--out", type=Path, default=DOCS,
-                    help="output folder (default: ./docs/results)")
+                    help="output folder (default: %(default)s)")
     ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                     help="critical: a spindle parameter (repeatable), e.g. k_d=0.8")
     ap.add_argument("--speed", type=float, default=WORK_RPM,
