@@ -682,6 +682,9 @@ def prepare(case, fixed):
 
 
 @pytest.mark.slow
+# the worker killed on purpose leaves dask's pipe to it for the garbage collector
+@pytest.mark.filterwarnings("ignore::ResourceWarning")
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 def test_a_case_whose_worker_is_lost_is_run_again_and_said(blob, tmp_path, capsys):
     marker = tmp_path / "died"
     study = _study(cases=grid(omega=[40.0, 60.0, 80.0]), prepare=_dying_prepare(marker))
