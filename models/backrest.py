@@ -236,12 +236,12 @@ def _states(m: Model, p: dict) -> _X:
     x = _X(m, p)
     E = "energies"
     x.T = m.quantity("T", 0.5 * p["J_1"] * x.w1**2 + 0.5 * p["m_c"] * ca.dot(x.v_O2, x.v_O2)
-                     + 0.5 * p["J_c"] * (x.w1 + x.w2) ** 2, unit="N.m", group=E, symbol="T",
+                     + 0.5 * p["J_c"] * (x.w1 + x.w2) ** 2, unit="J", group=E, symbol="T",
                      description="kinetic energy: lever about O1, roller's translation with "
                      "O2, roller's absolute rotation (phi1' + phi2')",
                      source="derived: seed 004 names Lagrange's equations of the second "
                      "kind, gives no T")
-    x.V = m.quantity("V", p["m_c"] * p["g"] * x.O2[1], unit="N.m", group=E, symbol="V",
+    x.V = m.quantity("V", p["m_c"] * p["g"] * x.O2[1], unit="J", group=E, symbol="V",
                      description="potential energy of the roller's weight (the lever's "
                      "centre of mass is at O1; the spring acts as a force, (9))",
                      source="derived: its moment -dV/dphi1 is the seed's (4)")

@@ -254,3 +254,13 @@ def test_regularized_friction_law_is_the_model_equation():
             assert np.min(np.abs(eqs + law[0])) < 1e-12 * (1 + abs(law[0]))
             assert abs(law[0] + point[1 + [v.name for v in model.variables].index(
                 f"M{joint[1]}f")]) <= kin[0] * (1 + 1e-12)
+
+
+def test_energies_carry_the_unit_joule(model):
+    """An energy is measured in J (the same base units as N.m, which reads as
+    a moment)."""
+    from loomfmu.declare.units import same_quantity
+    energies = [q for q in model.quantities if "energy" in q.description.split(":")[0]]
+    assert {q.name for q in energies} == {"T", "V"}
+    assert [q.unit for q in energies] == ["J", "J"]
+    assert same_quantity("J", "N.m")
