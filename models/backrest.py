@@ -338,8 +338,16 @@ def _lagrange(m: Model, p: dict, x: _X, w: dict, spring: dict) -> None:
                      description="generalized forces (Q_1 about O1, Q_2 about O2): the "
                      "coefficients of phi1', phi2' in the power of the applied forces (warp "
                      "tensions, spring, friction torques) held at their values; the weight is "
-                     "in V, and Q - dV/dq equals the seed's (7) and (10) (test)",
+                     "in V (Q_1 is not zero at the static equilibrium: the weight's moment is "
+                     "missing; M_1 below adds it), and Q - dV/dq equals the seed's (7) and "
+                     "(10) (test)",
                      source=SEED + " (1), (2), (7), (10); " + defect("B1"))
+    m.quantity("M_1", x.Q[0] - ca.gradient(x.V, x.q)[0], unit="N.m", group=Q_G,
+               symbol="M_1", description="moment about O1 of every force on the lever and "
+               "roller, the roller's weight included: Q_1 - dV/dphi1, the left side of the "
+               "seed's (7); zero at the static equilibrium (phi1 = phi_n, S1 = S2 = S0, no "
+               "friction), where Q_1 alone equals the weight's moment m_c g r1 cos(phi_n)",
+               source=SEED + " (4), (7); " + defect("B1"))
     L = "Lagrange's equations"
     m.quantity("M_q", ca.hessian(x.T, x.qd)[0], unit="kg.m2", group=L, symbol="M(q)",
                description="generalized mass matrix d2T / dq' dq'",
