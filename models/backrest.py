@@ -359,7 +359,7 @@ def _lagrange(m: Model, p: dict, x: _X, w: dict, spring: dict) -> None:
     m.quantity("lagrange", res, unit="N.m", group=L, symbol=r"\frac{d}{dt}\frac{\partial "
                r"L}{\partial \dot q} - \frac{\partial L}{\partial q} - Q",
                description="Lagrange's equations of the second kind, L = T - V, each = 0: "
-               f"the model's equations {first + 1} and {first + 2} (model.equations"
+               f"the model's equations E{first + 1} and E{first + 2} (model.equations"
                f"[{first}:{first + 2}])", source=SEED + ", Lagrange's equations of the "
                "second kind [1]; derived by CasADi AD (loomfmu.mechanics.lagrange)")
 

@@ -757,3 +757,19 @@ def test_printed_quantities_are_simplified_where_sympy_shortens_them():
     assert sympy.expand(T - hand) == 0, T
     assert sympy.count_ops(T) <= sympy.count_ops(hand), T
     assert forms["M_s"][1].has(forms["F_s"][0]), forms["M_s"][1]
+
+
+def test_equations_are_numbered_apart_from_the_seeds_numbers():
+    """The seeds number their equations (1), (2), ...; the report's own
+    equations are (E1), (E2), ... so that "(7)" always means the seed's."""
+    model = load_model("backrest")
+    _, sections = inspect_report.document(model)
+    eqs = next(s for s in sections if s.title == "Equations")
+    tags = [tag for b in eqs.blocks if isinstance(b, inspect_report.Equations)
+            for _, tag in b.lines if tag]
+    assert tags == [f"E{k}" for k in range(1, len(model.equations) + 1)]
+    solving = next(s for s in sections if s.title.startswith("How the runtime"))
+    text = " ".join(b for b in solving.blocks if isinstance(b, str))
+    assert "nonlinear in w: E" in text, text
+    lagrange = next(q for q in model.quantities if q.name == "lagrange")
+    assert "equations E3 and E4" in lagrange.description
