@@ -54,3 +54,16 @@ def test_page_describes_only_the_build_options_this_fmu_has():
     assert "mode-acceleration" not in page
     page = html_for(load_model("spindle_modal", static_correction=True))
     assert "mode-acceleration" in page
+
+
+def test_backrest_frame_is_drawn_in_the_report_and_on_the_page():
+    """The seed's figure is missing: the frame reconstructed from the signs of
+    (3)-(13) is drawn (lever, roller, warp branches, the angles and points)."""
+    from loomfmu.inspection.report import report
+    model = load_model("backrest")
+    for page in (html_for(model), report(model, "html")):
+        svg = page[page.index("<figure><svg"):]
+        svg = svg[:svg.index("</svg>")]
+        for mark in ("O<tspan", ">A<", "\u03b1", "\u03b8", "\u03b3", "\u03c6", "x<", "y<"):
+            assert mark in svg, mark
+        assert "reconstructed from the signs of (3)-(13)" in page

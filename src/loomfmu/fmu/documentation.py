@@ -420,8 +420,10 @@ def _about(model: Model) -> str:
     counts.update({"equation": len(model.equations), "event indicator": len(model.events),
                    "delay": len(model.delays)})
     summary = ", ".join(_count(n, k) for k, n in counts.items() if n)
-    return (f"{_docstring(model)}<p>Declared in <code>models/{_e(_module(model))}.py</code>: "
-            f"{summary}.</p>")
+    figures = "".join(f'<figure>{f.svg}<figcaption>{_e(f.caption)}</figcaption></figure>'
+                      for f in model.figures)
+    return (f"{_docstring(model)}{figures}<p>Declared in <code>models/"
+            f"{_e(_module(model))}.py</code>: {summary}.</p>")
 
 
 def _count(n: int, what: str) -> str:
