@@ -110,7 +110,118 @@ def build(*, friction: str = "events", eps: float = 1e-3, shedding: bool = True,
     R1, R2, N1, N2 = _reactions(m, p, x, warp, spring)
     _friction(m, p, x, N1, N2, eps if friction == "regularized" else None)
     _outputs(m, x, warp, spring, N1, N2, fronts)
+    m.figure("frame", frame_svg({n: m.var(n).start for n in FIGURE_PARAMETERS}),
+             caption="The frame reconstructed from the signs of (3)-(13) (the seed's figure "
+             "is missing), drawn at the default parameters: side view, x to the front of "
+             "the loom, y up, origin at the lever pivot O1; lever O1O2 (r1) at phi1 above "
+             "the rear horizontal, roller (radius r) on O2, spring arm O1A (r2) at gamma "
+             "to the extension of O2O1, spring at theta to O1A; lower warp branch 1 (S1) "
+             "back down to the warp beam at alpha1, upper branch 2 (S2) forward to the "
+             "healds at alpha2. Angles not to scale where they are small.")
     return m
+
+
+#: the parameters the frame's sketch is drawn with (their defaults)
+FIGURE_PARAMETERS = ("r1", "r", "r2", "phi_n", "alpha1", "alpha2", "theta", "gamma")
+
+
+def frame_svg(p: dict) -> str:
+    """An SVG sketch of the backrest's frame at the parameter values ``p``
+    (the names of :data:`FIGURE_PARAMETERS`, SI units)."""
+    scale, ox, oy = 900.0, 330.0, 150.0  # px per m; O1 on the canvas
+
+    def pt(x, y):  # model (m, y up) -> canvas (px, y down)
+        return ox + scale * x, oy - scale * y
+
+    def line(a, b, style):
+        return (f'<line x1="{a[0]:.1f}" y1="{a[1]:.1f}" x2="{b[0]:.1f}" y2="{b[1]:.1f}" '
+                f'{style}/>')
+
+    def label(xy, text, dx=0, dy=0, size=15):
+        return (f'<text x="{xy[0] + dx:.1f}" y="{xy[1] + dy:.1f}" font-size="{size}" '
+                f'font-style="italic">{text}</text>')
+
+    def arc(c, r_px, a0, a1):  # angles in model radians (counter-clockwise)
+        p0 = (c[0] + r_px * math.cos(a0), c[1] - r_px * math.sin(a0))
+        p1 = (c[0] + r_px * math.cos(a1), c[1] - r_px * math.sin(a1))
+        sweep = 0 if a1 > a0 else 1
+        return (f'<path d="M{p0[0]:.1f},{p0[1]:.1f} A{r_px},{r_px} 0 0 {sweep} '
+                f'{p1[0]:.1f},{p1[1]:.1f}" fill="none" stroke="#555"/>')
+
+    phi, r1, r, r2 = p["phi_n"], p["r1"], p["r"], p["r2"]
+    a1, a2, th, ga = p["alpha1"], p["alpha2"], p["theta"], p["gamma"]
+    thin = 'stroke="#777" stroke-dasharray="4 3"'
+    O1 = pt(0, 0)
+    o2 = (-r1 * math.cos(phi), r1 * math.sin(phi))
+    O2 = pt(*o2)
+    ext = -phi  # direction of the extension of O2O1 beyond O1 (model angle)
+    a_dir = ext - ga
+    A = pt(r2 * math.cos(a_dir), r2 * math.sin(a_dir))
+    spring_dir = a_dir + math.pi - th  # the spring makes theta with the arm O1A
+    S_end = (A[0] + 110 * math.cos(spring_dir), A[1] - 110 * math.sin(spring_dir))
+    # warp branches: tangent to the roller, wrapping over it
+    t2 = (o2[0] - r * math.sin(a2), o2[1] + r * math.cos(a2))
+    t1 = (o2[0] - r * math.sin(a1), o2[1] + r * math.cos(a1))
+    T2, T1 = pt(*t2), pt(*t1)
+    end2 = (T2[0] + 330 * math.cos(a2), T2[1] - 330 * math.sin(a2))
+    end1 = (T1[0] - 200 * math.cos(a1), T1[1] + 200 * math.sin(a1))
+    parts = [
+        # axes at O1
+        line((O1[0] - 300, O1[1]), (O1[0] + 330, O1[1]), thin),
+        line(O1, (O1[0] + 60, O1[1]), 'stroke="#000" marker-end="url(#arr)"'),
+        line(O1, (O1[0], O1[1] - 60), 'stroke="#000" marker-end="url(#arr)"'),
+        label(O1, "x", 62, 16), label(O1, "y", -14, -52),
+        # lever, spring arm, spring
+        line(O1, O2, 'stroke="#1f4e79" stroke-width="6" stroke-linecap="round"'),
+        line(O1, A, 'stroke="#1f4e79" stroke-width="6" stroke-linecap="round"'),
+        line(O1, pt(0.13 * math.cos(ext), 0.13 * math.sin(ext)), thin),
+        f'<polyline points="{A[0]:.1f},{A[1]:.1f} ' + " ".join(
+            f"{A[0] + k * 11 * math.cos(spring_dir) + (7 if k % 2 else -7) * math.sin(spring_dir):.1f},"
+            f"{A[1] - k * 11 * math.sin(spring_dir) + (7 if k % 2 else -7) * math.cos(spring_dir):.1f}"
+            for k in range(1, 10)) + f' {S_end[0]:.1f},{S_end[1]:.1f}" fill="none" '
+        'stroke="#9c2a00" stroke-width="2"/>',
+        label(S_end, "spring (k_s, F_s)", 6, 4, 13),
+        # roller and warp
+        f'<circle cx="{O2[0]:.1f}" cy="{O2[1]:.1f}" r="{scale * r:.1f}" fill="#e8eef5" '
+        'stroke="#1f4e79" stroke-width="2"/>',
+        line(T2, end2, 'stroke="#2e7d32" stroke-width="3"'),
+        line(T1, end1, 'stroke="#2e7d32" stroke-width="3"'),
+        label(end2, "2: S<tspan baseline-shift=\"sub\" font-size=\"11\">2</tspan>, to "
+              "the healds", -170, -10, 13),
+        label(end1, "1: S<tspan baseline-shift=\"sub\" font-size=\"11\">1</tspan>, to "
+              "the warp beam", 8, 0, 13),
+        # angles
+        line(T2, (T2[0] + 90, T2[1]), thin), arc(T2, 70, 0, a2),
+        label(T2, "α<tspan baseline-shift=\"sub\" font-size=\"11\">2</tspan>", 74,
+              -6),
+        line(T1, (T1[0] - 90, T1[1]), thin), arc(T1, 45, math.pi, math.pi + a1),
+        label(T1, "α<tspan baseline-shift=\"sub\" font-size=\"11\">1</tspan>", -66,
+              30),
+        arc(O1, 62, math.pi - phi, math.pi),
+        label(O1, "φ<tspan baseline-shift=\"sub\" font-size=\"11\">1</tspan>", -92,
+              -4),
+        arc(O1, 50, a_dir, ext),
+        label(O1, "γ", 62 * math.cos((a_dir + ext) / 2) - 4,
+              -62 * math.sin((a_dir + ext) / 2) + 5),
+        arc(A, 34, a_dir + math.pi, spring_dir),
+        label(A, "θ", 26 * math.cos((a_dir + math.pi + spring_dir) / 2) - 4,
+              -26 * math.sin((a_dir + math.pi + spring_dir) / 2) + 5),
+        # points
+        f'<circle cx="{O1[0]:.1f}" cy="{O1[1]:.1f}" r="4"/>',
+        f'<circle cx="{O2[0]:.1f}" cy="{O2[1]:.1f}" r="4"/>',
+        f'<circle cx="{A[0]:.1f}" cy="{A[1]:.1f}" r="4"/>',
+        label(O1, "O<tspan baseline-shift=\"sub\" font-size=\"11\">1</tspan>", 6, -10),
+        label(O2, "O<tspan baseline-shift=\"sub\" font-size=\"11\">2</tspan>", -8, 20),
+        label(A, "A", 8, 16),
+        label(pt(*[(a + b) / 2 for a, b in zip((0, 0), o2)]), "r<tspan baseline-shift="
+              "\"sub\" font-size=\"11\">1</tspan>", -6, -10, 13),
+    ]
+    return ('<svg xmlns="http://www.w3.org/2000/svg" width="720" height="330" '
+            'viewBox="0 0 720 330" role="img" aria-label="backrest frame: lever O1O2, '
+            'roller, spring arm O1A, warp branches 1 and 2"><defs><marker id="arr" '
+            'viewBox="0 0 10 10" refX="9" refY="5" markerWidth="7" markerHeight="7" '
+            'orient="auto"><path d="M0,0 L10,5 L0,10 z"/></marker></defs>'
+            '<rect width="720" height="330" fill="#fff"/>' + "".join(parts) + "</svg>")
 
 
 def _parameters(m: Model, shedding: bool) -> dict:
@@ -236,12 +347,12 @@ def _states(m: Model, p: dict) -> _X:
     x = _X(m, p)
     E = "energies"
     x.T = m.quantity("T", 0.5 * p["J_1"] * x.w1**2 + 0.5 * p["m_c"] * ca.dot(x.v_O2, x.v_O2)
-                     + 0.5 * p["J_c"] * (x.w1 + x.w2) ** 2, unit="N.m", group=E, symbol="T",
+                     + 0.5 * p["J_c"] * (x.w1 + x.w2) ** 2, unit="J", group=E, symbol="T",
                      description="kinetic energy: lever about O1, roller's translation with "
                      "O2, roller's absolute rotation (phi1' + phi2')",
                      source="derived: seed 004 names Lagrange's equations of the second "
                      "kind, gives no T")
-    x.V = m.quantity("V", p["m_c"] * p["g"] * x.O2[1], unit="N.m", group=E, symbol="V",
+    x.V = m.quantity("V", p["m_c"] * p["g"] * x.O2[1], unit="J", group=E, symbol="V",
                      description="potential energy of the roller's weight (the lever's "
                      "centre of mass is at O1; the spring acts as a force, (9))",
                      source="derived: its moment -dV/dphi1 is the seed's (4)")
@@ -338,8 +449,16 @@ def _lagrange(m: Model, p: dict, x: _X, w: dict, spring: dict) -> None:
                      description="generalized forces (Q_1 about O1, Q_2 about O2): the "
                      "coefficients of phi1', phi2' in the power of the applied forces (warp "
                      "tensions, spring, friction torques) held at their values; the weight is "
-                     "in V, and Q - dV/dq equals the seed's (7) and (10) (test)",
+                     "in V (Q_1 is not zero at the static equilibrium: the weight's moment is "
+                     "missing; M_1 below adds it), and Q - dV/dq equals the seed's (7) and "
+                     "(10) (test)",
                      source=SEED + " (1), (2), (7), (10); " + defect("B1"))
+    m.quantity("M_1", x.Q[0] - ca.gradient(x.V, x.q)[0], unit="N.m", group=Q_G,
+               symbol="M_1", description="moment about O1 of every force on the lever and "
+               "roller, the roller's weight included: Q_1 - dV/dphi1, the left side of the "
+               "seed's (7); zero at the static equilibrium (phi1 = phi_n, S1 = S2 = S0, no "
+               "friction), where Q_1 alone equals the weight's moment m_c g r1 cos(phi_n)",
+               source=SEED + " (4), (7); " + defect("B1"))
     L = "Lagrange's equations"
     m.quantity("M_q", ca.hessian(x.T, x.qd)[0], unit="kg.m2", group=L, symbol="M(q)",
                description="generalized mass matrix d2T / dq' dq'",
@@ -351,7 +470,7 @@ def _lagrange(m: Model, p: dict, x: _X, w: dict, spring: dict) -> None:
     m.quantity("lagrange", res, unit="N.m", group=L, symbol=r"\frac{d}{dt}\frac{\partial "
                r"L}{\partial \dot q} - \frac{\partial L}{\partial q} - Q",
                description="Lagrange's equations of the second kind, L = T - V, each = 0: "
-               f"the model's equations {first + 1} and {first + 2} (model.equations"
+               f"the model's equations E{first + 1} and E{first + 2} (model.equations"
                f"[{first}:{first + 2}])", source=SEED + ", Lagrange's equations of the "
                "second kind [1]; derived by CasADi AD (loomfmu.mechanics.lagrange)")
 

@@ -205,7 +205,7 @@ def test_every_quantity_is_documented_and_in_derivation_order(model):
 def test_print_defects_are_next_to_the_quantities_they_affect():
     model = load_model("backrest")
     src = {q.name: q.source + " " + q.description for q in model.quantities}
-    where = {"B1": ["M_s", "Q"], "B2": ["F_0"], "B3": ["F_0"], "B4": ["R_2"]}
+    where = {"B1": ["M_s", "Q", "M_1"], "B2": ["F_0"], "B3": ["F_0"], "B4": ["R_2"]}
     for key, names in where.items():
         text = backrest_module.defect(key)
         printed, corrected = backrest_module.DEFECTS[key][1:3]
@@ -254,3 +254,33 @@ def test_regularized_friction_law_is_the_model_equation():
             assert np.min(np.abs(eqs + law[0])) < 1e-12 * (1 + abs(law[0]))
             assert abs(law[0] + point[1 + [v.name for v in model.variables].index(
                 f"M{joint[1]}f")]) <= kin[0] * (1 + 1e-12)
+
+
+def test_energies_carry_the_unit_joule(model):
+    """An energy is measured in J (the same base units as N.m, which reads as
+    a moment)."""
+    from loomfmu.declare.units import same_quantity
+    energies = [q for q in model.quantities if "energy" in q.description.split(":")[0]]
+    assert {q.name for q in energies} == {"T", "V"}
+    assert [q.unit for q in energies] == ["J", "J"]
+    assert same_quantity("J", "N.m")
+
+
+def test_moment_about_O1_with_the_weight_vanishes_at_the_static_equilibrium(model):
+    """Q leaves the roller's weight to V: Q_1 alone is a sizeable moment at
+    the static equilibrium.  The quantity M_1 = Q_1 - dV/dphi1 (the seed's
+    (7)) is printed beside it and is zero there."""
+    from loomfmu.inspection.core import evaluate
+    at_rest = {"M1f": 0.0, "M2f": 0.0, "time": 0.0}
+    q1 = evaluate(model, _q(model, "Q")[0], at_rest).item()
+    m1 = evaluate(model, _q(model, "M_1"), at_rest).item()
+    assert abs(q1) > 1.0
+    assert abs(m1) < 1e-9 * abs(q1)
+    q = ca.vertcat(_sym(model, "dphi1"), _sym(model, "phi2"))
+    ev = _evaluator(model, _q(model, "M_1"),
+                    _q(model, "Q")[0] - ca.gradient(_q(model, "V"), q)[0])
+    for point in _points(model, n=3):
+        a, b = ev(point)
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-9)
+    names = [q.name for q in model.quantities]
+    assert names.index("M_1") == names.index("Q") + 1

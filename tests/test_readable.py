@@ -742,3 +742,34 @@ def test_an_indexed_parameter_family_is_one_row_and_a_values_table():
     assert "short family 2" in params and "mean radius" in params
     # each parameter's range, as the FMU checks it
     assert "| 7 | [0, 10] | mean radius |" in params
+
+
+def test_printed_quantities_are_simplified_where_sympy_shortens_them():
+    """T = m_c (w1^2 r1^2 sin^2 + w1^2 r1^2 cos^2) / 2 + ... prints as
+    m_c r1^2 w1^2 / 2 + ...; a form that simplifying would lengthen (the
+    spring moment written with the spring force) keeps its words."""
+    model = load_model("backrest")
+    forms = {q.name: (sym, form) for q, sym, form in readable.quantities_written(model)}
+    T = forms["T"][1]
+    J_1, J_c, m_c, r1, w1, w2 = (readable.Var(n) for n in ("J_1", "J_c", "m_c", "r1",
+                                                          "omega1", "omega2"))
+    hand = J_1 * w1**2 / 2 + J_c * (w1 + w2)**2 / 2 + m_c * r1**2 * w1**2 / 2
+    assert sympy.expand(T - hand) == 0, T
+    assert sympy.count_ops(T) <= sympy.count_ops(hand), T
+    assert forms["M_s"][1].has(forms["F_s"][0]), forms["M_s"][1]
+
+
+def test_equations_are_numbered_apart_from_the_seeds_numbers():
+    """The seeds number their equations (1), (2), ...; the report's own
+    equations are (E1), (E2), ... so that "(7)" always means the seed's."""
+    model = load_model("backrest")
+    _, sections = inspect_report.document(model)
+    eqs = next(s for s in sections if s.title == "Equations")
+    tags = [tag for b in eqs.blocks if isinstance(b, inspect_report.Equations)
+            for _, tag in b.lines if tag]
+    assert tags == [f"E{k}" for k in range(1, len(model.equations) + 1)]
+    solving = next(s for s in sections if s.title.startswith("How the runtime"))
+    text = " ".join(b for b in solving.blocks if isinstance(b, str))
+    assert "nonlinear in w: E" in text, text
+    lagrange = next(q for q in model.quantities if q.name == "lagrange")
+    assert "equations E3 and E4" in lagrange.description

@@ -165,6 +165,16 @@ class Quantity:
 
 
 @dataclass
+class Figure:
+    """A sketch of the model's frame (inline SVG) for the reports and the
+    FMU's page; ``caption`` says what it shows."""
+
+    name: str
+    svg: str
+    caption: str
+
+
+@dataclass
 class EventIndicator:
     """A function whose sign change marks a breakpoint inside a step."""
 
@@ -198,6 +208,7 @@ class Model:
     constraints: list[Constraint] = field(default_factory=list)
     validity: list[Constraint] = field(default_factory=list)  # must hold while running
     quantities: list[Quantity] = field(default_factory=list)
+    figures: list[Figure] = field(default_factory=list)
     t: ca.SX = field(default_factory=lambda: ca.SX.sym("time"))
 
     def __post_init__(self):
@@ -405,6 +416,17 @@ class Model:
                                  "finite numbers")
         self.quantities.append(Quantity(name, sx, unit, description, symbol, source, group))
         return expr
+
+    def figure(self, name: str, svg: str, *, caption: str) -> None:
+        """Keep a sketch of the model's frame (an ``<svg>`` element as text)
+        for the reports and the FMU's page."""
+        self._new_name("figure", name, {f.name for f in self.figures})
+        if not isinstance(svg, str) or not svg.lstrip().startswith("<svg"):
+            raise ValueError(f"figure {name!r}: svg = {svg!r:.40}; allowed: an <svg> "
+                             "element as text")
+        if not caption or not isinstance(caption, str):
+            raise ValueError(f"figure {name!r} needs a caption (a non-empty string)")
+        self.figures.append(Figure(name, svg, caption))
 
     def mode(self, name, start: int, values, *, description="") -> ca.SX:
         """Declare a discrete mode (an Integer output of the FMU).

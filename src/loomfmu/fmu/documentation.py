@@ -30,6 +30,7 @@ import casadi as ca
 from loomfmu.declare.model import Model
 from loomfmu.declare.solvers import ADAPTIVE_SOLVERS, SETTINGS, SOLVER_DESCRIPTIONS, SOLVERS
 from loomfmu.export.fmi_xml import fmi3_text
+from loomfmu.fidelity import LEVELS
 from loomfmu.registry import MODELS
 
 #: Where FMI 2.0 puts the documentation's entry point.
@@ -59,6 +60,8 @@ td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
 td.name{font-family:ui-monospace,Menlo,Consolas,monospace;font-size:12.5px;
  white-space:nowrap} td.small{font-size:12.5px;color:#424a53}
 tr.worst td{background:#fff4d6 !important}
+pre.cmd{white-space:pre-wrap;overflow-wrap:anywhere;background:#f6f8fa;padding:8px 10px;
+ border:1px solid #d0d7de;border-radius:6px;font-size:12.5px}
 table.compact{width:auto;min-width:50%}
 .solvers{display:flex;flex-wrap:wrap;gap:0 18px} .solvers>div{flex:1 1 340px}
 .solvers h3{font-size:14.5px}
@@ -142,13 +145,15 @@ def html_for(model: Model, verification: dict | None = None, *,
                          f"modelName {md.get('modelName')!r}")
     csrc = next((n for n in members or [] if n.endswith("_casadi.c")),
                 f"sources/{model.name}_casadi.c")
-    sections = [  # the short sections first, the long reference tables after
+    sections = [  # what an importer needs first; solver and verification after
         ("about", "What it is", _about(model)),
         ("interfaces", "Interfaces", _interfaces(model, md)),
-        ("verification", "Verification", _verification(model, verification)),
+        ("validity", "Where it is valid and what it leaves out", _validity(model)),
+        ("ports", "Ports", _ports(model)),
+        ("build", "Rebuilding from sources/", _build(model, md, members)),
         ("solver", *_integration(model, md)),
         ("experiment", "Default experiment", _experiment(md)),
-        ("ports", "Ports", _ports(model)),
+        ("verification", "Verification", _verification(model, verification)),
         ("variables", "Variables", _variables(model, md)),
         ("equations", "Derivation and equations" if readable and model.quantities
          else "Equations", _readable_equations(model) if readable
@@ -258,7 +263,109 @@ def _docstring(model: Model) -> str:
     except ImportError:
         return ""
     paras = re.split(r"\n\s*\n", inspect.cleandoc(doc))
-    return '<div class="doc">' + "".join(_paragraph(p) for p in paras if p.strip()) + "</div>"
+    return '<div class="doc">' + "".join(_paragraph(p) for p in paras
+                                         if p.strip() and _built_with(model, p)) + "</div>"
+
+
+def _built_with(model: Model, para: str) -> bool:
+    """False for a docstring paragraph about a build option's value this
+    build does not have (it opens with ``option=value``)."""
+    m = re.match(r"(\w+)=(\S+?)[\s:,]", para)
+    if not m or m.group(1) not in model.options:
+        return True
+    return repr(model.options[m.group(1)]) == m.group(2) or \
+        str(model.options[m.group(1)]) == m.group(2)
+
+
+def _for_build(model: Model, text: str) -> str:
+    """``text`` without its clauses (split at "; " and ", or ") about a build
+    option's value this build does not have (``option=value`` in them)."""
+    def other_build(clause):
+        return any(str(v) != val and repr(v) != val
+                   for k, val in re.findall(r"\b(\w+)=([\w.]+)", clause)
+                   for v in [model.options.get(k, _MISSING)] if v is not _MISSING)
+    kept = []
+    for part in text.split("; "):
+        alts = [a for a in re.split(r", or ", part) if not other_build(a)]
+        if alts:
+            kept.append(", or ".join(alts))
+    return "; ".join(kept)
+
+
+_MISSING = object()
+
+
+def _validity(model: Model) -> str:
+    """The fidelity level (what the model leaves out, where it suffices) and
+    the validity conditions checked while it runs."""
+    out = []
+    lv = LEVELS.get(model.name)
+    if lv is not None:
+        def items(texts):
+            return "<br>".join(_e(t) for t in (_for_build(model, x) for x in texts) if t)
+        out.append(f"<p>Fidelity level of the {_e(lv.mechanism)} mechanism. "
+                   f"<strong>Suffices:</strong> {_e(_for_build(model, lv.suffices))}.</p>")
+        out.append(_table(["leaves out", "represents"], [
+            f"<tr><td>{items(lv.leaves_out) or 'nothing'}</td>"
+            f"<td>{items(lv.represents)}</td></tr>"]))
+        if lv.sources:
+            out.append(f"<p>Evidence: {', '.join(_e(x) for x in lv.sources)}.</p>")
+    else:
+        out.append("<p>No fidelity level is declared for this model.</p>")
+    if model.validity:
+        rows = [f'<tr><td class="name">{_e(c.name)}</td><td>{_e(c.message)}</td></tr>'
+                for c in model.validity]
+        out.append("<p>Validity conditions, checked while the model runs on every "
+                   "accepted step like an event indicator: where one turns negative the "
+                   "step ends there with a discard status and a log line naming it.</p>"
+                   + _table(["condition", "meaning when violated"], rows))
+    else:
+        out.append("<p>No validity condition is checked while it runs.</p>")
+    if model.constraints:
+        rows = [f'<tr><td class="name">{_e(c.name)}</td><td>{_e(c.message)}</td></tr>'
+                for c in model.constraints]
+        out.append("<p>Parameter constraints, checked at initialization (the FMU refuses "
+                   "to start otherwise):</p>" + _table(["constraint", "message"], rows))
+    return "".join(out)
+
+
+#: FMI platform folders under binaries/ (FMI 2.0, FMI 3.0) and shared-library suffixes
+_PLATFORMS = {"gcc": ("linux64", "x86_64-linux", ".so"),
+              "clang": ("darwin64", "aarch64-darwin", ".dylib"),
+              "cl": ("win64", "x86_64-windows", ".dll")}
+
+
+def _build(model: Model, md: ET.Element, members: list[str] | None) -> str:
+    """How to compile sources/ into the FMU's binary on another platform."""
+    v3 = md.get("fmiVersion", "").startswith("3")
+    files = sorted(n for n in members or [] if n.startswith("sources/"))
+    c_files = [n for n in files if n.endswith(".c")]
+    srcs = " ".join(c_files) if c_files else "sources/*.c"
+    name = model.name
+    hdr = "&lt;FMI headers&gt;"
+    lib = {cc: f"binaries/{p3 if v3 else p2}/{name}{ext}"
+           for cc, (p2, p3, ext) in _PLATFORMS.items()}
+    lines = [
+        f"gcc -std=c99 -O2 -shared -fPIC -fvisibility=hidden -I sources -I {hdr} {srcs} "
+        f"-o {lib['gcc']} -lm",
+        f"clang -std=c99 -O2 -dynamiclib -fvisibility=hidden -I sources -I {hdr} {srcs} "
+        f"-o {lib['clang']}",
+        f"cl /O2 /LD /I sources /I {hdr} {srcs} /Fe{lib['cl']}",
+    ]
+    listing = ("<p>Files in sources/: " + ", ".join(f"<code>{_e(f)}</code>" for f in files)
+               + ".</p>") if files else ""
+    return (f"<p>The binary in this FMU was compiled by gcc (C99) for Linux; sources/ holds "
+            "everything else needs: the generated model, the runtime and "
+            "<code>lf_build.h</code>, which fixes the FMI version and the interfaces (no "
+            "defines on the command line). Compile every C file with sources/ and the FMI "
+            f"{'3.0' if v3 else '2.0'} headers (fmi{'3' if v3 else '2'}Functions.h and the "
+            "headers it includes, from the FMI standard) on the include path, link the C "
+            "math library, and put the library where the FMI standard expects it."
+            + (" sources/buildDescription.xml says the same for FMI 3.0 tools." if v3 else "")
+            + "</p>" + listing
+            + "<p>The builder runs the gcc line (with warnings on); the clang and MSVC lines "
+            "are the equivalent commands and were not run at build:</p>"
+            + "".join(f'<pre class="cmd">{line}</pre>' for line in lines))
 
 
 # ------------------------------------------------------------------ sections
@@ -313,8 +420,10 @@ def _about(model: Model) -> str:
     counts.update({"equation": len(model.equations), "event indicator": len(model.events),
                    "delay": len(model.delays)})
     summary = ", ".join(_count(n, k) for k, n in counts.items() if n)
-    return (f"{_docstring(model)}<p>Declared in <code>models/{_e(_module(model))}.py</code>: "
-            f"{summary}.</p>")
+    figures = "".join(f'<figure>{f.svg}<figcaption>{_e(f.caption)}</figcaption></figure>'
+                      for f in model.figures)
+    return (f"{_docstring(model)}{figures}<p>Declared in <code>models/"
+            f"{_e(_module(model))}.py</code>: {summary}.</p>")
 
 
 def _count(n: int, what: str) -> str:

@@ -50,6 +50,8 @@ def derivation(model) -> Section | None:
         f"The {len(model.quantities)} named quantities of the derivation, in the order the "
         "model declares them, each written with the quantities before it. They are kept "
         "for reading: the equations below are what runs."])
+    sec.blocks += [Picture(f.svg, f"[figure {f.name}: drawn in the HTML report]", f.caption)
+                   for f in model.figures]
     groups: dict[str, Section] = {}
     for q, sym, shown in readable.quantities_written(model):
         title = q.group or "Other quantities"

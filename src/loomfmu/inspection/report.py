@@ -150,8 +150,9 @@ def _equations(model, lst: readable.Listing) -> Section:
                        f"({len(lst.shared)}):",
                        Equations([(_eq(s, d), "") for s, d in lst.shared])]
     sec.blocks += [f"The {len(lst.equations)} equations (terms with the unknowns "
-                   "der(x) and the algebraic variables on the left):",
-                   Equations([(_eq(lhs, rhs), str(k))
+                   "der(x) and the algebraic variables on the left), numbered E1, E2, ... "
+                   "apart from the seed's own equation numbers:",
+                   Equations([(_eq(lhs, rhs), f"E{k}")
                               for k, (lhs, rhs) in enumerate(lst.equations, 1)])]
     if lst.outputs:
         sec.blocks += [f"The {len(lst.outputs)} outputs:",
@@ -186,7 +187,7 @@ def _solving(model, dae: DaeForm) -> Section:
         sec.blocks.append(
             f"F is nonlinear in w: the runtime solves all {nw} unknowns together by "
             "Newton's method with the exact Jacobian \u2202F/\u2202w, at every right-hand "
-            f"side evaluation. Equations nonlinear in w: {', '.join(str(i + 1) for i in second)}; "
+            f"side evaluation. Equations nonlinear in w: {', '.join(f'E{i + 1}' for i in second)}; "
             "unknowns that enter them nonlinearly:")
         sec.blocks.append(Table(["name", "symbol"], [[Code(n), _sym(n)] for n in nonlin]))
     sp = A.sparsity()

@@ -10,7 +10,10 @@ name.
 """
 from __future__ import annotations
 
+import contextlib
 import re
+import signal
+import threading
 from xml.dom import minidom
 from xml.sax.saxutils import escape
 
@@ -350,16 +353,103 @@ def _written(model, min_ops: int):
     out, vocab = [], _Vocabulary(min_ops)
     for q, form in quantities(model):
         sym = QuantitySymbol(q.name, q.symbol)
-        shown = vocab.write(form, {}) if vocab.exact else form
+        if isinstance(form, sympy.MatrixBase) and max(form.shape) > ENTRY_VOCABULARY:
+            shown = plain = vocab.write(form, {}) if vocab.exact else form  # a picture
+        elif isinstance(form, sympy.MatrixBase):
+            memo: dict = {}  # entries share subexpressions: write each once
+            pairs = [_shortest(e, vocab, memo) for e in form]
+            shown = sympy.Matrix(form.rows, form.cols, [p[0] for p in pairs])
+            plain = sympy.Matrix(form.rows, form.cols, [p[1] for p in pairs])
+        else:
+            shown, plain = _shortest(form, vocab, {})
         out.append((q, sym, shown))
-        if not isinstance(shown, sympy.MatrixBase):
-            vocab.learn(shown, sym)
-        elif max(shown.shape) <= ENTRY_VOCABULARY:  # R_1 = (R_11, R_12): |R_1| from them
-            for (i, j), entry in np.ndenumerate(np.array(shown, dtype=object)):
-                if _nodes(entry, ENTRY_MAX_NODES) < ENTRY_MAX_NODES and \
-                        sympy.count_ops(entry) >= ENTRY_MIN_OPS:
-                    vocab.learn(entry, entry_symbol(sym, i, j, shown.shape))
+        _learn(vocab, sym, plain)  # both forms name the quantity
+        if shown != plain:
+            _learn(vocab, sym, shown)
     return out, vocab
+
+
+def _learn(vocab: _Vocabulary, sym, shown) -> None:
+    if not isinstance(shown, sympy.MatrixBase):
+        vocab.learn(shown, sym)
+    elif max(shown.shape) <= ENTRY_VOCABULARY:  # R_1 = (R_11, R_12): |R_1| from them
+        for (i, j), entry in np.ndenumerate(np.array(shown, dtype=object)):
+            if _nodes(entry, ENTRY_MAX_NODES) < ENTRY_MAX_NODES and \
+                    sympy.count_ops(entry) >= ENTRY_MIN_OPS:
+                vocab.learn(entry, entry_symbol(sym, i, j, shown.shape))
+
+
+#: an expression is simplified only below this many operations and nodes
+#: (``sympy.simplify`` takes seconds on a hundred operations) ...
+SIMPLIFY_MAX_OPS, SIMPLIFY_MAX_NODES = 30, 100
+#: ... and within this many seconds of process time (a bound that a size below
+#: the limits never reaches; where it is reached the form stays as it was)
+SIMPLIFY_SECONDS = 10.0
+
+
+def _shortest(form, vocab: _Vocabulary, memo: dict):
+    """(the printed form of scalar ``form``, its form written with the earlier
+    quantities as declared): the shortest (fewest operations) of the declared
+    form written with the earlier quantities, the simplified form so written
+    and the simplified written form; the declared one where none is shorter."""
+    plain = vocab.write(form, memo) if vocab.exact else form
+    sources = [(e, write) for e, write in ((form, True), (plain, False)) if _small(e)]
+    if not sources:
+        return plain, plain
+    best, ops = plain, sympy.count_ops(plain)
+    for source, write in sources:
+        simpler = _simplified(source)
+        if simpler is None:
+            continue
+        if write and vocab.exact:
+            simpler = vocab.write(simpler, {})
+        n = sympy.count_ops(simpler)
+        if n < ops:
+            best, ops = simpler, n
+    return best, plain
+
+
+def _small(e) -> bool:
+    """Whether ``e`` is small enough to simplify (and not a case distinction)."""
+    return isinstance(e, sympy.Expr) and not e.is_Atom and \
+        _nodes(e, SIMPLIFY_MAX_NODES) < SIMPLIFY_MAX_NODES and \
+        sympy.count_ops(e) <= SIMPLIFY_MAX_OPS and not e.has(sympy.Piecewise)
+
+
+def _simplified(e):
+    """``sympy.simplify(e)`` when it finishes in time, else None."""
+    try:
+        with _time_limit(SIMPLIFY_SECONDS):
+            return sympy.simplify(e)
+    except _TimeUp:
+        return None
+
+
+class _TimeUp(Exception):
+    pass
+
+
+@contextlib.contextmanager
+def _time_limit(seconds: float):
+    """Raise _TimeUp inside the block after ``seconds`` of process time (in
+    the main thread of a POSIX process; elsewhere the block runs unbounded and
+    only the size limits hold)."""
+    usable = hasattr(signal, "setitimer") and \
+        threading.current_thread() is threading.main_thread()
+    if not usable:
+        yield
+        return
+
+    def stop(_signum, _frame):
+        raise _TimeUp
+
+    previous = signal.signal(signal.SIGPROF, stop)
+    signal.setitimer(signal.ITIMER_PROF, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_PROF, 0)
+        signal.signal(signal.SIGPROF, previous)
 
 
 def _nodes(e, limit: int) -> int:
