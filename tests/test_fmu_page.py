@@ -56,6 +56,7 @@ def test_page_describes_only_the_build_options_this_fmu_has():
     assert "mode-acceleration" in page
 
 
+@pytest.mark.slow  # a whole derivation report: seconds
 def test_backrest_frame_is_drawn_in_the_report_and_on_the_page():
     """The seed's figure is missing: the frame reconstructed from the signs of
     (3)-(13) is drawn (lever, roller, warp branches, the angles and points)."""

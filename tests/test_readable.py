@@ -759,6 +759,7 @@ def test_printed_quantities_are_simplified_where_sympy_shortens_them():
     assert forms["M_s"][1].has(forms["F_s"][0]), forms["M_s"][1]
 
 
+@pytest.mark.slow  # a whole derivation report: seconds
 def test_equations_are_numbered_apart_from_the_seeds_numbers():
     """The seeds number their equations (1), (2), ...; the report's own
     equations are (E1), (E2), ... so that "(7)" always means the seed's."""
