@@ -8,6 +8,8 @@ from __future__ import annotations
 import html
 import re
 
+import pytest
+
 from loomfmu import load_model
 from loomfmu.fidelity import level
 from loomfmu.fmu.documentation import html_for
