@@ -12,6 +12,7 @@ import re
 from pathlib import Path
 
 import pytest
+from graphs import circles
 
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src" / "loomfmu"
@@ -135,34 +136,8 @@ def layer_of(module: str) -> tuple[int, str]:
 
 
 def cycles(g: dict[str, set[str]]) -> list[list[str]]:
-    """The strongly connected components of more than one module (Tarjan)."""
-    index, low, stack, on, out = {}, {}, [], set(), []
-
-    def visit(v):
-        index[v] = low[v] = len(index)
-        stack.append(v)
-        on.add(v)
-        for w in g.get(v, ()):
-            if w not in index:
-                visit(w)
-                low[v] = min(low[v], low[w])
-            elif w in on:
-                low[v] = min(low[v], index[w])
-        if low[v] == index[v]:
-            comp = []
-            while True:
-                w = stack.pop()
-                on.discard(w)
-                comp.append(w)
-                if w == v:
-                    break
-            if len(comp) > 1:
-                out.append(sorted(comp))
-
-    for v in sorted(g):
-        if v not in index:
-            visit(v)
-    return out
+    """The strongly connected components of more than one module."""
+    return circles(g)
 
 
 def violations(g: dict[str, set[str]]) -> list[str]:

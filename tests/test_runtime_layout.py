@@ -26,6 +26,8 @@ import re
 import sys
 from pathlib import Path
 
+from graphs import circles
+
 RUNTIME_DIR = Path(__file__).resolve().parents[1] / "src" / "loomfmu" / "runtime"
 
 MAX_LINES = 600
@@ -255,40 +257,7 @@ def _unit_of(name: str) -> frozenset[str]:
 def cycles(deps: dict[str, set[str]]) -> list[list[str]]:
     """Strongly connected components of more than one file that are not
     inside one documented unit."""
-    index: dict[str, int] = {}
-    low: dict[str, int] = {}
-    stack: list[str] = []
-    on: set[str] = set()
-    comps: list[list[str]] = []
-    counter = [0]
-
-    def visit(v: str) -> None:
-        index[v] = low[v] = counter[0]
-        counter[0] += 1
-        stack.append(v)
-        on.add(v)
-        for w in sorted(deps.get(v, ())):
-            if w not in index:
-                visit(w)
-                low[v] = min(low[v], low[w])
-            elif w in on:
-                low[v] = min(low[v], index[w])
-        if low[v] == index[v]:
-            comp = []
-            while True:
-                w = stack.pop()
-                on.discard(w)
-                comp.append(w)
-                if w == v:
-                    break
-            if len(comp) > 1:
-                comps.append(sorted(comp))
-
-    sys.setrecursionlimit(10000)
-    for v in sorted(deps):
-        if v not in index:
-            visit(v)
-    return [c for c in comps if not set(c) <= _unit_of(c[0])]
+    return [c for c in circles(deps) if not set(c) <= _unit_of(c[0])]
 
 
 def long_files(runtime_dir: Path) -> dict[str, int]:
