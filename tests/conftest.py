@@ -1,6 +1,8 @@
 """Shared fixtures: FMUs are built once per test session into a temporary dir."""
 from __future__ import annotations
 
+import gc
+
 import pytest
 from fmpy import calloc, extract, free, read_model_description
 from fmpy.fmi2 import (
@@ -72,6 +74,16 @@ def _fmpy_logger_proxy_restored():
     (see loomfmu.verification.fmpy_logger). Point it back at FMPy's printer after each test."""
     yield
     restore_fmpy_proxy()
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _garbage_collected_per_module():
+    """Collect the garbage after each test file: a file, pipe or socket a
+    test leaves open then fails that file's last test (filterwarnings
+    "error" turns the ResourceWarning into an error), not whichever test of
+    another file the collector happens to run in."""
+    yield
+    gc.collect()
 
 
 @pytest.fixture

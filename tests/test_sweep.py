@@ -533,7 +533,8 @@ def test_bench_charts_on_dask_equal_the_serial_run_but_for_the_times(tmp_path):
     only = {("fmu", "dopri5"), ("fmu", "rk4"), ("scipy", "RK45"), ("scipy", "Radau")}
     par = charts(["drive"], out=tmp_path / "dask", quick=True, readme=None, failures_on=False,
                  cmd="test", plan=plan, only=only, dask={"workers": 2, "progress": False})
-    assert serial.wait(timeout=120) == 0, serial.stderr.read().decode()[-2000:]
+    err = serial.communicate(timeout=120)[1]  # closes the pipe (else a ResourceWarning later)
+    assert serial.returncode == 0, err.decode()[-2000:]
 
     def rows(folder):  # every column but the seconds, as written
         with open(tmp_path / folder / "points.csv") as fh:
