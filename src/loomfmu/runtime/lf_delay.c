@@ -74,6 +74,46 @@ double lf_next_breakpoint(LfInstance *c, double t, double t_end, int *is_bp) {
     return next;
 }
 
+/* Cubic Hermite through (0, g0, d0), (h, g1, d1) at th * h. */
+static double hermite(double g0, double d0, double g1, double d1, double h, double th) {
+    double th2 = th * th, th3 = th2 * th;
+    return (2 * th3 - 3 * th2 + 1) * g0 + (th3 - 2 * th2 + th) * h * d0 + (3 * th2 - 2 * th3) * g1 +
+           (th3 - th2) * h * d1;
+}
+
+/* Samples closer than LF_HIST_THIN * tau / LF_HIST_CAP are thinned: a
+ * sample between two such neighbours is dropped when the cubic Hermite
+ * through them reproduces it within the solver's tolerance (times
+ * LF_HIST_QUARTER_SCALE).  The history of a slow delayed signal in a model
+ * whose other parts take very short steps (a drive composed with a fast
+ * rotor) then fits; a model whose steps are longer keeps every sample. */
+#define LF_HIST_THIN 4.0
+/* The Hermite error of a smooth g over an interval is, to leading order,
+ * g'''' h^4 th^2 (1 - th)^2 / 24: at the quarter points 9/16 of its value
+ * at the midpoint.  Checked at the quarter points against 9/16 of the
+ * tolerance, the midpoint's error is bounded as before (and a deviation odd
+ * about the midpoint, which vanishes there, is seen). */
+#define LF_HIST_QUARTER_SCALE 0.5625
+
+/* Drop the last sample of delay k when the new one (t, g, dg/dt) makes it
+ * redundant (see LF_HIST_THIN); a jump (two samples at one time) is kept. */
+static void hist_thin(LfInstance *c, int k, double t, double g, double d) {
+    long n = c->dl.hist_count[k];
+    double t0, t1, h, mid;
+    if (n < 2) return;
+    t0 = LF_HT(c, k, n - 2);
+    t1 = LF_HT(c, k, n - 1);
+    h = t - t0;
+    if (!(t1 > t0 && t > t1 && h < LF_HIST_THIN * c->dl.tau[k] / LF_HIST_CAP)) return;
+    mid = hermite(LF_HG(c, k, n - 2), LF_HD(c, k, n - 2), g, d, h, (t1 - t0) / h);
+    if (!(fabs(mid - LF_HG(c, k, n - 1)) <=
+          LF_HIST_QUARTER_SCALE * (c->solver.opt.atol + c->solver.opt.rtol * fabs(mid))))
+        return;
+    c->dl.hist_count[k]--;
+    if (c->unsaved.hist_cursor[k] >= c->dl.hist_count[k])
+        c->unsaved.hist_cursor[k] = c->dl.hist_count[k] - 1;
+}
+
 /* The history of delay k cannot take the sample at t: say why, and what to
  * change for the solver in use (the samples are at least one per step,
  * more where the Hermite interpolant misses the solver's by more than the
@@ -115,6 +155,7 @@ static LfStatus hist_append(LfInstance *c, double t, const double *g, int jump) 
             c->dl.hist_count[k]--;
             if (c->unsaved.hist_cursor[k] > 0) c->unsaved.hist_cursor[k]--;
         }
+        if (!jump) hist_thin(c, k, t, g[k], g[LF_ND + k]);
         if (c->dl.hist_count[k] == LF_HIST_CAP) {
             history_full(c, k, t);
             return LF_DISCARD;
@@ -235,13 +276,6 @@ int lf_hist_outputs(LfInstance *c, const double *w, double *y) {
 #endif
 }
 
-/* Cubic Hermite through (0, g0, d0), (h, g1, d1) at th * h. */
-static double hermite(double g0, double d0, double g1, double d1, double h, double th) {
-    double th2 = th * th, th3 = th2 * th;
-    return (2 * th3 - 3 * th2 + 1) * g0 + (th3 - 2 * th2 + th) * h * d0 + (3 * th2 - 2 * th3) * g1 +
-           (th3 - th2) * h * d1;
-}
-
 /* Does the cubic Hermite through the end samples miss g (a sample at
  * th * h) by more than the solver's tolerance times `scale`? */
 static int hermite_misses(const LfInstance *c, const double *ga, const double *gb, double h,
@@ -263,13 +297,6 @@ static LfStatus sample_inside(LfInstance *c, double ta, double h, double th, dou
     c->solver.method->dense(&c->solver, t, x);
     return lf_hist_sample(c, t, x, g);
 }
-
-/* The Hermite error of a smooth g over an interval is, to leading order,
- * g'''' h^4 th^2 (1 - th)^2 / 24: at the quarter points 9/16 of its value
- * at the midpoint.  Checked at the quarter points against 9/16 of the
- * tolerance, the midpoint's error is bounded as before (and a deviation odd
- * about the midpoint, which vanishes there, is seen). */
-#define LF_HIST_QUARTER_SCALE 0.5625
 
 /* The history's error estimated from the samples already held, without
  * evaluating g inside the step.  The quintic Hermite P through the sample

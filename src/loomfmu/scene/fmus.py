@@ -32,9 +32,15 @@ def _generator_text() -> str:
 def fmu_file_name(comp: Component) -> str:
     """``<model>-<hash>.fmu``: one file per model, options and code (see the
     module's doc)."""
-    from loomfmu.export.dae import dae_form
     decl = (comp.declaration if comp.declaration is not None
             else declare_model(comp.model, comp.options))
+    return f"{comp.model}-{declaration_key(decl, comp.options)}.fmu"
+
+
+def declaration_key(decl, options: dict) -> str:
+    """Eight hex digits of a hash of what the generated code of declaration
+    ``decl`` (built with ``options``) is made of (see the module's doc)."""
+    from loomfmu.export.dae import dae_form
     dae = dae_form(decl)
     key = "\n".join(f"{k}={v}" for k, v in sorted(vars(dae).items()) if k != "model")
     key += "\n" + "\n".join(f"{v.name}:{v.kind}:{v.start}:{v.unit}:{getattr(v, 'min', '')}:"
@@ -42,9 +48,9 @@ def fmu_file_name(comp: Component) -> str:
     key += "\n" + "\n".join(f"{c.name}:{c.expr}:{c.message}"
                             for what in ("validity", "constraints")
                             for c in getattr(decl, what, []))
-    key += "\n" + json.dumps(comp.options, sort_keys=True, default=repr)
+    key += "\n" + json.dumps(options, sort_keys=True, default=repr)
     key += "\n" + _generator_text()
-    return f"{comp.model}-{hashlib.sha1(key.encode()).hexdigest()[:8]}.fmu"
+    return hashlib.sha1(key.encode()).hexdigest()[:8]
 
 
 def check_fmus(scene: Scene, fmus) -> None:

@@ -1,0 +1,88 @@
+"""A scene run as one model: its composed FMU (loomfmu.scene.compose), built
+once into a folder and run through FMPy, returning the same
+:class:`~loomfmu.scene.run.Result` as a co-simulation (``master`` is
+"monolithic": there is no coupling step, every recorded variable is the one
+DAE's)."""
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from loomfmu.declare.checks import check_choice, check_number
+from loomfmu.declare.solvers import SOLVERS
+from loomfmu.scene.compose import compose
+from loomfmu.scene.declare import Scene
+from loomfmu.scene.fmus import declaration_key
+from loomfmu.scene.run import Result, check_points
+
+#: the ways a scene runs: its components co-simulated on our master, or
+#: composed into one model and FMU
+COUPLINGS = ("cosim", "monolithic")
+#: the master's name a monolithic Result carries
+MONOLITHIC = "monolithic"
+
+
+def composed_fmu(scene: Scene, fmu_dir, *, fmi_version: int = 2, interface: str = "cs",
+                 validate: bool = False):
+    """The composed FMU of ``scene`` in ``fmu_dir``: ``<scene>-<hash>.fmu``,
+    built unless a file of the same composed model and generator is there.
+    Returns (path, model)."""
+    from loomfmu.fmu.builder import build_fmu, fmu_file_name
+    model = compose(scene)
+    stem = fmu_file_name(scene.name, fmi_version, interface)[:-len(".fmu")]
+    path = Path(fmu_dir) / f"{stem}-{declaration_key(model, model.options)}.fmu"
+    if not path.is_file():
+        result = build_fmu(model, out_dir=fmu_dir, fmi_version=fmi_version,
+                           interface=interface, validate=validate)
+        result.path.replace(path)
+    return path, model
+
+
+def run_monolithic(scene: Scene, *, step: float | None = None, stop: float | None = None,
+                   solver: str = "dopri5", rtol: float = 1e-6, atol: float = 1e-9,
+                   fmu_dir=None, fmu=None) -> Result:
+    """Run ``scene`` composed into one FMU from 0 to ``stop`` (default the
+    scene's stop time), recording the scene's recorded variables every
+    ``step`` (default the scene's step); solver: one of the embedded solvers
+    (loomfmu.declare.solvers.SOLVERS), rtol and atol its tolerances;
+    fmu_dir: the folder the composed FMU is built into and reused from
+    (default a temporary one); fmu: the path of a composed FMU built before
+    (:func:`composed_fmu`), to skip the build."""
+    from loomfmu.verification.fmpy_logger import simulate
+    if not isinstance(scene, Scene):
+        raise ValueError(f"scene = {scene!r:.60}; allowed: a loomfmu.scene.Scene")
+    stop = check_number("stop", scene.stop_time if stop is None else stop, lo=0.0,
+                        lo_open=True, unit="s")
+    step = check_number("step", min(scene.step, stop) if step is None else step, lo=0.0,
+                        lo_open=True, hi=stop, unit="s")
+    check_points(step, stop)
+    solver = check_choice("solver", solver, SOLVERS)
+    rtol = check_number("rtol", rtol, lo=1e-14, hi=0.1)
+    atol = check_number("atol", atol, lo=1e-16, hi=1.0)
+    if fmu is not None and not (isinstance(fmu, (str, Path)) and Path(fmu).is_file()):
+        raise ValueError(f"fmu = {fmu!r:.80}; allowed: None or the path of a composed FMU "
+                         "file of the scene")
+    refs = scene.recorded_variables()
+    names = [f"{c}.{v}" for c, v in refs]
+    lines: list[str] = []
+
+    def logger(component, instance, status, category, message):
+        lines.append(f"[{category.decode(errors='replace')}] "
+                     f"{message.decode(errors='replace')}")
+
+    with tempfile.TemporaryDirectory() as tmp:
+        if fmu is None:
+            fmu, _ = composed_fmu(scene, fmu_dir if fmu_dir is not None else tmp)
+        res = simulate(str(fmu), logger=logger, stop_time=stop, output_interval=step,
+                       relative_tolerance=rtol, output=names,
+                       start_values={"solver": SOLVERS.index(solver) + 1,
+                                     "solver_rtol": rtol, "solver_atol": atol})
+    data = np.zeros(len(res), dtype=[("time", "f8")] + [(n, "f8") for n in names])
+    data["time"] = res["time"]
+    for n in names:
+        data[n] = res[n]
+    n = len(res) - 1
+    return Result(data, MONOLITHIC, n, 0, np.diff(data["time"]), {scene.name: lines},
+                  atol=atol)
