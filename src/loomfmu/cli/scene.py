@@ -1,5 +1,6 @@
-"""loomfmu scene {list, run, export, fidelity}: co-simulation scenes
-(docs/guides/scenes.md; fidelity: docs/guides/fidelity.md).
+"""loomfmu scene {list, run, build, export, fidelity}: scenes co-simulated or
+composed into one model (docs/guides/scenes.md, docs/guides/composed.md;
+fidelity: docs/guides/fidelity.md).
 
 Exit codes: 0 done; 1 the run failed (an FMU returned Error/Discard, the
 adaptive step fell below its minimum); 2 a usage error (one line).
@@ -12,6 +13,7 @@ import warnings
 from pathlib import Path
 
 from loomfmu.declare.checks import check_output_options
+from loomfmu.declare.solvers import SOLVERS
 from loomfmu.machines.fidelity import add_parser as add_fidelity_parser
 from loomfmu.machines.library import SCENES, load_scene
 from loomfmu.scene.master import MASTERS
@@ -51,9 +53,26 @@ def _parser(prog: str) -> argparse.ArgumentParser:
                         "(default: the scene's)")
     r.add_argument("--stop", type=float, default=None,
                    help="stop time in s (> 0; default: the scene's)")
+    r.add_argument("--coupling", choices=("cosim", "monolithic"), default="cosim",
+                   help="cosim: the components' FMUs on our master (default); monolithic: "
+                        "the scene composed into one model and FMU (no master, no "
+                        "coupling step: the options of the master do not apply)")
+    r.add_argument("--solver", choices=SOLVERS, default="dopri5",
+                   help="--coupling monolithic: the composed FMU's solver (default dopri5)")
+    r.add_argument("--solver-rtol", type=float, default=1e-6,
+                   help="--coupling monolithic: the solver's relative tolerance (default "
+                        "1e-6)")
     r.add_argument("--csv", type=Path, default=None, help="write the results as CSV")
     r.add_argument("--fmu-dir", type=Path, default=None,
                    help="folder to build the FMUs into and reuse (default: a temporary one)")
+    b = sub.add_parser("build", help="compose the scene into one model and build its FMU")
+    b.add_argument("scene", help=f"one of {', '.join(sorted(SCENES))}")
+    b.add_argument("--fmi-version", type=int, choices=(2, 3), default=2,
+                   help="FMI version (default 2)")
+    b.add_argument("--interface", choices=("cs", "me", "both"), default="cs",
+                   help="co-simulation (default), model exchange or both")
+    b.add_argument("--out-dir", type=Path, default=Path("dist"),
+                   help="folder of the FMU (default: dist)")
     e = sub.add_parser("export", help="write the scene as an SSP file")
     e.add_argument("scene", help=f"one of {', '.join(sorted(SCENES))}")
     e.add_argument("--out", type=Path, default=None,
@@ -79,11 +98,72 @@ def _list() -> int:
     return 0
 
 
+def _build(args) -> int:
+    from loomfmu.fmu.builder import build_fmu
+    from loomfmu.scene.compose import compose
+    check_output_options(args, folders=["out_dir"])
+    model = compose(load_scene(args.scene))
+    res = build_fmu(model, out_dir=args.out_dir, fmi_version=args.fmi_version,
+                    interface=args.interface)
+    n = {k: len(model.of_kind(k)) for k in ("state", "algebraic", "input", "output")}
+    print(f"written: {res.path} ({res.build_seconds:.1f} s; {n['state']} states, "
+          f"{n['algebraic']} algebraic variables, {n['input']} inputs, {n['output']} "
+          f"outputs, {len(model.events)} event indicators, {len(model.delays)} delays); "
+          f"FMPy validation: {len(res.problems)} problem(s)")
+    for p in res.problems:
+        print(f"  {p}")
+    return 1 if res.problems else 0
+
+
+def _run_monolithic(args, prog: str, s) -> int:
+    from loomfmu.scene.monolithic import run_monolithic
+    given = [f"--{o.replace('_', '-')}" for o, default in (
+        ("master", None), ("adaptive", False), ("extrapolation", None), ("order", None),
+        ("output_derivatives", False)) if getattr(args, o) != default]
+    if given:
+        raise ValueError(f"{', '.join(given)}: options of the co-simulation master; allowed "
+                         "with --coupling monolithic: --step, --stop, --solver, "
+                         "--solver-rtol, --csv, --fmu-dir")
+    try:
+        res = run_monolithic(s, step=args.step, stop=args.stop, solver=args.solver,
+                             rtol=args.solver_rtol, fmu_dir=args.fmu_dir)
+    except Exception as exc:  # noqa: BLE001 (FMPy's FMICallException and others)
+        if isinstance(exc, ValueError):
+            raise
+        print(f"{prog}: run failed: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 1
+    last = res.data[-1]
+    print(f"scene {s.name}, composed into one FMU (solver {args.solver}, rtol "
+          f"{args.solver_rtol:g}): {res.accepted} output steps, t = {last['time']:.6g} s")
+    _print_values(s, res)
+    if args.csv is not None:
+        print(f"written: {res.to_csv(args.csv)}")
+    return 0
+
+
+def _print_values(s, res) -> None:
+    last = res.data[-1]
+    for name in res.data.dtype.names[1:]:
+        comp, var = name.split(".", 1)
+        unit = s.components[comp].interface.variables[var].unit
+        print(f"  {name} = {last[name]:.9g}" + (f" {unit}" if unit else ""))
+    for comp, lines in res.log.items():
+        if lines:
+            print(f"  {comp} logged {len(lines)} line(s), the last: {lines[-1]}")
+
+
 def _run(args, prog: str) -> int:
     from loomfmu.scene.run import UNRESOLVED, UnresolvedCoupling, run, unresolved_message
     from loomfmu.scene.system import FMUError
     check_output_options(args, files=["csv"], folders=["fmu_dir"])
     s = load_scene(args.scene)
+    if args.coupling == "monolithic":
+        return _run_monolithic(args, prog, s)
+    given = [o for o, a, default in (("--solver", args.solver, "dopri5"),
+                                     ("--solver-rtol", args.solver_rtol, 1e-6)) if a != default]
+    if given:
+        raise ValueError(f"{', '.join(given)}: options of the composed FMU; allowed with "
+                         "--coupling cosim: the master's options (--master, --step, ...)")
     master = s.master if args.master is None else args.master
     extrapolation = s.extrapolation if args.extrapolation is None else args.extrapolation
     opts = {}
@@ -141,6 +221,8 @@ def main(argv=None, prog: str = "loomfmu scene") -> int:
             return _list()
         if args.cmd == "run":
             return _run(args, f"{prog} run")
+        if args.cmd == "build":
+            return _build(args)
         if args.cmd == "fidelity":
             from loomfmu.machines.fidelity import main as fidelity
             return fidelity(args)

@@ -4,7 +4,7 @@ Every component's declaration (parameters, states, algebraic variables,
 inputs, outputs, modes, events, delays, constraints, validity conditions,
 named quantities, figures) is copied under its component's name
 (``frame_a.h``; names that must be C identifiers, such as events and
-delays, as ``frame_a__name``), with the scene's parameter and start values
+delays, as ``frame_a_name``), with the scene's parameter and start values
 as the composed model's defaults.  A connection ``src.y -> dst.u`` with its
 unit conversion ``u = gain * y + bias`` becomes
 
@@ -30,8 +30,9 @@ import casadi as ca
 from loomfmu.declare.model import Model, reserved_names
 from loomfmu.scene.declare import Connection, Scene, declare_model
 
-#: separator of a component's name and a name that must be a C identifier
-SEP = "__"
+#: separator of a component's name and a name that must be a C identifier (CasADi
+#: function names refuse two underscores in a row; a clash is refused by Model)
+SEP = "_"
 #: solve_ivp methods for stiff models: a composed model is stiff if a part is
 _STIFF = ("Radau", "BDF", "LSODA")
 
@@ -173,8 +174,14 @@ def _declaration(comp) -> Model:
 
 
 def _description(scene: Scene) -> str:
+    """The scene's description, its components and its connections (the
+    composed FMU's description and the first lines of its page)."""
     text = scene.description or f"scene {scene.name}"
-    return f"{text} (composed into one model)"
+    comps = ", ".join(f"{c.name} ({c.model})" for c in scene.components.values())
+    conns = "; ".join(str(c) + (f" (x {c.gain:.6g})" if c.gain != 1.0 else "")
+                      + (f" (+ {c.bias:.6g})" if c.bias else "") for c in scene.connections)
+    return (f"{text}; composed into one model from components {comps}"
+            + (f"; connections {conns}" if conns else ""))
 
 
 def _reference_method(parts) -> str:

@@ -1,0 +1,257 @@
+"""A scene composed at the equation level into one model and one FMU.
+
+Toy components declared here make each composition rule visible: names under
+the component's name, a connection substituted with its unit conversion, a
+loop of direct feedthrough turned into algebraic unknowns (closed form, and
+Newton where it is nonlinear), events of two components inside one
+communication step, a delay kept, validity conditions kept.  Independent
+checks: a hand-eliminated ODE (scipy), each component's own reference, the
+exact solution of the two-mass benchmark.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
+
+from loomfmu import build_fmu
+from loomfmu.declare.model import Model
+from loomfmu.export.dae import dae_form
+from loomfmu.scene.compose import compose
+from loomfmu.scene.declare import Scene
+from loomfmu.verification.reference import reference
+from loomfmu.verification.verify import simulate
+
+RPM = 60.0 / (2.0 * math.pi)   # rad/s -> rpm
+K_SIN = 0.8
+
+
+def _loop_a() -> Model:
+    m = Model("loop_a", description="first order lag with a nonlinear feedthrough",
+              stop_time=2.0, step_size=0.01)
+    u = m.input("ua", 0.0, unit="rad/s", description="speed in")
+    x = m.state("xa", 1.0, unit="rad/s", description="lagged speed")
+    m.eq(m.der(x), -x + u)
+    m.output("ya", x + K_SIN * ca.sin(u), unit="rad/s", description="speed out")
+    return m
+
+
+def _loop_b() -> Model:
+    m = Model("loop_b", description="first order lag with a linear feedthrough",
+              stop_time=2.0, step_size=0.01)
+    u = m.input("ub", 0.0, unit="rpm", description="speed in")
+    x = m.state("xb", 5.0, unit="rpm", description="lagged speed")
+    m.eq(m.der(x), -2.0 * x + u)
+    m.output("yb", x - 0.25 * u, unit="rpm", description="speed out")
+    m.require("bounded", 1e4 - x, "the lag runs away")
+    return m
+
+
+def _loop_scene() -> Scene:
+    s = Scene("loop", stop_time=2.0, step=0.01)
+    s.add("a", model=_loop_a())
+    s.add("b", model=_loop_b())
+    s.connect("a.ya", "b.ub")      # rad/s -> rpm
+    s.connect("b.yb", "a.ua")      # rpm -> rad/s
+    return s
+
+
+def _loop_by_hand(t_eval):
+    """The loop eliminated by hand: ua solves ua = (xb - 0.25 RPM ya) / RPM,
+    ya = xa + K sin(ua); then xa' = -xa + ua, xb' = -2 xb + RPM ya."""
+    def ua_of(xa, xb):
+        f = lambda u: u - (xb - 0.25 * RPM * (xa + K_SIN * math.sin(u))) / RPM  # noqa: E731
+        return brentq(f, -1e3, 1e3, xtol=1e-15)
+
+    def rhs(t, z):
+        xa, xb = z
+        ua = ua_of(xa, xb)
+        ya = xa + K_SIN * math.sin(ua)
+        return [-xa + ua, -2.0 * xb + RPM * ya]
+    sol = solve_ivp(rhs, (0.0, t_eval[-1]), [1.0, 5.0], t_eval=t_eval, rtol=1e-11, atol=1e-13)
+    ya = [z[0] + K_SIN * math.sin(ua_of(*z)) for z in sol.y.T]
+    return sol.y, np.array(ya)
+
+
+def test_names_are_prefixed_and_a_one_way_connection_is_substituted():
+    from loomfmu.machines.two_mass import scene
+    m = compose(scene())
+    names = {v.name: v.kind for v in m.variables}
+    assert names["force.x1"] == names["disp.x2"] == "state"
+    assert names["force.kc"] == "parameter" and names["disp.m2"] == "parameter"
+    # no loop: the inputs are outputs of the composed model, equal to their sources
+    assert names["disp.F_in"] == names["force.x2_in"] == "output"
+    assert not m.of_kind("input") and not m.of_kind("algebraic")
+    assert ca.is_equal(m.var("disp.F_in").expr, m.var("force.F_c").expr, 20)
+    dae = dae_form(m)
+    assert not dae.implicit and dae.nx == 4
+    # the scene's values are the composed model's defaults
+    assert m.var("force.x1").start == 0.1
+
+
+def test_a_feedthrough_loop_becomes_algebraic_unknowns_with_the_unit_conversion():
+    s = _loop_scene()
+    assert s.loops(), "the toy scene must close a loop of direct feedthrough"
+    m = compose(s)
+    assert m.var("a.ua").kind == m.var("b.ub").kind == "algebraic"
+    assert dae_form(m).implicit   # sin(ua): nonlinear, solved by Newton in the FMU
+    t = np.linspace(0.0, 2.0, 201)
+    ref = reference(m, t_end=2.0, t_eval=t, rtol=1e-11, atol=1e-13, method="Radau")
+    (xa, xb), ya = _loop_by_hand(t)
+    assert np.max(np.abs(ref.y["a.ya"] - ya)) < 1e-7 * np.ptp(ya)
+    assert np.max(np.abs(ref.y["b.xb"] - xb)) < 1e-7 * np.ptp(xb)
+    assert [c.name for c in m.validity] == ["b_bounded"]
+    assert m.validity[0].message.startswith("b: ")
+
+
+def test_a_component_given_as_an_fmu_file_is_refused_with_the_way_out():
+    s = _loop_scene()
+    comp = s.components["a"]
+    comp.model, comp.declaration, comp.fmu = None, None, Path("a.fmu")
+    with pytest.raises(ValueError, match=r"component\(s\) a are given as FMU files.*"
+                                         r"co-simulation"):
+        compose(s)
+
+
+def test_a_delay_with_events_in_another_component_is_refused_clearly():
+    s = Scene("both", stop_time=1.0, step=0.01)
+    s.add("d", model=_delayed())
+    s.add("e", model=_switch("e", 2.0))
+    with pytest.raises(ValueError, match="delays together with event indicators"):
+        dae_form(compose(s))
+
+
+def _switch(name: str, omega: float) -> Model:
+    """An oscillator pushed by 1 N from the time x falls through 0.2 (a mode
+    chosen at the event)."""
+    m = Model(name, description="oscillator with a switched push", stop_time=1.0,
+              step_size=0.1)
+    x = m.state("x", 1.0, unit="m", description="position")
+    v = m.state("v", 0.0, unit="m/s", description="velocity")
+    q = m.mode("q", 0, (0, 1), description="0 above x = 0.2, 1 below")
+    m.eq(m.der(x), v)
+    m.eq(m.der(v), -omega**2 * x - 1.0 * q)
+    m.event("cross", x - 0.2, description="x passes 0.2")
+    m.mode_rule(q, (1 - 2 * q) * (x - 0.2), events=["cross"])
+    m.output("x_out", x, unit="m", description="position")
+    return m
+
+
+def _delayed() -> Model:
+    m = Model("delayed", description="a lag of a delayed ramp", stop_time=1.0, step_size=0.01)
+    x = m.state("x", 0.0, unit="m", description="lagged position")
+    d = m.delay("ramp", ca.sin(3.0 * m.t), 0.1, max_delay=0.5, description="delayed sine")
+    m.eq(m.der(x), -5.0 * x + d)
+    m.output("y", x, unit="m", description="position")
+    return m
+
+
+def _follower() -> Model:
+    m = Model("follower", description="a lag of its input", stop_time=1.0, step_size=0.01)
+    u = m.input("u", 0.0, unit="m", description="position in")
+    z = m.state("z", 0.0, unit="m", description="lagged position")
+    m.eq(m.der(z), -3.0 * z + u)
+    m.output("z_out", z, unit="m", description="position")
+    return m
+
+
+@pytest.mark.slow
+def test_the_composed_loop_fmu_solves_the_loop_by_newton(tmp_path):
+    m = compose(_loop_scene())
+    fmu = build_fmu(m, out_dir=tmp_path)
+    assert fmu.problems == []
+    t = np.linspace(0.0, 2.0, 201)
+    (xa, xb), ya = _loop_by_hand(t)
+    for solver in ("dopri5", "rodas4"):
+        run = simulate(fmu.path, solver=solver, rtol=1e-8, atol=1e-10, output=["a.ya"])
+        assert np.max(np.abs(run.y["a.ya"] - ya)) < 1e-6 * np.ptp(ya), solver
+
+
+@pytest.mark.slow
+def test_events_of_two_components_in_one_step_are_each_located(tmp_path):
+    """Two components' events at t = 0.668 s and 0.685 s, inside one
+    communication step (0.6 ... 0.7 s): each trajectory equals that
+    component's own reference."""
+    s = Scene("two_switches", stop_time=1.0, step=0.1)
+    s.add("p", model=_switch("p", 2.0))
+    s.add("r", model=_switch("r", 2.05))
+    m = compose(s)
+    assert [e.name for e in m.events] == ["p_cross", "r_cross"]
+    fmu = build_fmu(m, out_dir=tmp_path).path
+    run = simulate(fmu, rtol=1e-10, atol=1e-12, output=["p.x_out", "r.x_out"])
+    for comp, omega in (("p", 2.0), ("r", 2.05)):
+        alone = reference(_switch(comp, omega), t_end=1.0, t_eval=run.t, rtol=1e-11,
+                          atol=1e-13)
+        assert np.max(np.abs(run.y[f"{comp}.x_out"] - alone.y["x_out"])) < 1e-7, comp
+
+
+@pytest.mark.slow
+def test_a_delay_is_kept_with_its_history(tmp_path):
+    s = Scene("delayed_pair", stop_time=1.0, step=0.01)
+    s.add("d", model=_delayed())
+    s.add("f", model=_follower())
+    s.connect("d.y", "f.u")
+    m = compose(s)
+    assert [d.name for d in m.delays] == ["d_ramp"]
+    fmu = build_fmu(m, out_dir=tmp_path).path
+    run = simulate(fmu, rtol=1e-10, atol=1e-12, output=["d.y", "f.z_out"])
+    ref = reference(m, t_end=1.0, t_eval=run.t, rtol=1e-11, atol=1e-13)
+    alone = reference(_delayed(), t_end=1.0, t_eval=run.t, rtol=1e-11, atol=1e-13)
+    assert np.max(np.abs(run.y["d.y"] - alone.y["y"])) < 1e-8
+    assert np.max(np.abs(run.y["f.z_out"] - ref.y["f.z_out"])) < 1e-6 * np.ptp(ref.y["f.z_out"])
+
+
+@pytest.mark.slow
+def test_the_composed_two_mass_fmu_is_the_exact_solution_in_every_interface(tmp_path):
+    from loomfmu.machines import two_mass as tm
+    m = compose(tm.scene())
+    for version, interface in ((2, "cs"), (2, "both"), (3, "both")):
+        res = build_fmu(m, out_dir=tmp_path, fmi_version=version, interface=interface)
+        assert res.problems == [], (version, interface, res.problems)
+    fmu = tmp_path / "two_mass.fmu"
+    names = ["force.x1_out", "force.v1_out", "disp.x2_out", "disp.v2_out"]
+    run = simulate(fmu, rtol=1e-12, atol=1e-14, output=names)
+    exact = tm.exact_solution(tm.Params.declared(), run.t, [0.1, 0.0, 0.0, 0.0])
+    got = np.column_stack([run.y[n] for n in names])
+    assert np.max(np.abs(got - exact)) < 1e-9
+
+
+@pytest.mark.slow
+def test_the_composed_loom_fmu_matches_the_reference_of_the_composed_dae(tmp_path):
+    from loomfmu.machines.loom import scene
+    m = compose(scene(stop_time=0.5))
+    res = build_fmu(m, out_dir=tmp_path, fmi_version=3, interface="both")
+    assert res.problems == []
+    names = ["frame_a.h", "frame_a.T", "back.S2a", "back.phi2_out", "frame_b.x2_out"]
+    run = simulate(res.path, rtol=1e-8, atol=1e-10, output=names, stop_time=0.5,
+                   output_interval=2e-3)
+    ref = reference(m, t_end=0.5, t_eval=run.t, rtol=1e-11, atol=1e-13,
+                    method=m.reference_method)
+    for n in names:
+        span = np.ptp(ref.y[n]) or 1.0
+        assert np.max(np.abs(run.y[n] - ref.y[n])) < 1e-6 * span, n
+
+
+@pytest.mark.slow
+def test_the_command_line_builds_the_scene_and_runs_it_either_way(tmp_path, capsys):
+    from loomfmu.cli.scene import main
+    assert main(["build", "two_mass", "--out-dir", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert f"written: {tmp_path / 'two_mass.fmu'}" in out and "0 problem(s)" in out
+    csv = {c: tmp_path / f"{c}.csv" for c in ("monolithic", "cosim")}
+    for coupling, path in csv.items():
+        assert main(["run", "two_mass", "--coupling", coupling, "--stop", "0.5",
+                     "--fmu-dir", str(tmp_path), "--csv", str(path)]) == 0
+    mono, cosim = (np.genfromtxt(p, delimiter=",", names=True) for p in csv.values())
+    assert mono.dtype.names == cosim.dtype.names and len(mono) == len(cosim) == 501
+    x = mono["forcex1_out"]   # genfromtxt drops the dot
+    assert np.max(np.abs(x - cosim["forcex1_out"])) < 1e-3 * np.ptp(x)
+    capsys.readouterr()
+    assert main(["run", "two_mass", "--coupling", "monolithic", "--master", "jacobi"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--master: options of the co-simulation master" in err
