@@ -255,3 +255,37 @@ def test_the_command_line_builds_the_scene_and_runs_it_either_way(tmp_path, caps
     assert main(["run", "two_mass", "--coupling", "monolithic", "--master", "jacobi"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--master: options of the co-simulation master" in err
+
+
+def _square_plus_one() -> Model:
+    m = Model("sq", description="y = 1 + u^2", stop_time=1.0, step_size=0.1)
+    u = m.input("u", 0.0, unit="m", description="in")
+    x = m.state("x", 1.0, unit="m", description="a decaying state")
+    m.eq(m.der(x), -x)
+    m.output("y", 1.0 + u * u, unit="m", description="out")
+    return m
+
+
+def _echo() -> Model:
+    m = Model("echo", description="y = u", stop_time=1.0, step_size=0.1)
+    u = m.input("u", 0.0, unit="m", description="in")
+    x = m.state("x", 1.0, unit="m", description="a decaying state")
+    m.eq(m.der(x), -x)
+    m.output("y", u, unit="m", description="out")
+    return m
+
+
+@pytest.mark.slow
+def test_a_loop_without_a_solution_fails_initialization_naming_the_loop(tmp_path):
+    """u = 1 + u^2 has no real solution: the FMU refuses to initialize, its
+    log naming the loop's unknowns, the time and the residual left."""
+    s = Scene("no_solution", stop_time=1.0, step=0.1)
+    s.add("a", model=_square_plus_one())
+    s.add("b", model=_echo())
+    s.connect("a.y", "b.u")
+    s.connect("b.y", "a.u")
+    fmu = build_fmu(compose(s), out_dir=tmp_path).path
+    with pytest.raises(RuntimeError, match=r"ExitInitializationMode failed.*t = 0: algebraic "
+                                           r"loop \(unknowns: der\(x\), a\.u, b\.u\): Newton did "
+                                           r"not converge in \d+ iterations; largest residual"):
+        simulate(fmu, output=["a.y"])

@@ -2,6 +2,7 @@
  * equations (closed form, or Newton with the exact dF/dw for algebraic
  * loops), and the right-hand side and Jacobian the solvers integrate. */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "lf_newton.h"
@@ -65,6 +66,36 @@ static void nm_keep_lu(LfInstance *c) {
     m->tan_ok = 0;
 }
 
+/* Say that Newton failed at t: the loop's unknowns (the algebraic
+ * variables, e.g. the coupled inputs of a composed scene) and the largest
+ * residual left at the last iterate w. */
+static void newton_failed(LfInstance *c, double t, const double *x, const double *w) {
+    char names[200] = "";
+    size_t used = 0;
+    int i, worst = -1;
+    for (i = 0; i < LF_NZ && used + 1 < sizeof names; i++) {
+        int n = snprintf(names + used, sizeof names - used, "%s%s", i ? ", " : "",
+                         lf_model.real_names[LF_VR_Z0 + i]);
+        if (n < 0) break;
+        used += (size_t)n;
+    }
+    if (used >= sizeof names) strcpy(names + sizeof names - 5, " ...");
+    if (lf_first_nonfinite(w, LF_NW) < 0 &&
+        lf_eval_fn1(c, LF_FN_RES, t, x, w, c->unsaved.res_F) == LF_OK)
+        for (i = 0; i < LF_NW; i++)
+            if (worst < 0 || fabs(c->unsaved.res_F[i]) > fabs(c->unsaved.res_F[worst])) worst = i;
+    if (worst >= 0 && isfinite(c->unsaved.res_F[worst]))
+        lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
+               "t = %.17g: algebraic loop (unknowns: der(x)%s%s): Newton did not converge in "
+               "%d iterations; largest residual %.3g in equation %d", t, LF_NZ ? ", " : "",
+               names, LF_NEWTON_MAX_ITER, c->unsaved.res_F[worst], worst);
+    else
+        lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
+               "t = %.17g: algebraic loop (unknowns: der(x)%s%s): Newton did not converge in "
+               "%d iterations (the iterate is not finite)", t, LF_NZ ? ", " : "", names,
+               LF_NEWTON_MAX_ITER);
+}
+
 /* Newton on F(t, x, w) = 0 from w, with the exact dF/dw.  Converged
  * when every |dw_i| <= LF_NEWTON_ATOL + LF_NEWTON_RTOL max(|w_i|, |w0_i|)
  * (w0: the start), or when the scaled step stops shrinking at rounding
@@ -103,9 +134,7 @@ static LfStatus newton(LfInstance *c, double t, const double *x, double *w) {
         prev = size;
     }
     c->stats.n_newton_fail++;
-    lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
-           "t = %.17g: algebraic loop: Newton did not converge in %d iterations", t,
-           LF_NEWTON_MAX_ITER);
+    newton_failed(c, t, x, w);
     return LF_DISCARD;
 }
 
