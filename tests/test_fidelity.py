@@ -143,6 +143,9 @@ def test_high_content_measures_the_part_above_the_cut():
     ({"master": "euler"}, "master"),
     ({"scene_options": {"frame": "heald_frame"}}, "scene_options"),
     ({"scene_options": {"tension": "pulled"}}, "tension"),
+    ({"couplings": "jacobi"}, "couplings"),
+    ({"couplings": []}, "couplings"),
+    ({"couplings": ["cosim", "cosim"]}, "couplings"),
 ])
 def test_bad_arguments_are_named(kw, name):
     args = {"scene": "loom", "outputs": ["frame_a.N_rem"], **kw}
@@ -176,3 +179,22 @@ def test_loomfmu_list_prints_what_each_level_leaves_out(capsys):
     out = capsys.readouterr().out
     for name, lv in LEVELS.items():
         assert f"{name}: leaves out {'; '.join(lv.leaves_out) or 'nothing'}" in out
+
+
+@pytest.mark.slow
+def test_the_coupling_is_a_choice_and_the_composed_reference_has_no_coupling_error(tmp_path):
+    """With both couplings every combination runs co-simulated and composed;
+    the reference is the highest combination composed, and the co-simulated
+    highest combination differs from it by its coupling error only."""
+    ev = sf.evaluate("loom", ["frame_a.N_rem", "back.S2a"], stop_time=0.1,
+                     fmu_dir=tmp_path, progress=False, repeats=1,
+                     couplings="monolithic,cosim")
+    assert len(ev.rows) == 12 and ev.facts["reference_coupling"] == "monolithic"
+    assert ev.rows[-1].levels == {"frames": "heald_frame", "backrest": "backrest",
+                                  "coupling": "monolithic"} and ev.rows[-1].error == 0.0
+    full_cosim = next(r for r in ev.rows if r.levels == {
+        "frames": "heald_frame", "backrest": "backrest", "coupling": "cosim"})
+    assert 1e-6 < full_cosim.error < 0.2     # the 1 ms Jacobi step's coupling error
+    sel = ev.select(0.5)      # every row passes: the cheapest, ties to composed
+    assert sel.best.levels["coupling"] == "monolithic" or sel.best.cpu_s < min(
+        r.cpu_s for r in sel.rows if r.levels["coupling"] == "monolithic")

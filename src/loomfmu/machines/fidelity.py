@@ -15,6 +15,14 @@ among those the lowest levels win (a tie on a shared machine is noise).
 A level that does not have an output (the rigid frame has no slat
 deflection) predicts it as zero, and is measured so.
 
+The coupling is one more choice (``couplings``, ``--couplings
+cosim,monolithic``): each combination co-simulated on the master at the
+step, or composed into one model and FMU (loomfmu.scene.compose) run at the
+step as its output interval.  With "monolithic" among the couplings the
+reference is the highest combination composed (no coupling error), so a
+co-simulation's error includes its coupling error; among costs within
+COST_NOISE the composed run ranks first (one FMU, no coupling step).
+
 Honesty rules (warnings on a passing reduced combination):
 
 * **not excited (frequency)**: the level leaves out modes from cut_hz up
@@ -32,6 +40,7 @@ Honesty rules (warnings on a passing reduced combination):
 """
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import time
@@ -54,6 +63,9 @@ STICK_SPEED = 1e-9   # rad/s
 COST_NOISE = 0.10
 #: share of the samples at each end left out of the high-frequency content
 EDGE = 0.05
+#: the key of the coupling in a row's levels; its values
+COUPLING = "coupling"
+COUPLINGS = ("cosim", "monolithic")
 
 
 @dataclass(frozen=True)
@@ -158,13 +170,17 @@ class Evaluation:
         return Selection(self, tol, list(outputs), rows, rows.index(chosen))
 
     def _rank(self, row: Row) -> int:
-        """Sum of the row's level indices (0: the lowest level of each slot)."""
+        """Sum of the row's level indices (0: the lowest level of each slot;
+        the coupling: 0 composed, 1 co-simulated)."""
         slots = SCENES[self.scene][1]
-        return sum([c.label for c in slots[k]].index(v) for k, v in row.levels.items())
+        return sum(([c.label for c in slots[k]].index(v) if k != COUPLING
+                    else int(v != "monolithic")) for k, v in row.levels.items())
 
     def _warnings(self, row: Row, tol: float, outputs) -> list:
         out = []
         for slot, label in row.levels.items():
+            if slot == COUPLING:
+                continue
             choice = _choice(self.scene, slot, label)
             if choice == SCENES[self.scene][1][slot][-1]:
                 continue
@@ -333,6 +349,20 @@ def _check_outputs(outputs, allowed) -> list:
     return outputs
 
 
+def _check_couplings(couplings) -> tuple:
+    if isinstance(couplings, str):
+        couplings = [c.strip() for c in couplings.split(",") if c.strip()]
+    try:
+        couplings = list(couplings)
+    except TypeError:
+        couplings = [couplings]
+    bad = [c for c in couplings if not isinstance(c, str) or c not in COUPLINGS]
+    if not couplings or bad or len(set(couplings)) != len(couplings):
+        raise ValueError(f"couplings = {couplings!r:.80}; allowed: some of "
+                         f"{', '.join(COUPLINGS)}, each once")
+    return tuple(c for c in COUPLINGS if c in couplings)   # the reference's last
+
+
 def scene_outputs(scene_name: str, scene_options: dict | None = None) -> list[str]:
     """The outputs the selector can compare in scene ``scene_name``: every
     output variable of the reference scene's components."""
@@ -350,17 +380,20 @@ def _reference_scene(scene_name, stop, step, opts):
 def evaluate(scene: str, outputs, *, stop_time: float | None = None,
              step: float | None = None, fmu_dir=None, progress: bool = True,
              master: str = "jacobi", repeats: int = 2,
-             scene_options: dict | None = None) -> Evaluation:
+             scene_options: dict | None = None, couplings=("cosim",)) -> Evaluation:
     """Run scene ``scene`` (a name of SCENES) with every level combination
     and measure ``outputs`` ("comp.var", a list or comma-separated) against
     the highest-fidelity run; stop_time, step (s): the run (defaults: the
     selector's for the scene); fmu_dir: FMU cache (default a temporary folder);
     repeats: runs per combination (1 ... 10), the cost is the least CPU time;
     scene_options: options of the scene factory (SCENE_OPTIONS, e.g. the
-    loom's tension or omega), checked by the factory."""
+    loom's tension or omega), checked by the factory; couplings: how each
+    combination runs, some of COUPLINGS (a list or comma-separated): "cosim"
+    on the master at the step, "monolithic" composed into one FMU."""
     import tempfile
 
     from loomfmu.scene.fmus import build_fmus
+    from loomfmu.scene.monolithic import composed_fmu, run_monolithic
     from loomfmu.scene.run import run
     if not isinstance(scene, str) or scene not in SCENES:
         raise ValueError(f"scene = {scene!r:.60}; allowed: {', '.join(sorted(SCENES))}")
@@ -379,15 +412,19 @@ def evaluate(scene: str, outputs, *, stop_time: float | None = None,
         raise ValueError(f"scene_options: unknown {bad}; allowed for {scene}: "
                          f"{', '.join(SCENE_OPTIONS[scene])}")
     outputs = _check_outputs(outputs, scene_outputs(scene, scene_options))
-    combos = [dict(zip(slots, c)) for c in itertools.product(*slots.values())]
+    couplings = _check_couplings(couplings)
+    combos = [(dict(zip(slots, c)), k) for c in itertools.product(*slots.values())
+              for k in couplings]
     combos = combos[-1:] + combos[:-1]          # the reference first
     tmp = tempfile.TemporaryDirectory() if fmu_dir is None else None
     fmu_dir = Path(tmp.name if tmp else fmu_dir)
     bar = Progress(len(combos), f"fidelity {scene}") if progress else None
     rows, ref_data, facts = [], None, {}
     try:
-        for choices in combos:
+        for choices, coupling in combos:
             label = ", ".join(c.label for c in choices.values())
+            if len(couplings) > 1:
+                label += f", {coupling}"
             s = factory(choices, stop, step, **scene_options)
             have = {f"{c}.{v}" for c, v in s.recorded}
             absent = []
@@ -401,13 +438,19 @@ def evaluate(scene: str, outputs, *, stop_time: float | None = None,
                     absent.append(o)
             if bar is not None:
                 bar.stage(f"{label}: build")
-            fmus = build_fmus(s, fmu_dir)
+            if coupling == "monolithic":
+                fmu, _ = composed_fmu(s, fmu_dir)
+                go = functools.partial(run_monolithic, s, fmu=fmu, stop=stop, step=step)
+            else:
+                fmus = build_fmus(s, fmu_dir)
+                go = functools.partial(run, s, fmus=fmus, stop=stop, step=step, master=master,
+                                       extrapolation=0)
             if bar is not None:
                 bar.stage(f"{label}: run {stop:g} s")
             cpu = math.inf
             for _ in range(repeats):
                 t0 = time.process_time()
-                res = run(s, fmus=fmus, stop=stop, step=step, master=master, extrapolation=0)
+                res = go()
                 cpu = min(cpu, time.process_time() - t0)
             data = {o: (np.zeros(len(res.data)) if o in absent else np.asarray(res[o]))
                     for o in outputs}
@@ -417,6 +460,7 @@ def evaluate(scene: str, outputs, *, stop_time: float | None = None,
                     ref_data["_stick"] = np.any([np.abs(res[o]) < STICK_SPEED
                                                  for o in _STICK_OUTPUT[scene]], axis=0)
                 facts = _facts(s, stop, step, master, scene_options)
+                facts["reference_coupling"] = coupling
             errors = {}
             for o in outputs:
                 rng = float(np.ptp(ref_data[o]))
@@ -427,7 +471,10 @@ def evaluate(scene: str, outputs, *, stop_time: float | None = None,
                     errors[o] = 0.0 if diff.max() == 0.0 else math.inf
                 else:
                     errors[o] = float(diff.max() / rng)
-            rows.append(Row({k: c.label for k, c in choices.items()}, cpu, errors, absent))
+            levels = {k: c.label for k, c in choices.items()}
+            if len(couplings) > 1:
+                levels[COUPLING] = coupling
+            rows.append(Row(levels, cpu, errors, absent))
             if bar is not None:
                 bar.advance(f"{label}: CPU {cpu:.3g} s, error {max(errors.values()):.2e}")
     finally:
@@ -473,6 +520,10 @@ def add_parser(sub) -> None:
                         "n_const); numbers are read as numbers")
     f.add_argument("--repeats", type=int, default=2,
                    help="runs per combination; the cost is the least CPU time (default 2)")
+    f.add_argument("--couplings", default="cosim",
+                   help="how each combination runs, comma-separated: cosim (the master at "
+                        "the step, the default), monolithic (composed into one FMU); with "
+                        "both, the reference is the highest combination composed")
     f.add_argument("--fmu-dir", type=Path, default=None, help="FMU cache folder")
     f.add_argument("--json", type=Path, default=None, help="write the selection as JSON")
     f.add_argument("--chart", type=Path, default=None, help="write the cost-error chart")
@@ -494,7 +545,7 @@ def main(args) -> int:
             opts[name] = value
     sel = select(args.scene, args.outputs, args.tol, stop_time=args.stop_time,
                  step=args.step, fmu_dir=args.fmu_dir, repeats=args.repeats,
-                 scene_options=opts)
+                 scene_options=opts, couplings=args.couplings)
     print(sel.table())
     if args.json is not None:
         args.json.write_text(json.dumps(sel.to_dict(), indent=1, default=str))
