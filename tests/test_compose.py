@@ -11,6 +11,7 @@ exact solution of the two-mass benchmark.
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import casadi as ca
@@ -289,3 +290,33 @@ def test_a_loop_without_a_solution_fails_initialization_naming_the_loop(tmp_path
                                            r"loop \(unknowns: der\(x\), a\.u, b\.u\): Newton did "
                                            r"not converge in \d+ iterations; largest residual"):
         simulate(fmu, output=["a.y"])
+
+
+def test_a_study_takes_a_declared_model_and_refuses_a_mismatch():
+    from loomfmu.sweep.figures import Figure
+    from loomfmu.sweep.space import grid
+    from loomfmu.sweep.study import Study
+    m = _loop_a()
+    Study("loop_a", declaration=m, cases=grid(ua=[0.0]), figures=[Figure("max", "ya")],
+          stop_time=1.0, output_interval=0.1)
+    for kw, what in (({"model": "other"}, "model = 'other'"),
+                     ({"options": {"side": "force"}}, "no options"),
+                     ({"declaration": "loop_a"}, "declaration = 'loop_a'")):
+        args = {"model": "loop_a", "declaration": m, **kw}
+        with pytest.raises(ValueError, match=re.escape(what)):
+            Study(args.pop("model"), cases=grid(ua=[0.0]), figures=[Figure("max", "ya")],
+                  stop_time=1.0, output_interval=0.1, **args)
+
+
+@pytest.mark.slow
+def test_the_loom_study_runs_on_the_composed_fmu(tmp_path):
+    """Two cases of the loom study (picks/min x preload) on the composed FMU:
+    the stick share is a share, the hinge load grows with the preload (a
+    higher static warp tension loads the frames more)."""
+    from loomfmu.machines.studies import loom_stick
+    from loomfmu.sweep.run import run_serial
+    study = loom_stick(ppm=[240.0], preload=[0.7, 1.3], stop_time=0.5)
+    rows = run_serial(study)
+    assert [r["status"] for r in rows] == ["ok", "ok"], rows
+    assert all(0.0 <= r["stick_share"] <= 1.0 for r in rows)
+    assert rows[0]["max_abs_frame_a.N_rem"] < rows[1]["max_abs_frame_a.N_rem"]

@@ -124,6 +124,32 @@ def hinge_chart(rows: list[dict], names: list[str], path: Path) -> Path:
     return path
 
 
+def loom_stick_chart(rows: list[dict], path: Path) -> Path:
+    """The composed loom: the backrest's stick share and frame a's peak hinge
+    load against picks per minute, a line per preload factor."""
+    plt = _plt()
+    ok = [r for r in rows if r["status"] == "ok"]
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
+    for f in sorted({r["preload"] for r in ok}):
+        rs = sorted((r for r in ok if r["preload"] == f), key=lambda r: r["ppm"])
+        x = [r["ppm"] for r in rs]
+        line = a1.plot(x, [100 * r["stick_share"] for r in rs], "o-",
+                       label=f"preload x {f:g}")[0]
+        a2.plot(x, [r["max_abs_frame_a.N_rem"] for r in rs], "o-", color=line.get_color(),
+                label=f"preload x {f:g}")
+    a1.set(xlabel="picks per minute", ylabel="backrest stuck (% of the run)")
+    a2.set(xlabel="picks per minute", ylabel="peak |N_rem| of frame a's drive hinge (N)")
+    for ax in (a1, a2):
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle("Loom composed into one FMU: speed against the backrest's preload "
+                 "(S0 x factor)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def trends_chart(rows: list[dict], path: Path) -> Path:
     """A1 (top) and A2 (bottom of the blade) against each study's x: the
     FMU's orbit radius (markers) on (15)'s line."""

@@ -12,6 +12,12 @@ drive_grid   spindle drive (seed 001): tracking error of the spindle speed
              ``loomfmu drive tracking``: loomfmu.drive.tracking).
 hinge        heald frame, rigid (seed 002): the drive hinge's load N_rem
              over all presets and main-shaft speeds, one frame cycle.
+loom_stick   the loom composed into one model (seeds 000, 002, 004): picks
+             per minute against the backrest's preload (its static warp
+             tension S0, from which seed 004 (8) sets the spring's preload
+             F_0), the share of the time the backrest sticks (either pivot
+             held, |omega| < STICK_SPEED) and the peak load of frame a's drive
+             hinge, over one second (4 picks at 240 picks/min).
 trends       spindle rotor (seed 003): the trend studies of ``loomfmu rotor
              trends`` on the full spindle FMU, started on the periodic
              unbalance orbit (loomfmu.spindle.start), orbit radii of the top
@@ -271,5 +277,45 @@ def trends_against_15(rows: list[dict], ecc: float) -> list[dict]:
     return out
 
 
+# --- the loom as one model: speed against the backrest's preload ---------
+
+#: picks per minute (the main shaft's turns per minute) and the backrest's
+#: preload as a factor of its declared static warp tension S0
+LOOM_PPM = (180.0, 240.0, 300.0)
+LOOM_PRELOAD = (0.7, 1.0, 1.3)
+LOOM_STOP = 1.0
+
+
+def prepare_loom(case: dict, fixed: dict) -> tuple[dict, None]:
+    """The shaft's speed from picks per minute, the backrest's S0 scaled."""
+    return {"shaft.omega_0": case["ppm"] * 2 * math.pi / 60.0,
+            "back.S0": fixed["S0"] * case["preload"]}, None
+
+
+def stick_share(t, y, case) -> float:
+    """The share of the samples where either pivot of the backrest is held
+    (the event-driven backrest holds a stuck pivot's speed at exactly 0)."""
+    from loomfmu.machines.fidelity import STICK_SPEED
+    stuck = (np.abs(y["back.omega1_out"]) < STICK_SPEED) | (
+        np.abs(y["back.omega2_out"]) < STICK_SPEED)
+    return float(np.mean(stuck))
+
+
+def loom_stick(ppm=LOOM_PPM, preload=LOOM_PRELOAD, *, stop_time: float = LOOM_STOP) -> Study:
+    """The loom study on the loom scene composed into one FMU (see the module)."""
+    from loomfmu.machines.loom import scene
+    from loomfmu.scene.compose import compose
+    ppm = check_array("ppm", ppm, lo=60.0, hi=900.0, unit="picks/min")
+    preload = check_array("preload", preload, lo=0.1, hi=10.0)
+    m = compose(scene(stop_time=stop_time))
+    return Study(m.name, declaration=m, cases=grid(ppm=list(ppm), preload=list(preload)),
+                 figures=[Derived("stick_share", stick_share,
+                                  ("back.omega1_out", "back.omega2_out")),
+                          Figure("max_abs", "frame_a.N_rem")],
+                 stop_time=stop_time, output_interval=1e-3,
+                 fixed={"S0": m.var("back.S0").start}, prepare=prepare_loom,
+                 name="loom_stick")
+
+
 STUDIES = {"design-map": design_map, "drive-grid": drive_grid, "hinge": hinge,
-           "trends": trends}
+           "trends": trends, "loom-stick": loom_stick}

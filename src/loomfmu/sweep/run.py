@@ -96,7 +96,9 @@ def fmu_blob(study: Study, fmu: Path | str | None = None) -> FmuBlob:
         from loomfmu.fmu.builder import build_fmu
         from loomfmu.registry import load_model
         with tempfile.TemporaryDirectory() as tmp:
-            path = build_fmu(load_model(study.model, **study.options), out_dir=tmp,
+            model = (study.declaration if study.declaration is not None
+                     else load_model(study.model, **study.options))
+            path = build_fmu(model, out_dir=tmp,
                              validate=False).path
             data = Path(path).read_bytes()
             name = Path(path).name

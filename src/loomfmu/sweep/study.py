@@ -34,7 +34,10 @@ class Study:
     fixed: start values set in every case. prepare: a module-level function
     ``prepare(case, fixed) -> (values, stop_time or None)`` that turns a case
     into the FMU's start values (a ValueError there marks the case invalid).
-    name: the study's name (file names, progress)."""
+    name: the study's name (file names, progress).
+    declaration: a declared loomfmu Model (e.g. a scene composed into one,
+    loomfmu.scene.compose) to build instead of a registry model; ``model``
+    is then its name and ``options`` stay empty."""
     model: str
     cases: list
     figures: list
@@ -47,9 +50,19 @@ class Study:
     prepare: Callable | None = None
     options: dict = dataclasses.field(default_factory=dict)
     name: str = ""
+    declaration: object = None
 
     def __post_init__(self):
-        if not isinstance(self.model, str) or self.model not in MODELS:
+        if self.declaration is not None:
+            from loomfmu.declare.model import Model
+            if not isinstance(self.declaration, Model):
+                raise ValueError(f"declaration = {self.declaration!r:.60}; allowed: None or a "
+                                 "declared loomfmu Model")
+            if self.model != self.declaration.name or self.options:
+                raise ValueError(f"model = {self.model!r:.60}, options = {self.options!r:.60}:"
+                                 f" allowed with a declaration: model = its name "
+                                 f"{self.declaration.name!r} and no options")
+        elif not isinstance(self.model, str) or self.model not in MODELS:
             raise ValueError(f"model = {self.model!r:.60}; allowed: one of "
                              f"{', '.join(sorted(MODELS))}")
         if not isinstance(self.cases, list) or not self.cases or not all(
