@@ -406,7 +406,8 @@ def _interfaces(model: Model, md: ET.Element) -> str:
                        "accepted step" + (": the delay history is built from those steps only"
                                           if model.delays else "")))
     body = "".join(f"<tr><td>{_e(n)}</td><td>{d}</td></tr>" for n, d in rows)
-    return (f"<p>FMI {_e(v)}. One declaration builds four variants: <code>loomfmu build "
+    command = ("loomfmu scene build" if "scene" in model.options else "loomfmu build")
+    return (f"<p>FMI {_e(v)}. One declaration builds four variants: <code>{command} "
             f"{_e(model.name)} --fmi-version 2|3 --interface cs|me|both</code> writes "
             f"<code>{_e(model.name)}.fmu</code> for FMI 2.0 co-simulation and "
             f"<code>{_e(model.name)}_fmi&lt;version&gt;_&lt;interface&gt;.fmu</code> for the "
@@ -422,8 +423,43 @@ def _about(model: Model) -> str:
     summary = ", ".join(_count(n, k) for k, n in counts.items() if n)
     figures = "".join(f'<figure>{f.svg}<figcaption>{_e(f.caption)}</figcaption></figure>'
                       for f in model.figures)
+    if "scene" in model.options:
+        return f"{_composition(model)}{figures}<p>Composed: {summary}.</p>"
     return (f"{_docstring(model)}{figures}<p>Declared in <code>models/"
             f"{_e(_module(model))}.py</code>: {summary}.</p>")
+
+
+def _composition(model: Model) -> str:
+    """A scene composed into one model (loomfmu.scene.compose): its components
+    and its connections, each substituted or an algebraic unknown."""
+    comps = model.options.get("components", {})
+    rows = "".join(
+        f"<tr><td><code>{_e(name)}</code></td><td><code>{_e(str(o.get('model')))}</code></td>"
+        f"<td>{_e(', '.join(f'{k}={v}' for k, v in o.items() if k != 'model') or '-')}</td>"
+        "</tr>" for name, o in comps.items())
+    conn_rows = []
+    for c in getattr(model, "connections", []):
+        dst = model.var(f"{c.dst}.{c.dst_var}")
+        how = ("algebraic unknown (a loop of direct feedthrough): solved with the "
+               "derivatives" if dst.kind == "algebraic" else "substituted: the input is the "
+               "source's expression, kept as an output under its name")
+        conv = (f"x {c.gain:.6g}" if c.gain != 1.0 else "") + (
+            f" + {c.bias:.6g}" if c.bias else "")
+        conn_rows.append(f"<tr><td><code>{_e(str(c))}</code></td><td>{_e(conv or '-')}</td>"
+                         f"<td>{_e(how)}</td></tr>")
+    ignored = model.options.get("ignored", {})
+    note = ("<p>Solver settings the scene gave a component (ignored: the composed FMU has "
+            "one solver, set by its own parameters): " + _e("; ".join(
+                f"{k}: {', '.join(v)}" for k, v in ignored.items())) + ".</p>"
+            if ignored else "")
+    return (f"<p>The scene <code>{_e(str(model.options['scene']))}</code> composed at the "
+            "equation level into one model (loomfmu.scene.compose; <code>loomfmu scene build "
+            f"{_e(str(model.options['scene']))}</code>): every component's variables, "
+            "equations, events, delays and conditions under its name (<code>comp.var</code>"
+            "; names that must be identifiers as <code>comp_name</code>).</p>"
+            + _table(["component", "model", "build options"], [rows])
+            + (_table(["connection", "unit conversion", "in the composed model"],
+                      ["".join(conn_rows)]) if conn_rows else "") + note)
 
 
 def _count(n: int, what: str) -> str:
