@@ -357,3 +357,41 @@ def test_the_ssp_export_and_the_composed_model_describe_the_same_machine(name):
         bias = float(lt.get("offset")) if lt is not None else 0.0
         if dst.kind == "output":     # a substituted input: its expression is the source's
             assert ca.is_equal(ca.simplify(dst.expr - (gain * src.expr + bias)), ca.SX(0), 5)
+
+
+def _slow_delayed() -> Model:
+    m = Model("slow_delayed", description="a lag of a sine delayed by 0.5 s", stop_time=1.5,
+              step_size=0.01)
+    x = m.state("x", 0.0, unit="m", description="lagged position")
+    d = m.delay("s", ca.sin(2.0 * m.t), 0.5, max_delay=1.0, description="delayed sine")
+    m.eq(m.der(x), -5.0 * x + d)
+    m.output("y", x, unit="m", description="position")
+    return m
+
+
+def _fast_oscillator() -> Model:
+    m = Model("fast", description="an undamped 3 kHz oscillator", stop_time=1.5,
+              step_size=0.01)
+    x = m.state("q", 1e-3, unit="m", description="position")
+    v = m.state("v", 0.0, unit="m/s", description="velocity")
+    w = 2 * math.pi * 3000.0
+    m.eq(m.der(x), v)
+    m.eq(m.der(v), -w * w * x)
+    m.output("q_out", x, unit="m", description="position")
+    return m
+
+
+@pytest.mark.slow
+def test_a_slow_delay_beside_a_fast_part_keeps_its_history_within_capacity(tmp_path):
+    """Composed with a 3 kHz oscillator the solver steps every few
+    microseconds, far more steps within the 0.5 s delay than the history
+    holds (65 536 samples): the samples of the slow delayed signal that its
+    neighbours reproduce are thinned, the run completes and the lag equals
+    the slow part's own reference."""
+    s = Scene("slow_fast", stop_time=1.5, step=0.01)
+    s.add("d", model=_slow_delayed())
+    s.add("f", model=_fast_oscillator())
+    fmu = build_fmu(compose(s), out_dir=tmp_path).path
+    run = simulate(fmu, rtol=1e-9, atol=1e-12, output=["d.y", "f.q_out"])
+    alone = reference(_slow_delayed(), t_end=1.5, t_eval=run.t, rtol=1e-11, atol=1e-13)
+    assert np.max(np.abs(run.y["d.y"] - alone.y["y"])) < 1e-7

@@ -176,7 +176,8 @@ def test_readme_model_example_builds_and_simulates(tmp_path, capsys):
 @pytest.mark.slow
 def test_readme_scene_example_runs(tmp_path, capsys):
     """The README's scene builds both two-mass FMUs, runs on Gauss-Seidel and
-    prints both positions, close to the exact monolithic solution."""
+    prints both positions, close to the exact monolithic solution; composed
+    into one FMU it prints x1 to the exact solution's six digits."""
     from scipy.integrate import solve_ivp
     out = _run_example("A scene", tmp_path, capsys)
     m = re.search(r"x1\(2 s\) = (-?[\d.]+) m, x2\(2 s\) = (-?[\d.]+) m", out)
@@ -191,6 +192,8 @@ def test_readme_scene_example_runs(tmp_path, capsys):
                 v2, (-p.k2 * x2 - p.d2 * v2 + F) / p.m2]
     ref = solve_ivp(rhs, (0.0, 2.0), [0.1, 0.0, 0.0, 0.0], rtol=1e-10, atol=1e-12).y[:, -1]
     assert abs(float(m.group(1)) - ref[0]) < 1e-3 and abs(float(m.group(2)) - ref[2]) < 1e-3
+    one = re.search(r"composed: x1\(2 s\) = (-?[\d.]+) m", out)
+    assert one and abs(float(one.group(1)) - ref[0]) < 1e-6, out
 
 
 # -- no history in the README, the docs, docstrings or comments -------------------

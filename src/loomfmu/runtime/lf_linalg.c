@@ -4,7 +4,11 @@
  * columns j and j+1; solves: two columns of L or U against b), so that each
  * pass over the target vector does twice the arithmetic per load and store;
  * plain C, no intrinsics.  Results equal the textbook column loops to
- * rounding (the order of the two updates of an entry is kept). */
+ * rounding (the order of the two updates of an entry is kept).  A column
+ * whose entries in row k are zero is not updated (x - l * 0 is x): the
+ * Jacobian of a composed model is mostly zero blocks, and its factorization
+ * then costs about what its diagonal blocks' would; the solves likewise skip
+ * the columns a zero entry of the right-hand side multiplies. */
 #include "lf_linalg.h"
 
 #include <math.h>
@@ -51,6 +55,7 @@ int lf_lu_factor(double *a, size_t n, size_t *piv) {
         for (j = k + 1; j + 1 < n; j += 2) {
             double *c0 = a + j * n, *c1 = c0 + n;
             double s0 = c0[k], s1 = c1[k];
+            if (s0 == 0.0 && s1 == 0.0) continue; /* nothing to update (sparse rows) */
             /* columns j and j+1 against column k: two independent updates */
             for (i = k + 1; i < n; i++) {
                 double l = colk[i];
@@ -58,7 +63,7 @@ int lf_lu_factor(double *a, size_t n, size_t *piv) {
                 c1[i] -= l * s1;
             }
         }
-        if (j < n) axpy1(a + j * n, colk, a[k + j * n], k + 1, n);
+        if (j < n && a[k + j * n] != 0.0) axpy1(a + j * n, colk, a[k + j * n], k + 1, n);
     }
     return 0;
 }
@@ -77,9 +82,9 @@ void lf_lu_solve(const double *lu, size_t n, const size_t *piv, double *b) {
     for (j = 0; j + 1 < n; j += 2) {
         const double *c0 = lu + j * n, *c1 = c0 + n;
         double b0 = b[j], b1;
-        b[j + 1] -= c0[j + 1] * b0;
+        if (b0 != 0.0) b[j + 1] -= c0[j + 1] * b0;
         b1 = b[j + 1];
-        axpy2(b, c0, b0, c1, b1, j + 2, n);
+        if (b0 != 0.0 || b1 != 0.0) axpy2(b, c0, b0, c1, b1, j + 2, n);
     }
     /* back substitution with U, two columns a pass */
     for (j = n; j >= 2; j -= 2) {
@@ -87,10 +92,10 @@ void lf_lu_solve(const double *lu, size_t n, const size_t *piv, double *b) {
         double b1, b0;
         b[j - 1] /= c1[j - 1];
         b1 = b[j - 1];
-        b[j - 2] -= c1[j - 2] * b1;
+        if (b1 != 0.0) b[j - 2] -= c1[j - 2] * b1;
         b[j - 2] /= c0[j - 2];
         b0 = b[j - 2];
-        axpy2(b, c1, b1, c0, b0, 0, j - 2);
+        if (b0 != 0.0 || b1 != 0.0) axpy2(b, c1, b1, c0, b0, 0, j - 2);
     }
     if (j == 1) b[0] /= lu[0];
 }

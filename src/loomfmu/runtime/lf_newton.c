@@ -138,6 +138,23 @@ static LfStatus newton(LfInstance *c, double t, const double *x, double *w) {
     return LF_DISCARD;
 }
 
+/* lo[j], hi[j]: the rows [lo, hi) of column j of the LF_NW x ncol matrix a
+ * outside which it is zero (lo = hi = 0 for a zero column). */
+static void nonzero_rows(const double *a, int ncol, int *lo, int *hi) {
+    int i, j;
+    for (j = 0; j < ncol; j++) {
+        const double *col = a + (size_t)j * LF_NW;
+        int first = LF_NW, last = -1;
+        for (i = 0; i < LF_NW; i++)
+            if (col[i] != 0.0) {
+                if (i < first) first = i;
+                last = i;
+            }
+        lo[j] = last < 0 ? 0 : first;
+        hi[j] = last + 1;
+    }
+}
+
 /* The kept dF/dw's inverse and the tangent [dw/dx, dw/dt] = -(dF/dw)^-1
  * [dF/dx, dF/dt], formed at their first use after the LU was kept: a
  * product with the inverse costs about half an LU solve at the sizes of
@@ -149,14 +166,21 @@ static void nm_tangent(LfNewtonMem *m) {
         m->inv[j + j * LF_NW] = 1.0;
         lf_lu_solve(m->lu, LF_NW, m->piv, &m->inv[j * LF_NW]);
     }
+    nonzero_rows(m->inv, LF_NW, m->inv_lo, m->inv_hi);
     for (i = 0; i < LF_NW; i++) m->wt[i] = 0.0;
     for (i = 0; i < LF_NW * LF_NX; i++) m->wx[i] = 0.0;
-    for (k = 0; k < LF_NW; k++) {
+    for (k = 0; k < LF_NW; k++) { /* zeros skipped: a composed model's blocks */
         const double *col = &m->inv[k * LF_NW];
-        for (i = 0; i < LF_NW; i++) m->wt[i] -= col[i] * m->ft[k];
-        for (j = 0; j < LF_NX; j++)
-            for (i = 0; i < LF_NW; i++) m->wx[i + j * LF_NW] -= col[i] * m->fx[k + j * LF_NW];
+        int lo = m->inv_lo[k], hi = m->inv_hi[k];
+        if (m->ft[k] != 0.0)
+            for (i = lo; i < hi; i++) m->wt[i] -= col[i] * m->ft[k];
+        for (j = 0; j < LF_NX; j++) {
+            double f = m->fx[k + j * LF_NW];
+            if (f != 0.0)
+                for (i = lo; i < hi; i++) m->wx[i + j * LF_NW] -= col[i] * f;
+        }
     }
+    nonzero_rows(m->wx, LF_NX, m->wx_lo, m->wx_hi);
     m->tan_ok = 1;
 }
 
@@ -168,7 +192,8 @@ static inline void nm_apply(const LfNewtonMem *m, const double *f, double *dw) {
     for (k = 0; k < LF_NW; k++) {
         const double *col = &m->inv[k * LF_NW];
         double fk = f[k];
-        for (i = 0; i < LF_NW; i++) v[i] += col[i] * fk;
+        if (fk != 0.0)
+            for (i = m->inv_lo[k]; i < m->inv_hi[k]; i++) v[i] += col[i] * fk;
     }
     memcpy(dw, v, sizeof v);
 }
@@ -185,7 +210,7 @@ static void nm_predict(LfInstance *c, double t, const double *x, double *w) {
     for (j = 0; j < LF_NX; j++) {
         double dx = x[j] - m->xb[j];
         if (dx != 0.0)
-            for (i = 0; i < LF_NW; i++) p[i] += m->wx[i + j * LF_NW] * dx;
+            for (i = m->wx_lo[j]; i < m->wx_hi[j]; i++) p[i] += m->wx[i + j * LF_NW] * dx;
     }
     memcpy(w, p, sizeof p);
 }

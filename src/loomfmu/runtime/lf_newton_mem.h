@@ -42,6 +42,10 @@ typedef struct {
     double inv[LF_NM_DIM(LF_NW * LF_NW)];
     double wx[LF_NM_DIM(LF_NW * LF_NX)];
     double wt[LF_NM_DIM(LF_NW)];
+    /* rows [lo, hi) holding the nonzeros of each column of inv and of wx
+     * (a composed model's blocks: most of each column is zero) */
+    int inv_lo[LF_NM_DIM(LF_NW)], inv_hi[LF_NM_DIM(LF_NW)];
+    int wx_lo[LF_NM_DIM(LF_NX)], wx_hi[LF_NM_DIM(LF_NX)];
     double tb;              /* the last solution (tb, xb, wb) */
     double xb[LF_NM_DIM(LF_NX)];
     double wb[LF_NM_DIM(LF_NW)];
