@@ -395,3 +395,13 @@ def test_a_slow_delay_beside_a_fast_part_keeps_its_history_within_capacity(tmp_p
     run = simulate(fmu, rtol=1e-9, atol=1e-12, output=["d.y", "f.q_out"])
     alone = reference(_slow_delayed(), t_end=1.5, t_eval=run.t, rtol=1e-11, atol=1e-13)
     assert np.max(np.abs(run.y["d.y"] - alone.y["y"])) < 1e-7
+
+
+def test_the_composed_scene_is_inspected_like_a_model(tmp_path, capsys):
+    from loomfmu.cli.scene import main
+    out = tmp_path / "two_mass.md"
+    assert main(["inspect", "two_mass", "--format", "md", "--out", str(out)]) == 0
+    text = out.read_text()
+    assert "composed into one model from components force (two_mass_force)" in text
+    assert "`force.x1`" in text and "`disp.F_in`" in text   # a substituted input: an output
+    assert "(from force.F_c -> disp.F_in)" in text

@@ -1,4 +1,4 @@
-"""loomfmu scene {list, run, build, export, fidelity}: scenes co-simulated or
+"""loomfmu scene {list, run, build, inspect, export, fidelity}: scenes co-simulated or
 composed into one model (docs/guides/scenes.md, docs/guides/composed.md;
 fidelity: docs/guides/fidelity.md).
 
@@ -73,6 +73,13 @@ def _parser(prog: str) -> argparse.ArgumentParser:
                    help="co-simulation (default), model exchange or both")
     b.add_argument("--out-dir", type=Path, default=Path("dist"),
                    help="folder of the FMU (default: dist)")
+    i = sub.add_parser("inspect", help="the scene composed into one model: its derivation "
+                       "and equations as loomfmu inspect writes a model's")
+    i.add_argument("scene", help=f"one of {', '.join(sorted(SCENES))}")
+    i.add_argument("--format", choices=("html", "md", "tex"), default="html",
+                   help="html (MathML, default), md (Markdown with LaTeX) or tex")
+    i.add_argument("--out", type=Path, default=None,
+                   help="file to write (default: SCENE.FORMAT; '-' prints it)")
     e = sub.add_parser("export", help="write the scene as an SSP file")
     e.add_argument("scene", help=f"one of {', '.join(sorted(SCENES))}")
     e.add_argument("--out", type=Path, default=None,
@@ -113,6 +120,21 @@ def _build(args) -> int:
     for p in res.problems:
         print(f"  {p}")
     return 1 if res.problems else 0
+
+
+def _inspect(args) -> int:
+    from loomfmu.inspection.report import report
+    from loomfmu.scene.compose import compose
+    out = args.out if args.out is not None else Path(f"{args.scene}.{args.format}")
+    if str(out) != "-":
+        check_output_options(argparse.Namespace(out=out), files=["out"])
+    text = report(compose(load_scene(args.scene)), args.format)
+    if str(out) == "-":
+        sys.stdout.write(text)
+        return 0
+    out.write_text(text, encoding="utf-8")
+    print(f"written: {out}")
+    return 0
 
 
 def _run_monolithic(args, prog: str, s) -> int:
@@ -223,6 +245,8 @@ def main(argv=None, prog: str = "loomfmu scene") -> int:
             return _run(args, f"{prog} run")
         if args.cmd == "build":
             return _build(args)
+        if args.cmd == "inspect":
+            return _inspect(args)
         if args.cmd == "fidelity":
             from loomfmu.machines.fidelity import main as fidelity
             return fidelity(args)
