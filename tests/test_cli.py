@@ -36,9 +36,10 @@ def run(*args, cwd=None, env=None, timeout=600) -> subprocess.CompletedProcess:
 SUBCOMMANDS = [["list"], ["build"], ["simulate"], ["verify"], ["docs"], ["heald"],
                ["heald", "claims"], ["heald", "fidelity"], ["heald", "design"], ["drive"],
                ["drive", "table"], ["drive", "charts"], ["drive", "tracking"], ["rotor"],
-               ["bench"], ["inspect"], ["scene"], ["scene", "run"], ["scene", "build"], ["scene", "inspect"], ["scene", "export"],
-               ["scene", "fidelity"], ["sweep"], ["sweep", "run"], ["sweep", "design-map"],
-               ["sweep", "drive-grid"], ["heald", "tension-input"]]
+               ["bench"], ["inspect"], ["scene"], ["scene", "run"], ["scene", "build"],
+               ["scene", "inspect"], ["scene", "export"], ["scene", "fidelity"], ["sweep"],
+               ["sweep", "run"], ["sweep", "design-map"], ["sweep", "drive-grid"],
+               ["sweep", "loom-stick"], ["heald", "tension-input"]]
 
 
 def test_console_script_is_installed():
