@@ -52,7 +52,8 @@ def test_every_misuse_case_is_refused_without_crash_or_leak(driver):
                  "deserialize_null_state", "get_real_nvr_max", "instantiate_null_name",
                  "instantiate_empty_name", "fmu_states_never_freed", "do_step_nan_time",
                  "do_step_h_1e-300", "start_time_1e20", "state_solver_ready_7",
-                 "state_solver_method_99", "state_breakpoints_100000"):
+                 "state_solver_method_99", "state_breakpoints_100000",
+                 "state_output_nan_marked_valid"):
         assert name in cases
 
 

@@ -553,6 +553,10 @@ static void field(int which) {
     case 34: put_d(b, VOFF(seen_t), INFINITY); break;
     case 35: put_i(b, VOFF(wants_terminate), 3); break;
     case 36: put_i(b, VOFF(solver_index), 9); break;
+    case 37: /* an output the state marks current (returned as saved) not finite */
+        put_d(b, VOFF(r) + sizeof(double) * LF_VR_Y0, NAN);
+        put_i(b, VOFF(outputs_valid), 1);
+        break;
     /* modes */
     case 40: put_d(b, VOFF(q), 99.0); break;
     /* delays */
@@ -562,6 +566,11 @@ static void field(int which) {
     case 53: put_d(b, VOFF(tau), 1e9); break;
     case 54: put_d(b, hist_off, NAN); break;                        /* first sample's time */
     case 55: put_d(b, hist_off + 3 * sizeof(double), -1e9); break; /* second before first */
+    case 56: { /* within the FMU's range, but not the tau its parameters give */
+        double tau;
+        memcpy(&tau, b + VOFF(tau), sizeof tau);
+        put_d(b, VOFF(tau), tau > 0 ? 0.0 : lf_model.delay_max[0] / 2);
+    } break;
     default: exit(2);
     }
     if (reseal) seal(b, n);
@@ -650,7 +659,7 @@ typedef struct {
     void (*run)(int);
     int arg;
     int clean;   /* legal calls: only crashes and leaks are failures */
-    int needs;   /* 1: modes, 2: delays, 3: inputs */
+    int needs;   /* 1: modes, 2: delays, 3: inputs, 4: outputs */
 } Case;
 
 static const Case cases[] = {
@@ -740,12 +749,14 @@ static const Case cases[] = {
     {"state_history_count_over", field, 50, 0, 2}, {"state_history_count_negative", field, 51, 0, 2},
     {"state_delay_negative", field, 52, 0, 2}, {"state_delay_1e9", field, 53, 0, 2},
     {"state_history_time_nan", field, 54, 0, 2}, {"state_history_out_of_order", field, 55, 0, 2},
+    {"state_output_nan_marked_valid", field, 37, 0, 4},
+    {"state_delay_not_its_parameters", field, 56, 0, 2},
 #endif
 };
 
 static int applies(const Case *k) {
     return k->needs == 0 || (k->needs == 1 && LF_NQ > 0) || (k->needs == 2 && LF_ND > 0) ||
-           (k->needs == 3 && LF_NU > 0);
+           (k->needs == 3 && LF_NU > 0) || (k->needs == 4 && LF_NY > 0);
 }
 
 int main(int argc, char **argv) {

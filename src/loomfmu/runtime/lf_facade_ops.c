@@ -159,10 +159,10 @@ LfStatus lf_fmustate_serialize(LfInstance *c, LfBlob **list, const char *fn, voi
 
 /* A size larger than any state of this FMU is refused here, before anything
  * is allocated or read (near SIZE_MAX the blob's size would wrap); then the
- * bytes' integrity (size, checksum, format, this FMU and FMI version:
- * lf_state_check_bytes), so that truncated or corrupted bytes are an Error
- * of this call, not of the fmi*SetFMUState after it.  The fields' values
- * are checked when the state is set (lf_state_read). */
+ * bytes' integrity (size, checksum, format, this FMU and FMI version) and
+ * every field's value (lf_state_check_bytes: the checks of lf_state_read),
+ * so that truncated, corrupted or crafted bytes are an Error of this call,
+ * not of the fmi*SetFMUState after it.  Setting the state checks again. */
 LfStatus lf_fmustate_deserialize(LfInstance *c, LfBlob **list, const char *fn,
                                  const unsigned char *bytes, size_t size, void **state) {
     LfBlob *b;
@@ -177,8 +177,8 @@ LfStatus lf_fmustate_deserialize(LfInstance *c, LfBlob **list, const char *fn,
     }
     if (*state && !lf_blob_find(c, list, fn, *state)) return LF_ERROR;
     if (lf_state_check_bytes(c, bytes, size) != LF_OK) {
-        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: the %lu bytes are not a state of "
-               "this FMU (the line before says why); no FMU state made, nothing done", c->run.t,
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: %s: the %lu bytes are not a state this "
+               "FMU can take (the line before says why); no FMU state made, nothing done", c->run.t,
                fn, (unsigned long)size);
         return LF_ERROR;
     }

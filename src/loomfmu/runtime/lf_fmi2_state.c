@@ -2,8 +2,8 @@
  * wrappers of lf_facade_ops.c over the instance's list of blobs, so that
  * fmi2FreeInstance frees every state the importer did not, and a pointer
  * this instance did not make is refused without being dereferenced.  Bytes
- * are checked when deserialized (size, checksum, this FMU and FMI version)
- * and every field when a state is set. */
+ * are checked when deserialized (size, checksum, this FMU and FMI version,
+ * every field's value) and again when a state is set. */
 #include "lf_fmi2.h"
 
 #define STATE_STATES (LF_ST_INSTANTIATED | LF_ST_INIT | RUNNING | ME_RUNNING | LF_ST_TERMINATED)

@@ -4,20 +4,29 @@
  * the values, modes, the last solve of the unknowns, the event indicators'
  * signs, the solver (its struct fields and its whole work buffer, whose
  * layout is fixed by method and size) and the history of delayed values
- * (only the samples in use) and the pending breakpoints of the delays.  Pointers, the logger and the allocator are not
- * part of the state: a state can be set in another instance of the same FMU
- * (checked by GUID and sizes), also after a round trip through bytes.
+ * (only the samples in use) and the pending breakpoints of the delays.
+ * Pointers, the logger and the allocator are not part of the state: a
+ * state can be set in another instance of the same FMU (checked by GUID
+ * and sizes), also after a round trip through bytes.
  *
  * Bytes from outside are not trusted: a checksum over the whole blob, then
  * every field against its range, every count against its capacity, every
- * number for finiteness, before anything is changed (lf_state_read). */
+ * number for finiteness, and the values against the model and the
+ * parameters the state carries (lf_state_check.c: outputs marked current
+ * finite, each delay as its parameters give it), before anything is
+ * changed.  A checksum only vouches that the bytes are as written, so the
+ * deserialize functions run every one of these checks too
+ * (lf_state_check_bytes), and setting a state runs them again
+ * (lf_state_read). */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "lf_state.h"
 #include "lf_base.h"
 #include "lf_instance.h"
 #include "lf_newton.h"
+#include "lf_state_check.h"
 #if defined(__has_include)
 #if __has_include("lf_build.h")
 #include "lf_build.h" /* LF_FMI_VERSION, written by the builder */
@@ -175,16 +184,9 @@ void lf_state_write(const LfInstance *c, unsigned char *buf) {
 
 /* ---- checks: each logs the first problem it finds and returns 0 -------- */
 
-static int refuse(LfInstance *c, const char *what, double value, const char *expected) {
-    lf_log(c, LF_ERROR, LF_LOG_ERROR,
-           "t = %.17g: FMU state refused: %s = %.17g, expected %s; the instance keeps its "
-           "state", c->run.t, what, value, expected);
-    return 0;
-}
-
-#define REQUIRE(cond, what, value, expected)                                         \
-    do {                                                                             \
-        if (!(cond)) return refuse(c, what, (double)(value), expected);              \
+#define REQUIRE(cond, what, value, expected)                                      \
+    do {                                                                          \
+        if (!(cond)) return lf_state_refuse(c, what, (double)(value), expected);  \
     } while (0)
 
 static int is_flag(int v) { return v == 0 || v == 1; }
@@ -262,33 +264,6 @@ static int check_flags(LfInstance *c, const LfStateValues *v) {
     return 1;
 }
 
-/* Reals by kind: settings and parameters within their ranges (as
- * fmi2SetReal enforces), inputs finite, states finite (or not yet computed
- * before initialization), calculated values finite or not yet computed. */
-static int check_reals(LfInstance *c, const LfStateValues *v) {
-    unsigned vr;
-    char what[160];
-    for (vr = 0; vr < LF_NREAL; vr++) {
-        double x = v->r[vr];
-        LfKind kind = lf_model.real_kind[vr];
-        int ok;
-        if (kind == LF_KIND_SETTING || kind == LF_KIND_PARAMETER)
-            ok = isfinite(x) && x >= lf_model.real_min[vr] && x <= lf_model.real_max[vr];
-        else if (kind == LF_KIND_INPUT)
-            ok = isfinite(x);
-        else if (kind == LF_KIND_STATE)
-            ok = isfinite(x) || (isnan(x) && !v->solver_ready);
-        else
-            ok = isfinite(x) || isnan(x);
-        if (!ok) {
-            strncpy(what, lf_model.real_names[vr], sizeof what - 1);
-            what[sizeof what - 1] = '\0';
-            return refuse(c, what, x, "finite and within its range");
-        }
-    }
-    return 1;
-}
-
 static int all_finite(const double *x, size_t n) {
     size_t i;
     for (i = 0; i < n; i++)
@@ -297,6 +272,7 @@ static int all_finite(const double *x, size_t n) {
 }
 
 static int check_modes_delays(LfInstance *c, const LfStateValues *v) {
+    char what[160];
     int k, j;
     for (k = 0; k < LF_NQ; k++) {
         int found = 0;
@@ -317,10 +293,13 @@ static int check_modes_delays(LfInstance *c, const LfStateValues *v) {
     for (k = 0; k < LF_DIM(LF_ND); k++) {
         double tau_max = k < LF_ND ? lf_model.delay_max[k] : 0.0;
         long cap = k < LF_ND ? LF_HIST_CAP : 0;
-        REQUIRE(v->tau[k] >= 0 && v->tau[k] <= tau_max, "delay", v->tau[k],
+        snprintf(what, sizeof what, "delay %s", k < LF_ND ? lf_model.delay_names[k] : "(none)");
+        REQUIRE(v->tau[k] >= 0 && v->tau[k] <= tau_max, what, v->tau[k],
                 "0 ... the FMU's longest delay");
-        REQUIRE(v->hist_count[k] >= 0 && v->hist_count[k] <= cap, "history samples",
-                v->hist_count[k], "0 ... 65536");
+        snprintf(what, sizeof what, "history samples of delay %s",
+                 k < LF_ND ? lf_model.delay_names[k] : "(none)");
+        REQUIRE(v->hist_count[k] >= 0 && v->hist_count[k] <= cap, what, v->hist_count[k],
+                "0 ... 65536 (0 without delays)");
     }
     return 1;
 }
@@ -418,23 +397,6 @@ static int check_solver(LfInstance *c, const LfStateHeader *h, const LfStateValu
     for (i = 0; i < (size_t)LF_NX; i++)
         REQUIRE(work[i] == v->r[LF_VR_X0 + i], lf_model.real_names[LF_VR_X0 + i], work[i],
                 "the solver's state at t");
-    return 1;
-}
-
-/* History samples (t, g, dg/dt): finite, times in order; then the pending
- * breakpoints: finite, after the state's time. */
-static int check_history(LfInstance *c, const LfStateValues *v, const double *hist) {
-    int k;
-    long i;
-    for (k = 0; k < LF_ND; k++) {
-        for (i = 0; i < v->hist_count[k]; i++, hist += 3) {
-            REQUIRE(all_finite(hist, 3), "history sample", hist[0], "finite");
-            REQUIRE(i == 0 || hist[0] >= hist[-3], "history time", hist[0],
-                    "not before the previous sample");
-        }
-    }
-    for (i = 0; i < v->n_bp; i++)
-        REQUIRE(isfinite(hist[i]), "delay breakpoint", hist[i], "finite");
     return 1;
 }
 
@@ -544,44 +506,64 @@ static void apply_values(LfInstance *c, const LfStateValues *v, const double *hi
     memcpy(c->dl.bp, hist, sizeof(double) * (size_t)v->n_bp); /* after the history */
 }
 
+/* Every check, nothing changed: the header, then each field, the values
+ * against the model and its parameters (lf_state_check.c).  The solver
+ * work, history and breakpoints are copied out (the bytes need not be
+ * aligned) into *doubles, for the caller to free.  0, logged, if the bytes
+ * are not a state this FMU can take. */
+static int check_state(LfInstance *c, const unsigned char *buf, size_t n, LfStateHeader *h,
+                       LfStateValues *v, double **doubles) {
+    size_t need, hist_len = 0;
+    double *work;
+    int k;
+    if (!check_header(c, buf, n, h)) return 0;
+    memcpy(v, buf + sizeof *h, sizeof *v);
+    if (!check_times(c, v) || !check_flags(c, v) || !check_modes_delays(c, v) ||
+        !check_pending_event(c, v) || !check_known_breaks(c, v))
+        return 0;
+    for (k = 0; k < LF_ND; k++) hist_len += 3 * (size_t)v->hist_count[k];
+    hist_len += (size_t)v->n_bp; /* the breakpoints follow the history */
+    need = h->work_len <= n / sizeof(double)
+               ? fixed_bytes() + sizeof(double) * ((size_t)h->work_len + hist_len) : 0;
+    REQUIRE(n == need, "size of the state (bytes)", n,
+            "header + values + work + history + breakpoints");
+    work = (double *)c->unsaved.alloc.calloc((size_t)h->work_len + hist_len + 1, sizeof(double));
+    if (!work) {
+        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: FMU state: out of memory", c->run.t);
+        return 0;
+    }
+    memcpy(work, buf + sizeof *h + sizeof *v, sizeof(double) * ((size_t)h->work_len + hist_len));
+    if (!lf_state_check_reals(c, v->r, v->solver_ready, v->outputs_valid) ||
+        !check_solver(c, h, v, work) ||
+        !lf_state_check_history(c, v->hist_count, v->n_bp, work + h->work_len) ||
+        !lf_state_check_delays(c, v->r, v->tau, &v->s_opt, v->solver_ready)) {
+        c->unsaved.alloc.free(work);
+        return 0;
+    }
+    *doubles = work;
+    return 1;
+}
+
 LfStatus lf_state_check_bytes(LfInstance *c, const unsigned char *buf, size_t n) {
     LfStateHeader h;
-    return check_header(c, buf, n, &h) ? LF_OK : LF_ERROR;
+    LfStateValues v;
+    double *doubles;
+    if (!check_state(c, buf, n, &h, &v, &doubles)) return LF_ERROR;
+    c->unsaved.alloc.free(doubles);
+    return LF_OK;
 }
 
 LfStatus lf_state_read(LfInstance *c, const unsigned char *buf, size_t n) {
     LfStateHeader h;
     LfStateValues v;
     LfSolver fresh;
-    size_t need, hist_len = 0;
-    const double *work, *hist;
-    int k;
-    if (!check_header(c, buf, n, &h)) return LF_ERROR;
-    memcpy(&v, buf + sizeof h, sizeof v);
-    if (!check_times(c, &v) || !check_flags(c, &v) || !check_modes_delays(c, &v) ||
-        !check_pending_event(c, &v) || !check_known_breaks(c, &v))
-        return LF_ERROR;
-    for (k = 0; k < LF_ND; k++) hist_len += 3 * (size_t)v.hist_count[k];
-    hist_len += (size_t)v.n_bp; /* the breakpoints follow the history */
-    need = h.work_len <= n / sizeof(double)
-               ? fixed_bytes() + sizeof(double) * ((size_t)h.work_len + hist_len) : 0;
-    if (n != need) {
-        refuse(c, "size of the state (bytes)", (double)n, "header + values + work + history + breakpoints");
+    double *work;
+    if (!check_state(c, buf, n, &h, &v, &work)) return LF_ERROR;
+    if (v.solver_ready && !prepare_solver(c, &h, &v, &fresh)) {
+        c->unsaved.alloc.free(work);
         return LF_ERROR;
     }
-    /* the doubles are copied out: the bytes need not be aligned */
-    work = (const double *)c->unsaved.alloc.calloc((size_t)h.work_len + hist_len + 1, sizeof(double));
-    if (!work) {
-        lf_log(c, LF_ERROR, LF_LOG_ERROR, "t = %.17g: FMU state: out of memory", c->run.t);
-        return LF_ERROR;
-    }
-    memcpy((void *)work, buf + sizeof h + sizeof v, sizeof(double) * ((size_t)h.work_len + hist_len));
-    hist = work + h.work_len;
-    if (!check_reals(c, &v) || !check_solver(c, &h, &v, work) || !check_history(c, &v, hist) ||
-        (v.solver_ready && !prepare_solver(c, &h, &v, &fresh))) {
-        c->unsaved.alloc.free((void *)work);
-        return LF_ERROR;
-    }
+    /* from here on nothing fails: the instance takes the state */
     if (v.solver_ready) {
         c->solver = fresh;
         apply_solver(&c->solver, &v, work);
@@ -589,7 +571,7 @@ LfStatus lf_state_read(LfInstance *c, const unsigned char *buf, size_t n) {
         lf_solver_free(&c->solver, &c->unsaved.alloc);
     }
     c->run.solver_ready = v.solver_ready;
-    apply_values(c, &v, hist);
-    c->unsaved.alloc.free((void *)work);
+    apply_values(c, &v, work + h.work_len);
+    c->unsaved.alloc.free(work);
     return LF_OK;
 }

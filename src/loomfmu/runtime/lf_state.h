@@ -83,14 +83,16 @@ static inline size_t lf_state_max_size(void) {
 /* Write the state into buf (lf_state_size bytes), checksum included. */
 void lf_state_write(const LfInstance *c, unsigned char *buf);
 /* Restore buf (n bytes) if it is an intact state of this FMU: checksum,
- * GUID, sizes, every field in its range, every count within its capacity.
- * A state that fails any check is refused with LF_ERROR and a log line
- * naming the field, and the instance keeps its state. */
+ * GUID, sizes, every field in its range, every count within its capacity,
+ * the values consistent with the model and the state's own parameters
+ * (lf_state_check.h).  A state that fails any check is refused with
+ * LF_ERROR and a log line naming the value, and the instance keeps its
+ * state (checked before anything is changed). */
 LfStatus lf_state_read(LfInstance *c, const unsigned char *buf, size_t n);
-/* The integrity checks of lf_state_read that need no instance state (size,
- * checksum, format, this FMU and FMI version, its sizes): LF_ERROR with the
- * reason logged where the bytes are not one of this FMU's states.  Changes
- * nothing (the deserialize functions, before a blob is made). */
+/* Every check of lf_state_read (none of them needs the instance's state):
+ * LF_ERROR with the reason logged where the bytes are not a state this FMU
+ * can take.  Changes nothing (the deserialize functions, before a blob is
+ * made). */
 LfStatus lf_state_check_bytes(LfInstance *c, const unsigned char *buf, size_t n);
 
 #endif
