@@ -429,3 +429,16 @@ def test_the_cosimulation_converges_to_the_composed_fmu_at_its_order(tmp_path, m
                         ("force.x1_out", "disp.x2_out")))
     slope = np.polyfit(np.log(steps), np.log(errs), 1)[0]
     assert abs(slope - (order + 1)) < 0.35, (errs, slope)
+
+
+@pytest.mark.slow
+def test_a_refused_composed_run_raises_with_the_fmus_log(tmp_path):
+    from loomfmu.scene.monolithic import run_monolithic
+    s = Scene("no_solution", stop_time=1.0, step=0.1)
+    s.add("a", model=_square_plus_one())
+    s.add("b", model=_echo())
+    s.connect("a.y", "b.u")
+    s.connect("b.y", "a.u")
+    with pytest.raises(RuntimeError, match=r"scene no_solution composed: .*log: .*Newton did "
+                                           r"not converge"):
+        run_monolithic(s, fmu_dir=tmp_path)

@@ -149,9 +149,7 @@ def _run_monolithic(args, prog: str, s) -> int:
     try:
         res = run_monolithic(s, step=args.step, stop=args.stop, solver=args.solver,
                              rtol=args.solver_rtol, fmu_dir=args.fmu_dir)
-    except Exception as exc:  # noqa: BLE001 (FMPy's FMICallException and others)
-        if isinstance(exc, ValueError):
-            raise
+    except RuntimeError as exc:
         print(f"{prog}: run failed: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
     last = res.data[-1]

@@ -49,7 +49,8 @@ def run_monolithic(scene: Scene, *, step: float | None = None, stop: float | Non
     (loomfmu.declare.solvers.SOLVERS), rtol and atol its tolerances;
     fmu_dir: the folder the composed FMU is built into and reused from
     (default a temporary one); fmu: the path of a composed FMU built before
-    (:func:`composed_fmu`), to skip the build."""
+    (:func:`composed_fmu`), to skip the build.  A run the FMU refuses
+    raises RuntimeError with its last log lines."""
     from loomfmu.verification.fmpy_logger import simulate
     if not isinstance(scene, Scene):
         raise ValueError(f"scene = {scene!r:.60}; allowed: a loomfmu.scene.Scene")
@@ -75,10 +76,14 @@ def run_monolithic(scene: Scene, *, step: float | None = None, stop: float | Non
     with tempfile.TemporaryDirectory() as tmp:
         if fmu is None:
             fmu, _ = composed_fmu(scene, fmu_dir if fmu_dir is not None else tmp)
-        res = simulate(str(fmu), logger=logger, stop_time=stop, output_interval=step,
-                       relative_tolerance=rtol, output=names,
-                       start_values={"solver": SOLVERS.index(solver) + 1,
-                                     "solver_rtol": rtol, "solver_atol": atol})
+        try:
+            res = simulate(str(fmu), logger=logger, stop_time=stop, output_interval=step,
+                           relative_tolerance=rtol, output=names,
+                           start_values={"solver": SOLVERS.index(solver) + 1,
+                                         "solver_rtol": rtol, "solver_atol": atol})
+        except Exception as exc:  # noqa: BLE001 (FMPy's FMICallException and others)
+            said = "; ".join(lines[-3:]) or "no log line"
+            raise RuntimeError(f"scene {scene.name} composed: {exc} (log: {said})") from None
     data = np.zeros(len(res), dtype=[("time", "f8")] + [(n, "f8") for n in names])
     data["time"] = res["time"]
     for n in names:
