@@ -361,7 +361,7 @@ def test_the_ssp_export_and_the_composed_model_describe_the_same_machine(name):
 
 
 def _slow_delayed() -> Model:
-    m = Model("slow_delayed", description="a lag of a sine delayed by 0.5 s", stop_time=1.5,
+    m = Model("slow_delayed", description="a lag of a sine delayed by 0.5 s", stop_time=0.8,
               step_size=0.01)
     x = m.state("x", 0.0, unit="m", description="lagged position")
     d = m.delay("s", ca.sin(2.0 * m.t), 0.5, max_delay=1.0, description="delayed sine")
@@ -371,7 +371,7 @@ def _slow_delayed() -> Model:
 
 
 def _fast_oscillator() -> Model:
-    m = Model("fast", description="an undamped 3 kHz oscillator", stop_time=1.5,
+    m = Model("fast", description="an undamped 3 kHz oscillator", stop_time=0.8,
               step_size=0.01)
     x = m.state("q", 1e-3, unit="m", description="position")
     v = m.state("v", 0.0, unit="m/s", description="velocity")
@@ -389,12 +389,12 @@ def test_a_slow_delay_beside_a_fast_part_keeps_its_history_within_capacity(tmp_p
     holds (65 536 samples): the samples of the slow delayed signal that its
     neighbours reproduce are thinned, the run completes and the lag equals
     the slow part's own reference."""
-    s = Scene("slow_fast", stop_time=1.5, step=0.01)
+    s = Scene("slow_fast", stop_time=0.8, step=0.01)
     s.add("d", model=_slow_delayed())
     s.add("f", model=_fast_oscillator())
     fmu = build_fmu(compose(s), out_dir=tmp_path).path
     run = simulate(fmu, rtol=1e-9, atol=1e-12, output=["d.y", "f.q_out"])
-    alone = reference(_slow_delayed(), t_end=1.5, t_eval=run.t, rtol=1e-11, atol=1e-13)
+    alone = reference(_slow_delayed(), t_end=0.8, t_eval=run.t, rtol=1e-11, atol=1e-13)
     assert np.max(np.abs(run.y["d.y"] - alone.y["y"])) < 1e-7
 
 
@@ -409,8 +409,7 @@ def test_the_composed_scene_is_inspected_like_a_model(tmp_path, capsys):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("master, order", [("jacobi", 0), ("gauss-seidel", 0),
-                                           ("gauss-seidel", 1), ("gauss-seidel", 2)])
+@pytest.mark.parametrize("master, order", [("jacobi", 0), ("gauss-seidel", 2)])
 def test_the_cosimulation_converges_to_the_composed_fmu_at_its_order(tmp_path, master, order):
     """two_mass co-simulated at H, H/2, H/4 against its composed FMU (exact to
     1e-9): the error at the end shrinks as H^(order + 1), the input
