@@ -7,7 +7,7 @@
     loomfmu verify FMU                compare an FMU with its scipy reference
     loomfmu docs                      docs/reference/models/<model>.md from the declarations
     loomfmu inspect MODEL | --all     derivation and equations, readable (docs/reference/inspect)
-    loomfmu scene list|run|export     co-simulation scenes and SSP files
+    loomfmu scene list|run|build|...  scenes co-simulated, composed into one FMU, SSP files
     loomfmu heald|drive|rotor|bench   the analyses (each has --help)
 
 Exit codes: 0 done; 1 the work ran and failed (a verification above
@@ -36,8 +36,9 @@ ANALYSES = {
     "docs": ("loomfmu.inspection.model_pages", "docs/reference/models/<model>.md from the declarations"),
     "inspect": ("loomfmu.inspection.report",
                 "a model's derivation and equations as HTML (MathML), Markdown or LaTeX"),
-    "scene": ("loomfmu.cli.scene", "co-simulation scenes: list | run | export | fidelity"),
-    "sweep": ("loomfmu.cli.sweep", "studies on dask: design-map | drive-grid | hinge | trends | run"),
+    "scene": ("loomfmu.cli.scene", "scenes, co-simulated or composed into one FMU: "
+              "list | run | build | inspect | export | fidelity"),
+    "sweep": ("loomfmu.cli.sweep", "studies on dask: design-map | drive-grid | hinge | trends | loom-stick | run"),
 }
 
 
