@@ -79,6 +79,27 @@ def zeros_fmu(tmp_path_factory):
                      validate=False).path
 
 
+def delayed_fast_model() -> Model:
+    """x' = -x + s(t - tau), s a 2 kHz sine: a delayed signal whose samples a
+    few microseconds apart are not reproduced by their neighbours' Hermite
+    cubic, so the history keeps every one (a slow signal's are thinned)."""
+    m = Model("ddfast", stop_time=4.0, step_size=0.01)
+    x = m.state("x", 0.0, description="x")
+    tau = m.parameter("tau", 1.5, unit="s", description="delay", min=0.0, max=2.0,
+                      source="test problem")
+    sd = m.delay("sd", ca.sin(2 * math.pi * 2000.0 * m.t), tau, max_delay=2.0,
+                 description="a 2 kHz sine, tau ago")
+    m.eq(m.der(x), -x + sd)
+    m.output("x_out", x, description="x")
+    return m
+
+
+@pytest.fixture(scope="module")
+def ddfast_fmu(tmp_path_factory):
+    return build_fmu(delayed_fast_model(), out_dir=tmp_path_factory.mktemp("ddfast"),
+                     validate=False).path
+
+
 @pytest.fixture(scope="module")
 def ddein_fmu(tmp_path_factory):
     return build_fmu(delayed_input_model(), out_dir=tmp_path_factory.mktemp("ddein"),
@@ -122,34 +143,46 @@ def test_delayed_input_matches_closed_form(ddein_fmu, slave_factory, solver):
     assert not discard_logs(s)
 
 
-def test_rk4_history_full_names_solver_h_fixed(ddein_fmu, slave_factory):
-    """2 s of history in steps of 1e-5 s needs 200000 samples (65536 held):
-    the advice for the fixed-step solver is its step, not only tolerances."""
-    s = slave_factory(ddein_fmu)
+def test_rk4_history_full_names_solver_h_fixed(ddfast_fmu, slave_factory):
+    """2 s of a fast delayed signal in steps of 1e-5 s needs 200000 samples
+    (65536 held): the advice for the fixed-step solver is its step, not only
+    tolerances."""
+    s = slave_factory(ddfast_fmu)
     s.start(solver=RK4, tau=2.0, solver_h_fixed=1e-5)
-    s.set(u=1.0)
     with pytest.raises(FMICallException):
         s.fmu.doStep(0.0, 1.0)
-    full = [m for m in discard_logs(s) if "history of delay ud is full" in m]
+    full = [m for m in discard_logs(s) if "history of delay sd is full" in m]
     assert full, s.log[-3:]
     assert "solver_h_fixed = 1e-05" in full[0] and "rk4 takes fixed steps" in full[0]
     assert f"at least tau / 65536 = {2.0 / 65536:g} s" in full[0]
 
 
-def test_history_full_by_short_communication_steps_names_them(ddein_fmu, slave_factory):
+def test_history_full_by_short_communication_steps_names_them(ddfast_fmu, slave_factory):
     """An adaptive solver ends a step at every communication point: steps
-    of 1e-5 s against tau = 2 s fill the 65536 samples whatever the
-    tolerances, and the advice says so (it said only 'loosen solver_rtol /
+    of 1e-5 s against tau = 2 s fill the 65536 samples of a fast delayed
+    signal, and the advice says so (it said only 'loosen solver_rtol /
     solver_atol')."""
-    s = slave_factory(ddein_fmu)
+    s = slave_factory(ddfast_fmu)
     s.start(solver=DOPRI5, tau=2.0)
-    s.set(u=1.0)
     with pytest.raises(FMICallException):
         for i in range(70000):
             s.fmu.doStep(i * 1e-5, 1e-5)
-    full = [m for m in discard_logs(s) if "history of delay ud is full" in m]
+    full = [m for m in discard_logs(s) if "history of delay sd is full" in m]
     assert full, s.log[-3:]
     assert f"communication steps of at least tau / 65536 = {2.0 / 65536:g} s" in full[0]
+
+
+def test_a_slow_delayed_signal_in_short_steps_is_thinned_not_full(ddein_fmu, slave_factory):
+    """The same short steps on a held input: neighbouring samples reproduce
+    the ones between them, which are thinned, and the history never fills."""
+    s = slave_factory(ddein_fmu)
+    s.start(solver=DOPRI5, tau=2.0)
+    s.set(u=1.0)
+    for i in range(70000):
+        s.fmu.doStep(i * 1e-5, 1e-5)
+    assert not discard_logs(s), s.log[-3:]
+    x = s.fmu.getReal([s.vr["x_out"]])[0]
+    assert x == 0.0   # u(t - 2 s) is 0 before t = 2 s
 
 
 # ---- 2. delay breakpoints ----------------------------------------------------
