@@ -20,7 +20,9 @@ seconds; the whole script takes about 9 min on two busy cores):
   of order 0, 1, 2 at communication steps H = 10, 4, 1 and 1/4 times the
   scene's step, and the adaptive step (extrapolation 2, rtol 1e-3 and 1e-5;
   not on spinning, whose outputs oscillate far faster than its adaptive
-  steps are long), components at their own solver settings.
+  steps are long), components at their own solver settings; and libcosim's
+  fixed-step master on the exported SSP at the same steps (it holds its
+  inputs: order 0; skipped without libcosimpy).
 
 Every run's cost is its CPU seconds (time.process_time around the run, the
 FMUs built before: the median of --repeats for runs under a second) per
@@ -242,6 +244,35 @@ def cosim_points(name, scene, fmus, ref, names, stop, repeats, quick):
     return points
 
 
+def libcosim_points(name, scene, fmus, ref, names, stop, repeats, quick, fmu_dir):
+    """libcosim's fixed-step master on the exported SSP (it holds its inputs:
+    extrapolation order 0), at the co-simulation's steps."""
+    try:
+        import libcosimpy  # noqa: F401
+    except ImportError:
+        print("  libcosim: libcosimpy is not installed (pip install libcosimpy); skipped",
+              flush=True)
+        return []
+    from loomfmu.scene.libcosim import run_ssp
+    from loomfmu.scene.run import Result
+    from loomfmu.scene.ssp import export_ssp
+    ssp = export_ssp(scene, Path(fmu_dir) / f"{name}.ssp", fmus=fmus)
+    refs = scene.recorded_variables()
+    points = []
+    for f in (QUICK_FACTORS if quick else FACTORS):
+        h = scene.step * f
+
+        def go(h=h):
+            data = run_ssp(ssp, refs, step=h, stop=stop)
+            return Result(data, "libcosim", len(data), 0, np.full(len(data), h))
+        out = attempt(go, repeats)
+        p = record({"scene": name, "kind": "cosim", "method": "libcosim", "extrapolation": 0,
+                    "step": h, "adaptive": False}, out, ref, names, stop)
+        show(p)
+        points.append(p)
+    return points
+
+
 def label(p: dict) -> str:
     if p["kind"] == "monolithic":
         tol = f"rtol {p['rtol']:g}" if p["rtol"] is not None else f"h {p['h_fixed']:g} s"
@@ -389,7 +420,7 @@ def panel(ax, points: list, key: str) -> None:
             if p["rtol"] is not None:
                 ax.annotate(f"{p['rtol']:.0e}", (x, y), fontsize=8, color=colour,
                             textcoords="offset points", xytext=(5, -12))
-    style = {"jacobi": ("C3", "--"), "gauss-seidel": ("C4", ":")}
+    style = {"jacobi": ("C3", "--"), "gauss-seidel": ("C4", ":"), "libcosim": ("k", "-.")}
     marks = {0: "s", 1: "^", 2: "D"}
     for master, (colour, ls) in style.items():
         for order, mk in marks.items():
@@ -541,6 +572,8 @@ def study(name: str, args, fmu_dir: Path) -> dict:
     points = monolithic_points(name, scene, path, model, ref, names, stop, args.repeats,
                                args.quick)
     points += cosim_points(name, scene, fmus, ref, names, stop, args.repeats, args.quick)
+    points += libcosim_points(name, scene, fmus, ref, names, stop, args.repeats, args.quick,
+                              fmu_dir)
     out = {"stop": stop, "scene_step": scene.step, "outputs": names, "reference": ref_info,
            "build": build, "points": points}
     chart(name, points, ref_info, stop, args.out / f"{name}_wp.png")

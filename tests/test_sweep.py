@@ -699,3 +699,30 @@ def test_a_case_whose_worker_is_lost_is_run_again_and_said(blob, tmp_path, capsy
         res.notes[0]), \
         res.notes
     assert f"sweep small: note: {res.notes[0]}" in capsys.readouterr().err
+
+
+def test_the_cancel_race_of_distributed_is_not_logged_after_an_interrupt():
+    """^C while distributed's sync() has not yet made its future: its cancel
+    callback raises NameError on the event loop, which tornado would log with
+    a traceback after the interrupt was handled; that record (only) is
+    dropped."""
+    import logging
+
+    from loomfmu.sweep.run import _CancelRace, _quiet_cancel_race
+    _quiet_cancel_race()
+    _quiet_cancel_race()   # once only
+    log = logging.getLogger("tornado.application")
+    assert sum(isinstance(f, _CancelRace) for f in log.filters) == 1
+
+    def record(exc):
+        try:
+            raise exc
+        except Exception:
+            import sys
+            return logging.LogRecord("tornado.application", logging.ERROR, __file__, 1,
+                                     "Exception in callback", None, sys.exc_info())
+    race = NameError("cannot access free variable 'future' where it is not associated "
+                     "with a value in enclosing scope")
+    assert not log.filter(record(race))
+    assert log.filter(record(NameError("name 'other' is not defined")))
+    assert log.filter(record(RuntimeError("future")))

@@ -69,12 +69,31 @@ class StudyResult:
 
 
 
+class _CancelRace(logging.Filter):
+    """Drops one record: distributed's ``sync`` schedules ``cancel`` on its
+    event loop when the waiting thread is interrupted (^C), and ``cancel``
+    raises NameError there if the call's future was not made yet (a race in
+    distributed.utils.sync); tornado logs that with a traceback after the
+    interrupt has already been handled."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        return not (isinstance(exc, NameError) and "'future'" in str(exc))
+
+
+def _quiet_cancel_race() -> None:
+    log = logging.getLogger("tornado.application")
+    if not any(isinstance(f, _CancelRace) for f in log.filters):
+        log.addFilter(_CancelRace())
+
+
 def open_client(workers: int, scheduler: str | None, connect_timeout: float):
     """(client, cluster): a LocalCluster of ``workers`` one-thread processes
     (cluster is then to be closed too), or a client of the (already checked)
     ``scheduler`` with cluster None."""
     import dask
     from dask.distributed import Client, LocalCluster
+    _quiet_cancel_race()
     if scheduler is None:
         with dask.config.set(QUIET_WORKERS):  # passed on to the workers by their nannies
             # preload: the workers ignore SIGINT (a ^C reaches the whole process
