@@ -441,3 +441,16 @@ def test_a_refused_composed_run_raises_with_the_fmus_log(tmp_path):
     with pytest.raises(RuntimeError, match=r"scene no_solution composed: .*log: .*Newton did "
                                            r"not converge"):
         run_monolithic(s, fmu_dir=tmp_path)
+
+
+@pytest.mark.slow
+def test_a_composed_fmu_of_another_scene_is_refused_naming_it(tmp_path):
+    from loomfmu.scene.monolithic import composed_fmu, run_monolithic
+    other, _ = composed_fmu(_loop_scene(), tmp_path)
+    from loomfmu.machines.two_mass import scene
+    with pytest.raises(ValueError, match=r"fmu = .*: it has no force\.x1_out.*allowed: the "
+                                         r"composed FMU of scene 'two_mass'"):
+        run_monolithic(scene(), fmu=other)
+    (tmp_path / "junk.fmu").write_text("not a zip")
+    with pytest.raises(ValueError, match="not a readable FMU"):
+        run_monolithic(scene(), fmu=tmp_path / "junk.fmu")

@@ -67,6 +67,8 @@ def run_monolithic(scene: Scene, *, step: float | None = None, stop: float | Non
                          "file of the scene")
     refs = scene.recorded_variables()
     names = [f"{c}.{v}" for c, v in refs]
+    if fmu is not None:
+        _check_fmu(Path(fmu), scene, names)
     lines: list[str] = []
 
     def logger(component, instance, status, category, message):
@@ -91,3 +93,19 @@ def run_monolithic(scene: Scene, *, step: float | None = None, stop: float | Non
     n = len(res) - 1
     return Result(data, MONOLITHIC, n, 0, np.diff(data["time"]), {scene.name: lines},
                   atol=atol)
+
+
+def _check_fmu(path: Path, scene: Scene, names: list[str]) -> None:
+    """ValueError naming ``fmu`` unless it is an FMU with every variable the
+    scene records (the composed FMU of this scene)."""
+    from fmpy import read_model_description
+    try:
+        have = {v.name for v in read_model_description(str(path)).modelVariables}
+    except Exception:  # noqa: BLE001 (FMPy raises bare Exceptions for a damaged file)
+        have = None
+    missing = None if have is None else [n for n in names if n not in have]
+    if have is None or missing:
+        why = ("not a readable FMU" if have is None else
+               f"it has no {', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}")
+        raise ValueError(f"fmu = {str(path)!r:.80}: {why}; allowed: the composed FMU of scene "
+                         f"{scene.name!r} (loomfmu.scene.monolithic.composed_fmu)")
