@@ -76,6 +76,9 @@ def _parser() -> argparse.ArgumentParser:
                         "both (the embedded solvers verified)")
     p.add_argument("--no-verify", action="store_true",
                    help="skip the comparison with the scipy reference")
+    p.add_argument("--jobs", type=int, default=None, metavar="N",
+                   help="build N models at once, each in its own process (>= 1; "
+                        "default: the number of CPUs)")
     p.add_argument("--out-dir", type=Path, default=Path("dist"), help="default: dist")
     p.add_argument("--rtol", type=float, default=1e-6,
                    help="solver tolerance for the verification runs (0 < rtol < 1; "
