@@ -315,6 +315,34 @@ def test_verify_an_fmu(built, tmp_path):
     assert res.returncode == 1 and "FAILED" in res.stderr
 
 
+def test_build_jobs_builds_models_in_processes_with_the_serial_report(built, tmp_path):
+    """--jobs 2: two models in two processes, each counted when done, the
+    report's rows in the order of the command line and equal (but for the
+    times) to a serial build's."""
+    out, _ = built
+    res = run("build", "two_mass_force", "heald_frame_rigid", "--jobs", "2",
+              "--out-dir", tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "2 models in 2 processes" in res.stderr and "build [2/2]" in res.stderr
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert list(report) == ["two_mass_force", "heald_frame_rigid"]
+    serial = json.loads((out / "report.json").read_text())["heald_frame_rigid"]
+
+    def untimed(rep):
+        return {k: v for k, v in rep.items() if k not in ("fmu", "build_seconds", "solvers") and "seconds" not in k}
+    assert untimed(report["heald_frame_rigid"]) == untimed(serial)
+    for solver, s in serial["solvers"].items():
+        assert report["heald_frame_rigid"]["solvers"][solver]["errors"] == s["errors"]
+    assert (tmp_path / "two_mass_force.fmu").is_file()
+
+
+@pytest.mark.parametrize("jobs", ["0", "-1", "two"])
+def test_build_jobs_out_of_range_is_one_line(jobs, tmp_path):
+    res = run("build", "two_mass_force", "--jobs", jobs, "--out-dir", tmp_path)
+    assert res.returncode == 2 and "--jobs" in res.stderr.strip().splitlines()[-1]
+    assert "Traceback" not in res.stderr and not list(tmp_path.iterdir())
+
+
 def test_build_model_exchange_variant_is_named_reported_and_not_verified(tmp_path):
     """--fmi-version/--interface: the variant's own file name and report key,
     zero validation problems, no verification (model exchange is integrated
