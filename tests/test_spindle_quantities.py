@@ -308,7 +308,7 @@ def _dof_names(m):
 def _displacements(m, v):
     """(q, q') of every FE DOF at the states in ``v`` (q = B eta for the modal model)."""
     dofs = _dof_names(m)
-    if m.name == "spindle":
+    if m.registry_name == "spindle":
         q = np.array([v[d] for d in dofs])
         qd = np.array([v[d.replace(".", ".v")] for d in dofs])
         return q, qd

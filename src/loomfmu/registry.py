@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import re
 
 from loomfmu.declare.checks import check_names
 from loomfmu.declare.model import Model
@@ -25,6 +26,17 @@ MODELS: dict[str, tuple[str, dict]] = {
     # the co-simulation benchmark split into two FMUs (loomfmu.machines.two_mass)
     "two_mass_force": ("two_mass", {"side": "force"}),
     "two_mass_displacement": ("two_mass", {"side": "displacement"}),
+}
+
+#: model name -> the build options that change its interface (inputs,
+#: outputs, ports), one dict per variant: ``loomfmu docs`` lists each
+#: variant's name and interface on the model's page.
+VARIANTS: dict[str, list[dict]] = {
+    "heald_frame": [{"warp_tension": "input"}],
+    "heald_frame_planar": [{"warp_tension": "input"}],
+    "heald_frame_rigid": [{"warp_tension": "input"}],
+    "backrest": [{"fronts": 2}],
+    "backrest_regularized": [{"fronts": 2}],
 }
 
 #: mechanism -> its models, lowest fidelity first (a scene picks one level)
@@ -77,4 +89,49 @@ def load_model(name: str, **options) -> Model:
                              + (f" (for {key} = {options[key]!r} load {others[0]!r})"
                                 if others else ""))
     mod = importlib.import_module(f"loomfmu.models.{module}")
-    return mod.build(**{**defaults, **options})
+    model = mod.build(**{**defaults, **options})
+    changed = non_default_options(name, options)
+    if changed:
+        model.variant_of, model.name = name, variant_name(name, changed)
+    return model
+
+
+def option_defaults(name: str) -> dict[str, object]:
+    """The build options of model ``name`` with their default values (the
+    registry's fixed options left out)."""
+    module, fixed = MODELS[name]
+    build = importlib.import_module(f"loomfmu.models.{module}").build
+    return {p.name: p.default for p in inspect.signature(build).parameters.values()
+            if p.kind is inspect.Parameter.KEYWORD_ONLY and p.name not in fixed}
+
+
+def non_default_options(name: str, options: dict) -> dict:
+    """The ``options`` of model ``name`` whose values differ from the
+    defaults, in the order of the model's build() signature."""
+    defaults = option_defaults(name)
+    return {k: options[k] for k in defaults
+            if k in options and not _same(options[k], defaults[k])}
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, bool) or isinstance(b, bool):
+        return a is b
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+        return float(a) == float(b)
+    return a == b
+
+
+def variant_name(name: str, changed: dict) -> str:
+    """The model identifier (and FMU file stem) of model ``name`` built with
+    the non-default options ``changed``: the name, then each option and its
+    value, e.g. ``heald_frame_warp_tension_input``, ``backrest_fronts_2``,
+    ``backrest_eps_0p01`` ('.' reads 'p', '-' reads 'm')."""
+    parts = [name]
+    for key, value in changed.items():
+        text = str(value).lower() if isinstance(value, bool) or value is None else str(value)
+        if isinstance(value, float):
+            text = f"{value:g}"
+        text = re.sub(r"[^A-Za-z0-9]", lambda m: {".": "p", "-": "m"}.get(m.group(0), "_"),
+                      text.replace("+", ""))
+        parts += [key, text]
+    return "_".join(parts)

@@ -2,8 +2,6 @@
 from __future__ import annotations
 
 import difflib
-import importlib
-import inspect
 import json
 import math
 import os
@@ -16,7 +14,7 @@ from types import SimpleNamespace
 from loomfmu.declare.checks import MAX_POINTS, check_output_options
 from loomfmu.fidelity import LEVELS
 from loomfmu.progress import Progress
-from loomfmu.registry import FIDELITY, MODELS, load_model
+from loomfmu.registry import FIDELITY, MODELS, load_model, option_defaults
 
 
 class UsageError(Exception):
@@ -52,13 +50,6 @@ def parse_assignments(items: list[str], flag: str) -> dict:
 def _suggest(name: str, allowed) -> str:
     close = difflib.get_close_matches(name, list(allowed), n=3)
     return f" (did you mean {', '.join(close)}?)" if close else ""
-
-
-def option_defaults(name: str) -> dict[str, object]:
-    """The build options of model ``name`` with their defaults."""
-    module, fixed = MODELS[name]
-    sig = inspect.signature(importlib.import_module(f"loomfmu.models.{module}").build)
-    return {k: fixed.get(k, p.default) for k, p in sig.parameters.items() if k not in fixed}
 
 
 def check_model(name: str) -> None:

@@ -187,6 +187,12 @@ class EventIndicator:
 class Model:
     """A mechanism declared as an acausal DAE."""
 
+    @property
+    def registry_name(self) -> str:
+        """The name under which loomfmu's registry knows this model (the
+        default build's name for a variant)."""
+        return self.variant_of or self.name
+
     name: str
     description: str = ""
     stop_time: float = 1.0
@@ -199,6 +205,10 @@ class Model:
     events: list[EventIndicator] = field(default_factory=list)
     ports: list[Port] = field(default_factory=list)
     options: dict = field(default_factory=dict)  # build options the model was made with
+    # The registry's name of the model this declaration is a variant of, when
+    # its build options differ from the defaults (``name`` then carries them:
+    # heald_frame_warp_tension_input); empty for a default build.
+    variant_of: str = ""
     mode_values: dict[str, tuple[int, ...]] = field(default_factory=dict)
     mode_valid: dict[str, ca.SX] = field(default_factory=dict)
     reinits: dict[str, ca.SX] = field(default_factory=dict)

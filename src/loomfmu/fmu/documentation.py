@@ -299,7 +299,7 @@ def _validity(model: Model) -> str:
     """The fidelity level (what the model leaves out, where it suffices) and
     the validity conditions checked while it runs."""
     out = []
-    lv = LEVELS.get(model.name)
+    lv = LEVELS.get(model.registry_name)
     if lv is not None:
         def items(texts):
             return "<br>".join(_e(t) for t in (_for_build(model, x) for x in texts) if t)
