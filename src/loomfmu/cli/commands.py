@@ -176,6 +176,9 @@ def cmd_build(args) -> int:
     names = args.models or sorted(MODELS)
     for name in names:
         check_model(name)
+    if args.platforms is not None:
+        from loomfmu.fmu.platforms import parse
+        parse(args.platforms, args.fmi_version, arg="--platforms")  # before any build
     options = parse_assignments(args.option, "--option")
     models = {name: declare(name, options) for name in names}
     from loomfmu.fmu.builder import build_fmu
@@ -186,9 +189,10 @@ def cmd_build(args) -> int:
         for name, model in models.items():
             bar.stage(f"{name}: generating C, compiling, validating")
             result = build_fmu(model, out_dir=out_dir, fmi_version=args.fmi_version,
-                               interface=args.interface)
+                               interface=args.interface, platforms=args.platforms)
             rep = {"fmu": str(result.path), "guid": result.guid,
                    "fmi_version": result.fmi_version, "interface": result.interface,
+                   "platforms": list(result.platforms),
                    "build_seconds": result.build_seconds,
                    "validation_problems": result.problems, "options": options}
             verify = not args.no_verify and args.interface != "me"

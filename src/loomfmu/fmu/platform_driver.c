@@ -14,8 +14,8 @@
  * FMI 3.0: a path), START STOP STEP the experiment and its output interval,
  * SUBSTEPS explicit Euler steps per output interval (model exchange), NX NZ
  * the number of states and event indicators (model exchange), VR the value
- * references of the Float64 outputs to record.  Co-simulation: one doStep
- * per output interval with the FMU's embedded solver.  Model exchange:
+ * references of the Float64 outputs to record.  Output times: START + i STEP
+ * and STOP.  Co-simulation: one doStep per output interval with the FMU's embedded solver.  Model exchange:
  * explicit Euler at STEP / SUBSTEPS, events handled at the end of the step
  * where an indicator changed sign, a time event fell or the FMU asked
  * (completedIntegratorStep).
@@ -118,9 +118,13 @@ static void logger3(fmi3InstanceEnvironment env, fmi3Status status, fmi3String c
 #define CHECK2(call, what, t) do { if ((call) > fmi2Warning) FAIL(what, t); } while (0)
 #define CHECK3(call, what, t) do { if ((call) > fmi3Warning) FAIL(what, t); } while (0)
 
-static double out_time(const Job *j, long i) { return j->start + (double)i * j->step; }
+/* output times: START + i STEP, the last one STOP (a shorter last interval
+ * when STOP is not on the grid) */
+static long n_out(const Job *j) { return (long)ceil((j->stop - j->start) / j->step - 1e-9); }
 
-static long n_out(const Job *j) { return (long)floor((j->stop - j->start) / j->step + 0.5); }
+static double out_time(const Job *j, long i) {
+    return i >= n_out(j) ? j->stop : j->start + (double)i * j->step;
+}
 
 /* sign change of an event indicator between two points */
 static int crossed(const double *z0, const double *z1, size_t nz) {
