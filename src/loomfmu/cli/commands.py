@@ -381,9 +381,10 @@ def cmd_simulate(args) -> int:
             fmu = Path(args.target)
         else:
             from loomfmu.fmu.builder import build_fmu
+            from loomfmu.fmu.platforms import HOST
             with Progress(total=1, desc="build") as bar:
                 bar.stage(f"{model.name}: generating C, compiling")
-                fmu = build_fmu(model, out_dir=tmp, validate=False).path
+                fmu = build_fmu(model, out_dir=tmp, validate=False, platforms=HOST).path
                 bar.advance(f"{model.name}: built")
         from loomfmu.verification.verify import quiet_callbacks
         try:

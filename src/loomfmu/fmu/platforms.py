@@ -87,6 +87,11 @@ PLATFORMS: dict[str, Platform] = {
 #: FMI 3.0's folder names, accepted as well
 ALIASES = {p.fmi3_folder: name for name, p in PLATFORMS.items()}
 
+#: The platform whose binaries FMPy loads here: a build that is only run on
+#: this machine (a simulation, an analysis, a benchmark) passes
+#: ``platforms=HOST`` and compiles nothing else
+HOST = "linux64"
+
 _noted: set[str] = set()
 
 
