@@ -23,6 +23,11 @@ output at every output time has the native run's bits, else the largest
 a * b + c into one fused multiply-add, rounded once) and compared in the
 same way: what the flag buys.
 
+--libm: compile benchmarks/platforms_libm.c for each platform (the C
+library's sin, cos, exp, pow, ... on 100000 arguments each), run it the same
+way and count, per function, the results whose bits differ from the native
+run's; with --json, only that entry of an existing file is replaced.
+
 FMI 2.0 co-simulation gives FMI 3.0's numbers bit for bit natively
 (docs/guides/fmi_variants.md), so FMI 3.0 stands for both here; FMI 2.0
 names no aarch64 folder. Exit 1 if a build or a run failed.
@@ -47,6 +52,37 @@ from loomfmu.fmu.platforms import PLATFORMS
 from loomfmu.registry import MODELS
 
 EMULATOR = {"linux64": "native", "win64": "wine", "aarch64": "qemu-aarch64"}
+LIBM_PROBE = Path(__file__).with_name("platforms_libm.c")
+
+
+def libm(work: Path) -> dict:
+    """Per platform and function: results of platforms_libm.c whose bits
+    differ from the native run's (of 100000)."""
+    from loomfmu.fmu.platform_run import wine_env
+    outs = {}
+    for name in [n for n in PLATFORMS if missing_tools(n) is None]:
+        p = PLATFORMS[name]
+        exe = work / f"libm_{name}{'.exe' if p.windows else ''}"
+        subprocess.run([p.cc, "-std=c99", "-O2", "-ffp-contract=off", "-o", str(exe),
+                        str(LIBM_PROBE), *(["-static-libgcc"] if p.windows else ["-lm"])],
+                       check=True)
+        outs[name] = subprocess.run([*p.emulator, str(exe)], capture_output=True, text=True,
+                                    check=True, env=wine_env() if p.windows else None
+                                    ).stdout.replace("\r", "").split("\n")
+    native = outs["linux64"]
+    result = {}
+    for name, lines in outs.items():
+        if name == "linux64":
+            continue
+        diff: dict[str, int] = {}
+        for a, b in zip(native, lines):
+            if a != b:
+                fn = a.split()[0]
+                diff[fn] = diff.get(fn, 0) + 1
+        funcs = sorted({ln.split()[0] for ln in native if ln})
+        result[name] = {f: diff.get(f, 0) for f in funcs}
+        result[name]["_same_length"] = len(native) == len(lines)
+    return result
 
 
 def _version(cmd: list[str]) -> str:
@@ -168,7 +204,20 @@ def main(argv=None) -> int:
     ap.add_argument("--contract-models", default="two_mass_force,heald_frame_rigid,"
                                                   "heald_frame,backrest,spindle_modal")
     ap.add_argument("--table-from", type=Path, default=None)
+    ap.add_argument("--libm", action="store_true",
+                    help="only the math-library comparison (platforms_libm.c)")
     args = ap.parse_args(argv)
+    if args.libm:
+        with tempfile.TemporaryDirectory() as tmp:
+            res = libm(Path(tmp))
+        print(json.dumps(res, indent=1))
+        if args.json:
+            data = json.loads(args.json.read_text()) if args.json.exists() else {}
+            data["libm_differing_bits_of_100000"] = res
+            data["libm_command"] = "python benchmarks/platforms.py --libm " + \
+                " ".join(a for a in (argv or sys.argv[1:]) if a != "--libm")
+            args.json.write_text(json.dumps(data, indent=2) + "\n")
+        return 0
     if args.table_from:
         print(table(json.loads(args.table_from.read_text())), end="")
         return 0
