@@ -7,14 +7,17 @@
  *
  * JOBFILE: one run per line, fields separated by spaces:
  *
- *     LIB FMI(2|3) IFACE(cs|me) TOKEN RESOURCES START STOP STEP SUBSTEPS NX NZ OUT.csv NVR VR...
+ *     LIB FMI(2|3) IFACE(cs|me) TOKEN RESOURCES START STOP STEP SUBSTEPS NX NZ OUT.csv
+ *         NSET (i|r VR VALUE)... NVR VR...
  *
  * LIB the shared library (dlopen / LoadLibrary), TOKEN the GUID or
  * instantiation token, RESOURCES the resource location (FMI 2.0: a file URI;
  * FMI 3.0: a path), START STOP STEP the experiment and its output interval,
  * SUBSTEPS explicit Euler steps per output interval (model exchange), NX NZ
- * the number of states and event indicators (model exchange), VR the value
- * references of the Float64 outputs to record.  Output times: START + i STEP
+ * the number of states and event indicators (model exchange), NSET start
+ * values to set before initialization (i: an Integer/Int32, r: a
+ * Real/Float64, by value reference), VR the value references of the Float64
+ * outputs to record.  Output times: START + i STEP
  * and STOP.  Co-simulation: one doStep per output interval with the FMU's embedded solver.  Model exchange:
  * explicit Euler at STEP / SUBSTEPS, events handled at the end of the step
  * where an indicator changed sign, a time event fell or the FMU asked
@@ -56,6 +59,7 @@ static void lib_close(Lib h) { dlclose(h); }
 #endif
 
 #define MAX_VR 256
+#define MAX_SET 16
 #define MAX_X 512
 
 static int missing = 0;
@@ -95,8 +99,11 @@ typedef struct {
     int fmi;
     double start, stop, step;
     int substeps;
-    size_t nx, nz, nvr;
+    size_t nx, nz, nvr, nset;
     unsigned int vr[MAX_VR];
+    char set_kind[MAX_SET];
+    unsigned int set_vr[MAX_SET];
+    double set_value[MAX_SET];
 } Job;
 
 static char failure[256];
@@ -158,6 +165,19 @@ static int run2(Lib h, const Job *j, FILE *out) {
     c = inst("driver", me ? fmi2ModelExchange : fmi2CoSimulation, j->token, j->res, &cb,
              fmi2False, fmi2False);
     if (c == NULL) FAIL("fmi2Instantiate", t);
+    {
+        fmi2SetIntegerTYPE *seti = (fmi2SetIntegerTYPE *)sym(h, "fmi2SetInteger");
+        fmi2SetRealTYPE *setr = (fmi2SetRealTYPE *)sym(h, "fmi2SetReal");
+        size_t q;
+        if (missing) FAIL("functions", t);
+        for (q = 0; q < j->nset; q++) {
+            fmi2Integer iv = (fmi2Integer)j->set_value[q];
+            if (j->set_kind[q] == 'i')
+                CHECK2(seti(c, &j->set_vr[q], 1, &iv), "fmi2SetInteger", t);
+            else
+                CHECK2(setr(c, &j->set_vr[q], 1, &j->set_value[q]), "fmi2SetReal", t);
+        }
+    }
     CHECK2(setup(c, fmi2False, 0.0, j->start, fmi2True, j->stop), "fmi2SetupExperiment", t);
     CHECK2(enter(c), "fmi2EnterInitializationMode", t);
     CHECK2(exit_(c), "fmi2ExitInitializationMode", t);
@@ -235,6 +255,21 @@ done:
     return failure[0] == 0;
 }
 
+/* the job's start values, before initialization */
+static int set3(Lib h, fmi3Instance c, const Job *j) {
+    fmi3SetInt32TYPE *seti = (fmi3SetInt32TYPE *)sym(h, "fmi3SetInt32");
+    fmi3SetFloat64TYPE *setr = (fmi3SetFloat64TYPE *)sym(h, "fmi3SetFloat64");
+    size_t q;
+    if (missing) return 0;
+    for (q = 0; q < j->nset; q++) {
+        fmi3Int32 iv = (fmi3Int32)j->set_value[q];
+        fmi3Status st = j->set_kind[q] == 'i' ? seti(c, &j->set_vr[q], 1, &iv, 1)
+                                              : setr(c, &j->set_vr[q], 1, &j->set_value[q], 1);
+        if (st > fmi3Warning) return 0;
+    }
+    return 1;
+}
+
 static int run3(Lib h, const Job *j, FILE *out) {
     fmi3FreeInstanceTYPE *free_ = (fmi3FreeInstanceTYPE *)sym(h, "fmi3FreeInstance");
     fmi3EnterInitializationModeTYPE *enter =
@@ -258,6 +293,7 @@ static int run3(Lib h, const Job *j, FILE *out) {
         c = inst("driver", j->token, j->res, fmi3False, fmi3False, fmi3False, fmi3False,
                  NULL, 0, NULL, logger3, NULL);
         if (c == NULL) FAIL("fmi3InstantiateCoSimulation", t);
+        if (!set3(h, c, j)) FAIL("fmi3SetInt32/fmi3SetFloat64", t);
         CHECK3(enter(c, fmi3False, 0.0, j->start, fmi3True, j->stop),
                "fmi3EnterInitializationMode", t);
         CHECK3(exit_(c), "fmi3ExitInitializationMode", t);
@@ -297,6 +333,7 @@ static int run3(Lib h, const Job *j, FILE *out) {
         if (j->nx > MAX_X || j->nz > MAX_X) FAIL("too many states", t);
         c = inst("driver", j->token, j->res, fmi3False, fmi3False, NULL, logger3);
         if (c == NULL) FAIL("fmi3InstantiateModelExchange", t);
+        if (!set3(h, c, j)) FAIL("fmi3SetInt32/fmi3SetFloat64", t);
         CHECK3(enter(c, fmi3False, 0.0, j->start, fmi3True, j->stop),
                "fmi3EnterInitializationMode", t);
         CHECK3(exit_(c), "fmi3ExitInitializationMode", t);
@@ -344,11 +381,22 @@ done:
 
 static int read_job(FILE *f, Job *j) {
     size_t i;
+    unsigned long nx, nz, nset, nvr;
     if (fscanf(f, "%1023s %d %7s %255s %1023s %lf %lf %lf %d %lu %lu %1023s %lu", j->lib, &j->fmi,
                j->iface, j->token, j->res, &j->start, &j->stop, &j->step, &j->substeps,
-               (unsigned long *)&j->nx, (unsigned long *)&j->nz, j->out,
-               (unsigned long *)&j->nvr) != 13)
+               &nx, &nz, j->out, &nset) != 13)
         return 0;
+    j->nx = nx;
+    j->nz = nz;
+    j->nset = nset;
+    if (j->nset > MAX_SET) return -1;
+    for (i = 0; i < j->nset; i++) {
+        char kind[2];
+        if (fscanf(f, "%1s %u %lf", kind, &j->set_vr[i], &j->set_value[i]) != 3) return -1;
+        j->set_kind[i] = kind[0];
+    }
+    if (fscanf(f, "%lu", &nvr) != 1) return -1;
+    j->nvr = nvr;
     if (j->nvr > MAX_VR || j->step <= 0 || j->substeps < 1) return -1;
     for (i = 0; i < j->nvr; i++)
         if (fscanf(f, "%u", &j->vr[i]) != 1) return -1;

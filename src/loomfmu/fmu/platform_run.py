@@ -92,8 +92,8 @@ def _path_for(platform: Platform, path: Path) -> str:
     return "Z:" + str(path).replace("/", "\\") if platform.windows else str(path)
 
 
-def _job_line(platform: Platform, fmu: Path, interface: str, unzip: Path, out_csv: Path
-              ) -> tuple[str, list[str]]:
+def _job_line(platform: Platform, fmu: Path, interface: str, unzip: Path, out_csv: Path,
+              start_values: dict | None = None) -> tuple[str, list[str]]:
     md = read_model_description(str(fmu))
     fmi = int(md.fmiVersion[0])
     folder = platform.folder(fmi)
@@ -118,10 +118,19 @@ def _job_line(platform: Platform, fmu: Path, interface: str, unzip: Path, out_cs
     resources = (res.resolve().as_uri() if fmi == 2
                  else _path_for(platform, res) + ("\\" if platform.windows else "/"))
     token = md.guid if fmi == 2 else md.instantiationToken
+    by_name = {v.name: v for v in md.modelVariables}
+    sets = []
+    for var, value in (start_values or {}).items():
+        v = by_name.get(var)
+        if v is None or v.type not in ("Integer", "Int32", "Real", "Float64"):
+            raise ValueError(f"start_values: {var!r} is not a Real/Float64 or Integer/Int32 "
+                             f"variable of {fmu.name}")
+        kind = "i" if v.type in ("Integer", "Int32") else "r"
+        sets += [kind, str(v.valueReference), repr(int(value) if kind == "i" else float(value))]
     fields = [_path_for(platform, lib), str(fmi), interface, token, resources,
               repr(start), repr(stop), repr(step), str(EULER_SUBSTEPS),
               str(len(md.derivatives)), str(md.numberOfEventIndicators or 0),
-              _path_for(platform, out_csv), str(len(outputs)),
+              _path_for(platform, out_csv), str(len(sets) // 3), *sets, str(len(outputs)),
               *[str(v.valueReference) for v in outputs]]
     if any(not f or any(c.isspace() for c in f) for f in fields):
         raise ValueError(f"fmu = {str(fmu)!r}: a path or token with a space cannot be "
@@ -136,11 +145,13 @@ def _read_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return data[:, 0], data[:, 1:]
 
 
-def run_on(platform_name: str, runs: list[tuple[Path, str]], work_dir: Path | None = None,
+def run_on(platform_name: str, runs: list[tuple], work_dir: Path | None = None,
            timeout: float = 3600.0) -> list[DriverRun]:
     """Run each ``(fmu, interface)`` ("cs" or "me") over its default
     experiment with the FMU's binary for ``platform_name``, in one driver
-    process; one :class:`DriverRun` each, in order. Raises BuildError if the
+    process; one :class:`DriverRun` each, in order. A third element, a dict
+    of start values by variable name (Real/Float64 or Integer/Int32, e.g.
+    ``{"solver_index": 3}`` for rk4), is set before initialization. Raises BuildError if the
     platform's compiler or emulator is missing (:func:`missing_tools`)."""
     platform = PLATFORMS[platform_name]
     why = missing_tools(platform_name)
@@ -150,12 +161,13 @@ def run_on(platform_name: str, runs: list[tuple[Path, str]], work_dir: Path | No
         tmp = Path(tmp)
         exe = build_driver(platform, tmp)
         lines, names, csvs = [], [], []
-        for i, (fmu, interface) in enumerate(runs):
+        for i, (fmu, interface, *start) in enumerate(runs):
             unzip = tmp / f"fmu{i}"
             with zipfile.ZipFile(fmu) as z:
                 z.extractall(unzip)
             csv = tmp / f"run{i}.csv"
-            line, outs = _job_line(platform, Path(fmu), interface, unzip, csv)
+            line, outs = _job_line(platform, Path(fmu), interface, unzip, csv,
+                                   start[0] if start else None)
             lines.append(line)
             names.append(outs)
             csvs.append(csv)
@@ -171,7 +183,7 @@ def run_on(platform_name: str, runs: list[tuple[Path, str]], work_dir: Path | No
             if len(parts) >= 3 and parts[0] == "RUN":
                 status[int(parts[1]) - 1] = (parts[2] == "OK", " ".join(parts[3:]))
         out = []
-        for i, (fmu, interface) in enumerate(runs):
+        for i, (fmu, interface, *_) in enumerate(runs):
             ok, msg = status.get(i, (False, f"no result (exit {proc.returncode}): "
                                             f"{proc.stderr.strip()[-500:]}"))
             r = DriverRun(Path(fmu), interface, ok, msg, names[i])
