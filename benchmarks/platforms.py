@@ -28,6 +28,12 @@ library's sin, cos, exp, pow, ... on 100000 arguments each), run it the same
 way and count, per function, the results whose bits differ from the native
 run's; with --json, only that entry of an existing file is replaced.
 
+--solvers-of MODEL: MODEL's FMI 3.0 co-simulation FMU run with each embedded
+solver (dopri5, rk4, ros34pw2: ``solver_index`` set by the driver) natively
+and on every other platform: whether a difference comes from the adaptive
+step sequence (a fixed step has none); with --json, only that entry of an
+existing file is replaced.
+
 FMI 2.0 co-simulation gives FMI 3.0's numbers bit for bit natively
 (docs/guides/fmi_variants.md), so FMI 3.0 stands for both here; FMI 2.0
 names no aarch64 folder. Exit 1 if a build or a run failed.
@@ -53,6 +59,22 @@ from loomfmu.registry import MODELS
 
 EMULATOR = {"linux64": "native", "win64": "wine", "aarch64": "qemu-aarch64"}
 LIBM_PROBE = Path(__file__).with_name("platforms_libm.c")
+
+
+def solvers_of(model: str, work: Path) -> dict:
+    """Each embedded solver on every platform, against the native run."""
+    names = [n for n in PLATFORMS if missing_tools(n) is None]
+    fmu = build_fmu(load_model(model), out_dir=work, fmi_version=3, validate=False,
+                    platforms=names).path
+    solvers = {"dopri5": 1, "rk4": 3, "ros34pw2": 4}
+    runs = [(fmu, "cs", {"solver_index": i}) for i in solvers.values()]
+    native = run_on("linux64", runs)
+    out: dict = {"rk4_vs_dopri5_native": compare(native[0], native[1])}
+    for name in names[1:]:
+        for solver, n, r in zip(solvers, native, run_on(name, runs)):
+            out.setdefault(name, {})[solver] = (compare(n, r) if n.ok and r.ok else
+                                                {"ok": False, "message": n.message + r.message})
+    return out
 
 
 def libm(work: Path) -> dict:
@@ -204,9 +226,23 @@ def main(argv=None) -> int:
     ap.add_argument("--contract-models", default="two_mass_force,heald_frame_rigid,"
                                                   "heald_frame,backrest,spindle_modal")
     ap.add_argument("--table-from", type=Path, default=None)
+    ap.add_argument("--solvers-of", default=None, metavar="MODEL",
+                    help="only MODEL, with each embedded solver")
     ap.add_argument("--libm", action="store_true",
                     help="only the math-library comparison (platforms_libm.c)")
     args = ap.parse_args(argv)
+    if args.solvers_of:
+        if args.solvers_of not in MODELS:
+            ap.error(f"unknown model {args.solvers_of!r}; allowed: {', '.join(sorted(MODELS))}")
+        with tempfile.TemporaryDirectory() as tmp:
+            res = solvers_of(args.solvers_of, Path(tmp))
+        print(json.dumps(res, indent=1))
+        if args.json:
+            data = json.loads(args.json.read_text()) if args.json.exists() else {}
+            data[f"solvers_{args.solvers_of}"] = res | {
+                "command": "python benchmarks/platforms.py " + " ".join(argv or sys.argv[1:])}
+            args.json.write_text(json.dumps(data, indent=2) + "\n")
+        return 0
     if args.libm:
         with tempfile.TemporaryDirectory() as tmp:
             res = libm(Path(tmp))
