@@ -615,6 +615,11 @@ def cases() -> list[Case]:
         lambda fx: _build(fx, out_dir=fx.tmp, fmi_version=4))
     add("build_fmu(interface='hil')", "interface",
         lambda fx: _build(fx, out_dir=fx.tmp, interface="hil"))
+    add("build_fmu(platforms='win32')", "platforms",
+        lambda fx: _build(fx, out_dir=fx.tmp, platforms="win32"))
+    add("build_fmu(platforms=[])", "platforms", lambda fx: _build(fx, out_dir=fx.tmp, platforms=[]))
+    add("build_fmu(platforms='aarch64')", "platforms",
+        lambda fx: _build(fx, out_dir=fx.tmp, platforms="aarch64"))
 
     def _unit(u):
         from loomfmu.declare.units import check_unit

@@ -1,7 +1,15 @@
-"""Shared fixtures: FMUs are built once per test session into a temporary dir."""
+"""Shared fixtures: FMUs are built once per test session into a temporary dir.
+
+Every build of the suite is for x86-64 Linux only (``LOOMFMU_PLATFORMS``,
+inherited by the ``loomfmu`` commands the tests run), unless a test asks for
+other platforms with ``build_fmu(..., platforms=...)``: cross-compiling is
+the subject of tests/test_platforms.py only, and would otherwise triple the
+suite's compile time.
+"""
 from __future__ import annotations
 
 import gc
+import os
 
 import pytest
 from fmpy import calloc, extract, free, read_model_description
@@ -15,6 +23,8 @@ from fmpy.fmi2 import (
 
 from loomfmu import build_fmu, load_model
 from loomfmu.verification.fmpy_logger import restore_fmpy_proxy
+
+os.environ.setdefault("LOOMFMU_PLATFORMS", "linux64")
 
 
 @pytest.fixture(scope="session")
@@ -145,7 +155,7 @@ def pytest_runtest_teardown(item, nextitem):
 def _watch_builds():
     from loomfmu.fmu import builder, compile_cache
 
-    compile_objects = compile_cache.compile_objects
+    compile_jobs = compile_cache.compile_jobs
 
     def watched(*args, **kwargs):
         item = _current_item
@@ -153,12 +163,12 @@ def _watch_builds():
             pytest.fail(f"{item.nodeid} builds an FMU but is not marked slow: add "
                         "@pytest.mark.slow (or pytestmark = pytest.mark.slow to its module)",
                         pytrace=False)
-        return compile_objects(*args, **kwargs)
+        return compile_jobs(*args, **kwargs)
 
-    # the builder's own reference and the module's (a direct call); builds in
-    # a subprocess (`loomfmu build` run by a test) are not seen: such tests
-    # carry the marker by hand (the command-line tests are slow as a module)
-    builder.compile_objects = compile_cache.compile_objects = watched
+    # the builder's own reference and the module's (compile_objects calls it);
+    # builds in a subprocess (`loomfmu build` run by a test) are not seen: such
+    # tests carry the marker by hand (the command-line tests are slow as a module)
+    builder.compile_jobs = compile_cache.compile_jobs = watched
 
 
 _watch_builds()

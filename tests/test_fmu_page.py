@@ -49,6 +49,41 @@ def test_page_says_how_to_rebuild_from_the_sources_with_gcc_clang_and_msvc():
     assert "-lm" in build
 
 
+@pytest.mark.parametrize("version", [2, 3])
+def test_page_names_the_binaries_it_holds_and_how_to_rebuild_for_the_others(version):
+    """The platform table: each binary of the FMU in its folder, the others
+    to rebuild (macOS with clang; ARM Linux under FMI 2.0, which names no
+    folder for it)."""
+    model = load_model("two_mass_force")
+    folders = ["linux64", "win64"] if version == 2 else ["x86_64-linux", "x86_64-windows",
+                                                         "aarch64-linux"]
+    ext = {"linux64": ".so", "win64": ".dll", "x86_64-linux": ".so",
+           "x86_64-windows": ".dll", "aarch64-linux": ".so"}
+    members = [f"binaries/{f}/two_mass_force{ext[f]}" for f in folders] + \
+        ["sources/two_mass_force_casadi.c"]
+    xml = None
+    if version == 3:
+        from loomfmu.export.dae import dae_form
+        from loomfmu.export.fmi_xml import model_description
+        xml = model_description(model, dae_form(model), "{0}", ["x.c"], fmi_version=3,
+                                interface="cs")
+    page = html.unescape(html_for(model, members=members, model_description_xml=xml))
+    build = page[page.index('<section id="build">'):]
+    build = build[:build.index("</section>")]
+    for f in folders:
+        assert f"binaries/{f}/two_mass_force{ext[f]}</code>" in build
+    assert "wine" in build and "qemu-aarch64" in build
+    assert "x86_64-w64-mingw32-gcc" in build and "-static-libgcc" in build
+    assert "-ffp-contract=off" in build
+    mac = "aarch64-darwin" if version == 3 else "darwin64"
+    assert "-dynamiclib -I sources" in build and f"binaries/{mac}/two_mass_force.dylib" in build
+    if version == 2:
+        assert "FMI 2.0 names no folder for ARM" in build
+        assert "none in FMI 2.0" in build
+    else:
+        assert "FMI 2.0 names no folder" not in build
+
+
 def test_page_describes_only_the_build_options_this_fmu_has():
     page = html_for(load_model("spindle_modal"))
     assert "static_correction=True" not in page, page[page.index("static_correction=True")

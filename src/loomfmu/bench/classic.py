@@ -24,6 +24,7 @@ import numpy as np
 from fmpy import read_model_description
 
 from loomfmu.fmu.builder import build_fmu
+from loomfmu.fmu.platforms import HOST
 from loomfmu.registry import load_model
 from loomfmu.verification.reference import reference
 from loomfmu.verification.verify import compare, simulate
@@ -74,7 +75,7 @@ def speed(model_name: str = "heald_frame", repeats: int = 5, scale: float = 1.0,
     stop = model.stop_time * scale
     curves: dict[str, list[dict]] = {}
     with tempfile.TemporaryDirectory() as tmp:
-        fmu = build_fmu(model, out_dir=tmp, validate=False).path
+        fmu = build_fmu(model, out_dir=tmp, validate=False, platforms=HOST).path
         unzipped = Path(tmp) / "unzipped"
         with zipfile.ZipFile(fmu) as z:
             z.extractall(unzipped)
@@ -125,9 +126,9 @@ def friction(repeats: int = 3, eps_values=(1e-1, 1e-2, 1e-3, 1e-4, 1e-5),
     event_model = load_model("backrest")
     rows, switches = [], {}
     with tempfile.TemporaryDirectory() as tmp:
-        ev_fmu = build_fmu(event_model, out_dir=tmp, validate=False).path
+        ev_fmu = build_fmu(event_model, out_dir=tmp, validate=False, platforms=HOST).path
         reg_fmu = build_fmu(load_model("backrest", friction="regularized"), out_dir=tmp,
-                            validate=False).path
+                            validate=False, platforms=HOST).path
         grid = simulate(ev_fmu, output=["phi1_out"]).t
         for k_static in k_static_values:
             ref = reference(event_model, t_end=grid[-1], t_eval=grid, rtol=1e-11,

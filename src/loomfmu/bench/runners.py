@@ -47,6 +47,7 @@ from loomfmu.declare.model import Model
 from loomfmu.declare.solvers import SOLVERS
 from loomfmu.export.dae import dae_form
 from loomfmu.fmu.builder import build_fmu
+from loomfmu.fmu.platforms import HOST
 from loomfmu.verification import fmpy_logger
 from loomfmu.verification.reference import reference
 from loomfmu.verification.verify import simulate
@@ -99,7 +100,7 @@ class Fmu:
 
     def __init__(self, model: Model, out_dir: Path):
         out_dir.mkdir(parents=True, exist_ok=True)
-        self.path = build_fmu(model, out_dir=out_dir, validate=False).path
+        self.path = build_fmu(model, out_dir=out_dir, validate=False, platforms=HOST).path
         self.dir = out_dir / f"{model.name}_unzipped"
         with zipfile.ZipFile(self.path) as z:
             z.extractall(self.dir)

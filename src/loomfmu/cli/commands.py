@@ -174,9 +174,10 @@ def _build_one(name: str, model, args, on_stage) -> tuple[str, dict]:
     from loomfmu.verification.verify import verify as verify_fmu
     on_stage(f"{name}: generating C, compiling, validating")
     result = build_fmu(model, out_dir=args.out_dir, fmi_version=args.fmi_version,
-                       interface=args.interface)
+                       interface=args.interface, platforms=args.platforms)
     rep = {"fmu": str(result.path), "guid": result.guid,
            "fmi_version": result.fmi_version, "interface": result.interface,
+           "platforms": list(result.platforms),
            "build_seconds": result.build_seconds,
            "validation_problems": result.problems, "options": args.option_values}
     verify = not args.no_verify and args.interface != "me"
@@ -224,7 +225,8 @@ def _build_all(names: list[str], models: dict, args, bar: Progress) -> dict[str,
     # What a worker needs of the command line (the parsed Namespace holds
     # argparse's own functions, which do not pickle).
     plain = SimpleNamespace(**{k: getattr(args, k) for k in (
-        "out_dir", "fmi_version", "interface", "no_verify", "rtol", "option_values")})
+        "out_dir", "fmi_version", "interface", "no_verify", "rtol", "option_values",
+        "platforms")})
     with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
         futures = {pool.submit(_build_in_worker, name, plain): name for name in order}
         for future in as_completed(futures):
@@ -252,6 +254,9 @@ def cmd_build(args) -> int:
     names = args.models or sorted(MODELS)
     for name in names:
         check_model(name)
+    if args.platforms is not None:
+        from loomfmu.fmu.platforms import parse
+        parse(args.platforms, args.fmi_version, arg="--platforms")  # before any build
     args.option_values = parse_assignments(args.option, "--option")
     # Declared here when built here; each worker process declares its own.
     models = ({name: declare(name, args.option_values) for name in names}
@@ -431,9 +436,10 @@ def cmd_simulate(args) -> int:
             fmu = Path(args.target)
         else:
             from loomfmu.fmu.builder import build_fmu
+            from loomfmu.fmu.platforms import HOST
             with Progress(total=1, desc="build") as bar:
                 bar.stage(f"{model.name}: generating C, compiling")
-                fmu = build_fmu(model, out_dir=tmp, validate=False).path
+                fmu = build_fmu(model, out_dir=tmp, validate=False, platforms=HOST).path
                 bar.advance(f"{model.name}: built")
         from loomfmu.verification.verify import quiet_callbacks
         try:

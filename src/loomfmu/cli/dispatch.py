@@ -2,7 +2,8 @@
 
     loomfmu list                      models, build options, fidelity levels
     loomfmu build [MODEL ...]         build, validate, verify -> dist/*.fmu, report.json
-                                      (--fmi-version 2|3 --interface cs|me|both)
+                                      (--fmi-version 2|3 --interface cs|me|both
+                                       --platforms linux64,win64,aarch64)
     loomfmu simulate MODEL|FMU        one run, printed, --csv / --plot
     loomfmu verify FMU                compare an FMU with its scipy reference
     loomfmu docs                      docs/reference/models/<model>.md from the declarations
@@ -74,6 +75,11 @@ def _parser() -> argparse.ArgumentParser:
                         "exchange (the importer integrates; not verified at build: 'loomfmu "
                         "verify FMU' runs it once through FMPy's CVode); both: one FMU with "
                         "both (the embedded solvers verified)")
+    p.add_argument("--platforms", default=None, metavar="LIST",
+                   help="binaries to build, comma-separated: linux64, win64, aarch64 (or "
+                        "x86_64-linux, x86_64-windows, aarch64-linux; FMI 2.0 has no aarch64 "
+                        "folder); default: $LOOMFMU_PLATFORMS, else every platform whose "
+                        "compiler is installed (one line names those skipped)")
     p.add_argument("--no-verify", action="store_true",
                    help="skip the comparison with the scipy reference")
     p.add_argument("--jobs", type=int, default=None, metavar="N",

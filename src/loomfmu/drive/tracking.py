@@ -19,6 +19,7 @@ from pathlib import Path
 
 from loomfmu.declare.checks import check_array, check_bool, check_int, check_number
 from loomfmu.fmu.builder import build_fmu
+from loomfmu.fmu.platforms import HOST
 from loomfmu.mechanics.drive_law import MAX_HARMONICS, law_constants
 from loomfmu.mechanics.drive_params import DriveParams, check_params
 from loomfmu.mechanics.layer_cam import cam_profile_phi, fmu_cam_parameters, tracking_error
@@ -61,7 +62,7 @@ def tracking_rows(taus=TAUS, time_constants=TIME_CONSTANTS, m: int = M_HARMONICS
     harmonics = model.options["harmonics"]
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        fmu = build_fmu(model, out_dir=tmp, validate=False).path
+        fmu = build_fmu(model, out_dir=tmp, validate=False, platforms=HOST).path
         for tau in taus:
             for T in time_constants:
                 p = dataclasses.replace(DriveParams(), tau=float(tau), T=float(T))
@@ -102,7 +103,7 @@ def mismatch_rows(factors=MISMATCH, m: int = M_HARMONICS, rtol: float = 1e-8) ->
     cams = {comp: cam_values(design, m, comp, harmonics) for comp in (True, False)}
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        fmu = build_fmu(model, out_dir=tmp, validate=False).path
+        fmu = build_fmu(model, out_dir=tmp, validate=False, platforms=HOST).path
         for f_tau in factors:
             for f_T in factors:
                 plant = dataclasses.replace(design, tau=design.tau * float(f_tau),

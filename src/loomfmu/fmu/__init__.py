@@ -1,9 +1,11 @@
 """The FMU archive: compile, document, zip.
 
 Owns :func:`~.builder.build_fmu` (sources, gcc with strict flags, the
-exported-symbol check, validation, the .fmu), the compile cache
-(:mod:`.compile_cache`) and the FMU's own documentation page
-(:mod:`.documentation`).
+exported-symbol check, validation, the .fmu), the platforms it builds
+binaries for (:mod:`.platforms`), the driver that runs those binaries
+natively and under emulators (:mod:`.platform_run`, ``platform_driver.c``),
+the compile cache (:mod:`.compile_cache`) and the FMU's own documentation
+page (:mod:`.documentation`).
 
 May import: :mod:`loomfmu.declare`, :mod:`loomfmu.registry`,
 :mod:`loomfmu.export`, :mod:`loomfmu.verification`, :mod:`loomfmu.inspection`.

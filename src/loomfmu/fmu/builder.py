@@ -20,18 +20,29 @@ from loomfmu.export.codegen import generate_sources
 from loomfmu.export.dae import dae_form
 from loomfmu.export.fmi_xml import check_variant, model_description, terminals_and_icons
 from loomfmu.export.runtime_files import RUNTIME_DIR, runtime_headers, runtime_sources
-from loomfmu.fmu.compile_cache import BuildError, CompileStats, compile_objects, run
+from loomfmu.fmu import platforms as plat
+from loomfmu.fmu.compile_cache import BuildError, CompileJob, CompileStats, compile_jobs, run
 from loomfmu.fmu.documentation import write_documentation
 
-#: Flags for code we write (the runtime and the generated declaration).
-STRICT_FLAGS = ("-std=c99", "-O2", "-fPIC", "-fvisibility=hidden", "-Wall", "-Wextra",
-                "-Werror", "-pedantic")
+#: Flags for code we write (the runtime and the generated declaration), on
+#: every platform. -ffp-contract=off: no fused multiply-add where the source
+#: has a * b + c (gcc's default under -std=c99 already; said explicitly so
+#: that the same sources give the same numbers on x86-64 and aarch64 with
+#: any compiler that takes the flag).
+STRICT_FLAGS = ("-std=c99", "-O2", "-fPIC", "-fvisibility=hidden", "-ffp-contract=off",
+                "-Wall", "-Wextra", "-Werror", "-pedantic")
 #: CasADi's generated code: warnings on, but not our code to keep -Werror clean.
-GENERATED_FLAGS = ("-std=c99", "-O2", "-fPIC", "-fvisibility=hidden", "-Wall",
-                   "-Wno-unused-parameter", "-Wno-unused-function")
+GENERATED_FLAGS = ("-std=c99", "-O2", "-fPIC", "-fvisibility=hidden", "-ffp-contract=off",
+                   "-Wall", "-Wno-unused-parameter", "-Wno-unused-function")
+#: Link flags beyond -shared, per platform: the Windows DLL carries libgcc
+#: (no libgcc_s_seh-1.dll beside it); the runtime uses no threads, so no
+#: libwinpthread either (checked after the link: :data:`WINDOWS_SYSTEM_DLLS`)
+LINK_FLAGS = {"linux64": (), "aarch64": (), "win64": ("-static-libgcc",)}
+#: The only DLLs a Windows binary may import: Windows' own
+WINDOWS_SYSTEM_DLLS = ("kernel32.dll", "msvcrt.dll", "ucrtbase.dll", "api-ms-win-crt-")
 
 
-#: Where each FMI version puts the binary (platform folder under binaries/)
+#: Where each FMI version puts the x86-64 Linux binary (platform folder under binaries/)
 PLATFORM = {2: "linux64", 3: "x86_64-linux"}
 #: The generated header that tells the C facades what the FMU declares
 BUILD_HEADER = "lf_build.h"
@@ -105,56 +116,123 @@ class BuildResult:
     problems: list[str] = field(default_factory=list)
     fmi_version: int = 2
     interface: str = "cs"
-    #: C files compiled and objects reused from the build cache
+    #: C files compiled and objects reused from the build cache (all platforms)
     compile_stats: CompileStats = field(default_factory=CompileStats)
+    #: the platforms built (:mod:`loomfmu.fmu.platforms` names)
+    platforms: tuple[str, ...] = ("linux64",)
+    #: the platforms left out because their compiler is not installed
+    skipped_platforms: tuple[str, ...] = ()
 
 
-def compile_binary(src: Path, out: Path, generated_c: list[str], cc: str = "gcc") -> CompileStats:
-    """Compile every .c in ``src`` into the shared library ``out`` (in
-    parallel, objects reused from the cache of :mod:`loomfmu.fmu.compile_cache`)."""
-    include = ["-I", str(src), "-I", str(fmi_headers_dir())]
-    jobs = [(c, GENERATED_FLAGS if c.name in generated_c else STRICT_FLAGS)
-            for c in sorted(src.glob("*.c"))]
+def compile_binaries(src: Path, targets: list[tuple[plat.Platform, Path]],
+                     generated_c: list[str]) -> CompileStats:
+    """Compile every .c in ``src`` into one shared library per ``(platform,
+    out)``: all platforms' files in one parallel pool, objects reused from
+    the cache of :mod:`loomfmu.fmu.compile_cache` (its key holds the
+    compiler's identity, so each platform has its own entries); each library
+    is linked, and its export table checked: the FMI functions and nothing else."""
+    include = ("-I", str(src), "-I", str(fmi_headers_dir()))
+    c_files = sorted(src.glob("*.c"))
     with tempfile.TemporaryDirectory() as tmp:
-        objs, stats = compile_objects(jobs, include, Path(tmp), cc)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        try:
-            _link(cc, src, out, objs)
-        except BuildError:
-            if stats.reused == 0:
-                raise
-            # objects from the cache that do not link (an entry poisoned by
-            # hand, binutils changed under the same gcc): compile everything
-            # again, overwriting the entries, and link once more
-            objs, stats = compile_objects(jobs, include, Path(tmp), cc, refresh=True)
-            _link(cc, src, out, objs)
+        per_target = []
+        for target, out in targets:
+            cc = target.cc
+            obj_dir = Path(tmp) / target.name
+            obj_dir.mkdir()
+            jobs = [CompileJob(c, GENERATED_FLAGS if c.name in generated_c else STRICT_FLAGS,
+                               include, obj_dir / (c.stem + ".o"), cc) for c in c_files]
+            per_target.append((target, out, cc, jobs))
+        stats = compile_jobs([j for *_, jobs in per_target for j in jobs])
+        for target, out, cc, jobs in per_target:
+            objs = [str(j.obj) for j in jobs]
+            out.parent.mkdir(parents=True, exist_ok=True)
+            try:
+                _link(cc, target, src, out, objs)
+            except BuildError:
+                if stats.reused == 0:
+                    raise
+                # objects from the cache that do not link (an entry poisoned by
+                # hand, binutils changed under the same gcc): compile everything
+                # again, overwriting the entries, and link once more
+                again = compile_jobs(jobs, refresh=True)
+                stats = CompileStats(stats.compiled + again.compiled,
+                                     stats.reused - again.compiled)
+                _link(cc, target, src, out, objs)
     return stats
 
 
-def _link(cc: str, src: Path, out: Path, objs: list[str]) -> None:
-    _check_symbols(objs, model_identifier=out.stem)
+def _link(cc: str, target: plat.Platform, src: Path, out: Path, objs: list[str]) -> None:
+    _check_symbols(objs, model_identifier=out.stem, nm=target.tool("nm"))
     # --no-undefined: a facade function missing from the sources is a build error,
     # not a library that fails to load in the importer
-    run([cc, "-shared", "-Wl,--no-undefined", "-o", str(out), *objs, "-lm"], src)
+    run([cc, "-shared", *LINK_FLAGS[target.name], "-Wl,--no-undefined", "-o", str(out), *objs,
+         "-lm"], src)
+    bad = [s for s in exported_symbols(out, target) if not s.startswith(("fmi2", "fmi3"))]
+    if bad:
+        raise BuildError(f"{out.name} ({target.name}) exports more than the FMI functions: "
+                         f"{bad[:10]}")
+    if target.windows:
+        dlls = imported_dlls(out, target)
+        foreign = [d for d in dlls if not d.lower().startswith(WINDOWS_SYSTEM_DLLS)]
+        if foreign:
+            raise BuildError(f"{out.name} imports DLLs that are not Windows' own: {foreign} "
+                             "(they would have to ship beside it)")
 
 
-def _check_symbols(objs: list[str], model_identifier: str) -> None:
+def _tool_output(cmd: list[str]) -> str:
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise BuildError(f"{' '.join(cmd)} failed: {proc.stderr}")
+    return proc.stdout
+
+
+def exported_symbols(lib: Path, target: plat.Platform) -> list[str]:
+    """The names a shared library exports: its dynamic symbol table's
+    defined symbols (``nm -D --defined-only``, ELF) or its export table
+    (``objdump -p``, a Windows DLL)."""
+    if target.windows:
+        text = _tool_output([target.tool("objdump"), "-p", str(lib)])
+        table = text.split("[Ordinal/Name Pointer] Table", 1)
+        if len(table) < 2:
+            return []
+        names = []
+        for line in table[1].splitlines()[1:]:
+            if not line.strip():
+                break
+            names.append(line.split("]", 1)[1].strip())
+        return names
+    text = _tool_output([target.tool("nm"), "-D", "--defined-only", str(lib)])
+    return [ln.split()[-1] for ln in text.splitlines() if len(ln.split()) == 3]
+
+
+def imported_dlls(lib: Path, target: plat.Platform) -> list[str]:
+    """The DLLs a Windows DLL imports (``objdump -p``'s "DLL Name" lines)."""
+    text = _tool_output([target.tool("objdump"), "-p", str(lib)])
+    return [ln.split("DLL Name:", 1)[1].strip() for ln in text.splitlines()
+            if "DLL Name:" in ln]
+
+
+def _check_symbols(objs: list[str], model_identifier: str, nm: str = "nm") -> None:
     """Every global symbol is an FMI function or carries the model's prefix,
     so the sources of several FMUs can be linked into one program."""
-    proc = subprocess.run(["nm", "-g", "--defined-only", *objs], capture_output=True,
+    proc = subprocess.run([nm, "-g", "--defined-only", *objs], capture_output=True,
                           text=True)
     if proc.returncode != 0:
         raise BuildError(f"nm failed: {proc.stderr}")
     bad = sorted({ln.split()[2] for ln in proc.stdout.splitlines() if len(ln.split()) == 3}
                  - {""})
-    bad = [s for s in bad if not s.startswith(("fmi2", "fmi3", f"{model_identifier}_"))]
+    # .refptr.<name>: mingw-w64's indirection to a symbol of another object
+    # (a COMDAT entry of the compiler, never exported)
+    bad = [s for s in bad if not s.startswith(("fmi2", "fmi3", f"{model_identifier}_",
+                                               ".refptr."))]
     if bad:
         raise BuildError(f"global symbols without the prefix {model_identifier}_: {bad} "
                          "(define them in column 0 of a runtime .c file, so that runtime_files finds them)")
 
 
 def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 2,
-              interface: str = "cs", validate: bool = True) -> BuildResult:
+              interface: str = "cs", validate: bool = True,
+              platforms: str | list[str] | None = None) -> BuildResult:
     """Build ``model`` into ``<out_dir>/<fmu_file_name(...)>``: FMI 2.0
     co-simulation as ``<model>.fmu``, any other variant as
     ``<model>_fmi<version>_<interface>.fmu``; with its documentation page
@@ -162,17 +240,33 @@ def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 
     :func:`loomfmu.fmu.documentation.write_documentation`).
 
     out_dir: a folder, made if missing (not an existing file).
-    fmi_version: 2 (FMI 2.0; binary under binaries/linux64) or 3 (FMI 3.0;
-    binaries/x86_64-linux, sources/buildDescription.xml, and
+    fmi_version: 2 (FMI 2.0; binaries under binaries/linux64 and win64) or 3
+    (FMI 3.0; binaries/x86_64-linux, x86_64-windows and aarch64-linux,
+    sources/buildDescription.xml, and
     terminalsAndIcons/terminalsAndIcons.xml for the ports).
     interface: "cs" (co-simulation with the embedded solvers), "me" (model
     exchange: the importer integrates) or "both".
     validate: run ``fmpy.validate_fmu`` and return its problems in the result.
+    platforms: the binaries to build, from ``linux64``, ``win64``, ``aarch64``
+    (or FMI 3.0's ``x86_64-linux``, ``x86_64-windows``, ``aarch64-linux``), a
+    list or a comma-separated string; FMI 2.0 has no aarch64 folder. Default:
+    ``$LOOMFMU_PLATFORMS`` if set, else every platform whose compiler is
+    installed, with one line on stderr naming those skipped and the Debian
+    package of each (:mod:`loomfmu.fmu.platforms`).
     """
     if not isinstance(model, Model):
         raise ValueError(f"model = {model!r:.60}; allowed: a loomfmu Model (load_model(name))")
     check_variant(fmi_version, interface)
     check_bool("validate", validate)
+    chosen, skipped = plat.select(platforms, fmi_version)
+    missing = [n for n in chosen if not plat.installed(n)]
+    if missing:
+        raise BuildError("no compiler for " + ", ".join(
+            f"{n} ({plat.PLATFORMS[n].cc} not on PATH; Debian: apt-get install "
+            f"{plat.PLATFORMS[n].package})" for n in missing))
+    if not chosen:
+        raise BuildError("no C compiler for any platform: " + plat.skipped_line(skipped))
+    plat.note_skipped(skipped)
     t0 = time.perf_counter()
     out_dir = _out_dir(out_dir)
     dae = dae_form(model)
@@ -195,8 +289,9 @@ def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 
                 (root / "terminalsAndIcons").mkdir()
                 (root / "terminalsAndIcons" / "terminalsAndIcons.xml").write_text(terminals)
         generated_c = [f for f in gen_files if f.endswith("_casadi.c")]
-        stats = compile_binary(src, root / "binaries" / PLATFORM[fmi_version] /
-                               f"{model.name}.so", generated_c)
+        targets = [(p, root / "binaries" / p.folder(fmi_version) / f"{model.name}{p.suffix}")
+                   for p in (plat.PLATFORMS[n] for n in chosen)]
+        stats = compile_binaries(src, targets, generated_c)
         fmu = out_dir / fmu_file_name(model.name, fmi_version, interface)
         _zip_dir(root, fmu)
     # documentation/index.html; `loomfmu build` rewrites it with the verification
@@ -205,7 +300,7 @@ def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 
     if validate and fmi_version == 3 and model.ports:  # FMPy does not read this file
         problems += terminals_problems(terminals_and_icons(model))
     return BuildResult(model.name, fmu, guid, time.perf_counter() - t0, problems, fmi_version,
-                       interface, stats)
+                       interface, stats, chosen, skipped)
 
 
 def _out_dir(out_dir) -> Path:

@@ -20,7 +20,8 @@ compiles everything, as without a cache; a cache that can be read but not
 written (read-only) is still used. If the objects link into nothing
 (an entry poisoned by hand, an assembler changed under the same compiler),
 the builder compiles everything again, overwriting the entries, and links
-once more (:func:`loomfmu.fmu.builder.compile_binary`).
+once more (:func:`loomfmu.fmu.builder.compile_binaries`). The builder compiles
+every platform's files in one pool (:func:`compile_jobs`).
 """
 from __future__ import annotations
 
@@ -148,6 +149,17 @@ def _write_entry(entry: Path, data: bytes) -> None:
             raise
 
 
+@dataclass(frozen=True)
+class CompileJob:
+    """One C file to compile: with which compiler, flags and include path,
+    into which object."""
+    c_file: Path
+    flags: tuple[str, ...]
+    include: tuple[str, ...]
+    obj: Path
+    cc: str = "gcc"
+
+
 def compile_objects(jobs: list[tuple[Path, tuple[str, ...]]], include: list[str],
                     out_dir: Path, cc: str = "gcc", *,
                     refresh: bool = False) -> tuple[list[str], CompileStats]:
@@ -155,18 +167,25 @@ def compile_objects(jobs: list[tuple[Path, tuple[str, ...]]], include: list[str]
     once as there are cores; returns the object paths (in the order of
     ``jobs``) and how many were compiled or reused. ``refresh``: reuse
     nothing, overwrite the cache's entries."""
+    todo = [CompileJob(c, tuple(flags), tuple(include), out_dir / (c.stem + ".o"), cc)
+            for c, flags in jobs]
+    return [str(j.obj) for j in todo], compile_jobs(todo, refresh=refresh)
+
+
+def compile_jobs(jobs: list[CompileJob], *, refresh: bool = False) -> CompileStats:
+    """Compile every job, as many at once as there are cores, whatever its
+    compiler (one pool for all the platforms of a build); returns how many
+    objects were compiled and how many reused from the cache."""
     cache = cache_dir()
-    objs = [out_dir / (c.stem + ".o") for c, _ in jobs]
     # the biggest files first, so that the longest compile does not start last
-    order = sorted(range(len(jobs)), key=lambda i: -jobs[i][0].stat().st_size)
+    order = sorted(jobs, key=lambda j: -j.c_file.stat().st_size)
     with ThreadPoolExecutor(max_workers=max(1, os.cpu_count() or 1)) as pool:
-        futures = [pool.submit(_compile_one, cc, jobs[i][1], include, jobs[i][0], objs[i],
-                               cache, refresh) for i in order]
+        futures = [pool.submit(_compile_one, j.cc, j.flags, list(j.include), j.c_file, j.obj,
+                               cache, refresh) for j in order]
         reused = [f.result() for f in futures]
     if cache is not None and not all(reused):
         prune(cache)
-    stats = CompileStats(compiled=reused.count(False), reused=reused.count(True))
-    return [str(o) for o in objs], stats
+    return CompileStats(compiled=reused.count(False), reused=reused.count(True))
 
 
 def prune(cache: Path, max_bytes: int = MAX_CACHE_BYTES) -> None:

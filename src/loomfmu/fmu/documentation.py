@@ -329,42 +329,83 @@ def _validity(model: Model) -> str:
     return "".join(out)
 
 
-#: FMI platform folders under binaries/ (FMI 2.0, FMI 3.0) and shared-library suffixes
-_PLATFORMS = {"gcc": ("linux64", "x86_64-linux", ".so"),
-              "clang": ("darwin64", "aarch64-darwin", ".dylib"),
-              "cl": ("win64", "x86_64-windows", ".dll")}
+#: Every platform the page names: (label, FMI 2.0 folder, FMI 3.0 folder,
+#: library suffix, how loomfmu builds it or None, where its tests run it)
+_PLATFORMS = [
+    ("x86-64 Linux", "linux64", "x86_64-linux", ".so", "gcc", "natively"),
+    ("x86-64 Windows", "win64", "x86_64-windows", ".dll", "mingw-w64 gcc (libgcc linked in)",
+     "wine"),
+    ("aarch64 Linux", None, "aarch64-linux", ".so", "aarch64-linux-gnu-gcc", "qemu-aarch64"),
+    ("macOS (Apple silicon)", "darwin64", "aarch64-darwin", ".dylib", None, None),
+    ("macOS (Intel)", "darwin64", "x86_64-darwin", ".dylib", None, None),
+]
 
 
 def _build(model: Model, md: ET.Element, members: list[str] | None) -> str:
-    """How to compile sources/ into the FMU's binary on another platform."""
+    """The binaries this FMU holds, and how to compile sources/ into the
+    binary of another platform."""
     v3 = md.get("fmiVersion", "").startswith("3")
     files = sorted(n for n in members or [] if n.startswith("sources/"))
     c_files = [n for n in files if n.endswith(".c")]
     srcs = " ".join(c_files) if c_files else "sources/*.c"
     name = model.name
     hdr = "&lt;FMI headers&gt;"
-    lib = {cc: f"binaries/{p3 if v3 else p2}/{name}{ext}"
-           for cc, (p2, p3, ext) in _PLATFORMS.items()}
+    held = {n.split("/")[1] for n in members or [] if n.startswith("binaries/")
+            and n.count("/") == 2}
+    rows = []
+    for label, p2, p3, ext, built, runs in _PLATFORMS:
+        folder = p3 if v3 else p2
+        if folder is None:
+            where = "none in FMI 2.0: rebuild (below), or use the FMI 3.0 build"
+        elif folder in held:
+            where = f"<code>binaries/{folder}/{_e(name)}{ext}</code>"
+        else:
+            where = f"not in this FMU (<code>binaries/{folder}/</code>): rebuild (below)"
+        if built and folder is None:
+            built = f"{built}, for FMI 3.0"
+        rows.append(f"<tr><td>{label}</td><td>{where}</td><td>{built or 'not built by loomfmu'}"
+                    f"</td><td>{runs or 'not run by loomfmu'}</td></tr>")
+    flags = "-std=c99 -O2 -fvisibility=hidden -ffp-contract=off"
+    f_arm = "aarch64-linux" if v3 else "linux64"
+    mac = "aarch64-darwin" if v3 else "darwin64"
     lines = [
-        f"gcc -std=c99 -O2 -shared -fPIC -fvisibility=hidden -I sources -I {hdr} {srcs} "
-        f"-o {lib['gcc']} -lm",
-        f"clang -std=c99 -O2 -dynamiclib -fvisibility=hidden -I sources -I {hdr} {srcs} "
-        f"-o {lib['clang']}",
-        f"cl /O2 /LD /I sources /I {hdr} {srcs} /Fe{lib['cl']}",
+        f"gcc {flags} -shared -fPIC -I sources -I {hdr} {srcs} "
+        f"-o binaries/{'x86_64-linux' if v3 else 'linux64'}/{name}.so -lm",
+        f"x86_64-w64-mingw32-gcc {flags} -shared -static-libgcc -I sources -I {hdr} {srcs} "
+        f"-o binaries/{'x86_64-windows' if v3 else 'win64'}/{name}.dll -lm",
+        f"clang {flags} -dynamiclib -I sources -I {hdr} {srcs} -o binaries/{mac}/{name}.dylib",
+        f"cl /O2 /LD /I sources /I {hdr} {srcs} "
+        f"/Febinaries/{'x86_64-windows' if v3 else 'win64'}/{name}.dll",
     ]
     listing = ("<p>Files in sources/: " + ", ".join(f"<code>{_e(f)}</code>" for f in files)
                + ".</p>") if files else ""
-    return (f"<p>The binary in this FMU was compiled by gcc (C99) for Linux; sources/ holds "
-            "everything else needs: the generated model, the runtime and "
-            "<code>lf_build.h</code>, which fixes the FMI version and the interfaces (no "
+    arm = ("On an ARM Linux machine the gcc line (the machine's own gcc) writes "
+           f"<code>binaries/{f_arm}/{_e(name)}.so</code>"
+           + ("." if v3 else ": FMI 2.0 names no folder for ARM, so put the library where "
+              "the importer looks (FMPy: <code>binaries/linux64</code>, in place of the "
+              "x86-64 library), or use the FMI 3.0 build, which carries "
+              "<code>aarch64-linux</code>."))
+    return ("<p>Binaries, each compiled from sources/ by gcc (C99) with the flags below; "
+            "loomfmu's tests run binaries built this way for each platform through the FMI "
+            "functions (natively, under wine, under qemu-aarch64) and compare their outputs "
+            "with the native run's, bit for bit; this FMU's own binaries were not run at "
+            "build:</p>"
+            + _table(["platform", "in this FMU", "compiled by", "tested under"], rows)
+            + "<p>sources/ holds everything a binary needs: the generated model, the runtime "
+            "and <code>lf_build.h</code>, which fixes the FMI version and the interfaces (no "
             "defines on the command line). Compile every C file with sources/ and the FMI "
             f"{'3.0' if v3 else '2.0'} headers (fmi{'3' if v3 else '2'}Functions.h and the "
             "headers it includes, from the FMI standard) on the include path, link the C "
             "math library, and put the library where the FMI standard expects it."
             + (" sources/buildDescription.xml says the same for FMI 3.0 tools." if v3 else "")
-            + "</p>" + listing
-            + "<p>The builder runs the gcc line (with warnings on); the clang and MSVC lines "
-            "are the equivalent commands and were not run at build:</p>"
+            + " <code>-ffp-contract=off</code> keeps a * b + c two roundings, as on x86-64 "
+            "(clang contracts by default, gcc under -std=c99 does not): with it, the "
+            "numbers match the other platforms'.</p>" + listing
+            + "<p>The builder runs the gcc and mingw-w64 lines (with warnings on). The clang "
+            "line (macOS; for an Intel Mac add <code>-arch x86_64</code>"
+            + (" and write <code>binaries/x86_64-darwin</code>" if v3 else "")
+            + ") and the MSVC line are the equivalent commands and were not run. "
+            + arm + "</p>"
             + "".join(f'<pre class="cmd">{line}</pre>' for line in lines))
 
 

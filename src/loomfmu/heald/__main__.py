@@ -56,6 +56,7 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
             bar.advance("done")
     elif args.cmd == "fidelity":
         from loomfmu.fmu.builder import build_fmu
+        from loomfmu.fmu.platforms import HOST
         from loomfmu.registry import load_model
         levels = (("spatial", "heald_frame"), ("planar", "heald_frame_planar"),
                   ("rigid", "heald_frame_rigid"))
@@ -64,7 +65,7 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
             fmus = {}
             for level, name in levels:
                 bar.stage(f"building {name}")
-                fmus[level] = build_fmu(load_model(name), out_dir=tmp).path
+                fmus[level] = build_fmu(load_model(name), out_dir=tmp, platforms=HOST).path
                 bar.advance(f"{name} built")
             bar.stage("simulating and comparing the three levels")
             text = cl.fidelity_markdown(cl.fidelity(fmus))
@@ -104,16 +105,17 @@ def main(argv=None, prog: str = "loomfmu heald") -> int:
 
 def _tension_input(Progress) -> str:
     from loomfmu.fmu.builder import build_fmu
+    from loomfmu.fmu.platforms import HOST
     from loomfmu.heald import tension_input as ti
     from loomfmu.registry import load_model
     with tempfile.TemporaryDirectory() as tmp, \
             Progress(total=4, desc="heald tension-input") as bar:
         bar.stage("building heald_frame (geometry and input tension), heald_frame_rigid (input)")
-        geo = build_fmu(load_model("heald_frame"), out_dir=Path(tmp) / "geometry").path
+        geo = build_fmu(load_model("heald_frame"), out_dir=Path(tmp) / "geometry", platforms=HOST).path
         inp = build_fmu(load_model("heald_frame", warp_tension="input"),
-                        out_dir=Path(tmp) / "input").path
+                        out_dir=Path(tmp) / "input", platforms=HOST).path
         rigid = build_fmu(load_model("heald_frame_rigid", warp_tension="input"),
-                          out_dir=Path(tmp) / "input").path
+                          out_dir=Path(tmp) / "input", platforms=HOST).path
         bar.advance("built")
         bar.stage("lockstep runs at communication steps 1e-3, 1e-4, 1e-5 s")
         errors = ti.lockstep_errors(geo, inp)

@@ -113,12 +113,13 @@ def fmu_blob(study: Study, fmu: Path | str | None = None) -> FmuBlob:
     or built now from loomfmu.registry with the study's options."""
     if fmu is None:
         from loomfmu.fmu.builder import build_fmu
+        from loomfmu.fmu.platforms import HOST
         from loomfmu.registry import load_model
         with tempfile.TemporaryDirectory() as tmp:
             model = (study.declaration if study.declaration is not None
                      else load_model(study.model, **study.options))
             path = build_fmu(model, out_dir=tmp,
-                             validate=False).path
+                             validate=False, platforms=HOST).path
             data = Path(path).read_bytes()
             name = Path(path).name
     else:
