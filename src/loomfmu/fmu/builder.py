@@ -22,6 +22,7 @@ from loomfmu.export.fmi_xml import check_variant, model_description, terminals_a
 from loomfmu.export.runtime_files import RUNTIME_DIR, runtime_headers, runtime_sources
 from loomfmu.fmu.compile_cache import BuildError, CompileStats, compile_objects, run
 from loomfmu.fmu.documentation import write_documentation
+from loomfmu.fmu.reference_results import write_reference_results
 
 #: Flags for code we write (the runtime and the generated declaration).
 STRICT_FLAGS = ("-std=c99", "-O2", "-fPIC", "-fvisibility=hidden", "-Wall", "-Wextra",
@@ -197,6 +198,7 @@ def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 
         generated_c = [f for f in gen_files if f.endswith("_casadi.c")]
         stats = compile_binary(src, root / "binaries" / PLATFORM[fmi_version] /
                                f"{model.name}.so", generated_c)
+        write_reference_results(root, model)  # extra/org.fmi-standard.fmi-ls-ref (FMI-LS-REF)
         fmu = out_dir / fmu_file_name(model.name, fmi_version, interface)
         _zip_dir(root, fmu)
     # documentation/index.html; `loomfmu build` rewrites it with the verification
