@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import inspect
 import io
 import json
 import math
@@ -129,8 +130,9 @@ def reference_key(model: Model) -> str:
               json.dumps(model.event_modes, sort_keys=True, default=repr),
               repr((model.name, model.stop_time, model.step_size, model.reference_method,
                     REF_RTOL, REF_ATOL))]
-    for file in (ref_module.__file__, dae_module.__file__, __file__):
+    for file in (ref_module.__file__, dae_module.__file__):
         parts.append(hashlib.sha256(Path(file).read_bytes()).hexdigest())
+    parts += [inspect.getsource(f) for f in (reference_result, experiment_times, result_csv)]
     import casadi
     import scipy
     parts.append(f"numpy {np.__version__} scipy {scipy.__version__} casadi "
