@@ -374,9 +374,15 @@ def manifest_problems(xml: bytes) -> list[str]:
     except etree.XMLSyntaxError as e:
         return [f"fmi-ls-manifest.xml is not XML: {e}"]
     schema = _manifest_schema()
-    if schema.validate(doc):
-        return []
-    return [f"fmi-ls-manifest.xml line {e.line}: {e.message}" for e in schema.error_log]
+    if not schema.validate(doc):
+        return [f"fmi-ls-manifest.xml line {e.line}: {e.message}" for e in schema.error_log]
+    # the schema's fixed values, which libxml2 does not enforce on attribute references
+    out = []
+    for attr, fixed in (("fmi-ls-name", LS_NAME), ("fmi-ls-description", LS_DESCRIPTION)):
+        if doc.get(f"{{{LS_NS}}}{attr}") != fixed:
+            out.append(f"fmi-ls-manifest.xml: {attr} = {doc.get(f'{{{LS_NS}}}{attr}')!r}; "
+                       f"the standard fixes it to {fixed!r}")
+    return out
 
 
 def _manifest_schema():
