@@ -76,6 +76,32 @@ def run(models: list[str], variants: list[str], out_dir: Path) -> dict:
     return rows
 
 
+def self_check(models: list[str]) -> dict:
+    """How far each CSV (rtol 1e-10) is from the reference at rtol 1e-11, atol
+    1e-13 (``loomfmu verify``'s): per model the worst output's deviation
+    relative to its range."""
+    import numpy as np
+
+    from loomfmu.fmu.reference_results import experiment_times, parse_csv
+    from loomfmu.verification.reference import reference
+    out = {}
+    for name in models:
+        model = load_model(name)
+        t, cols = parse_csv(reference_result(model).csv, name)
+        t0 = time.perf_counter()
+        tight = reference(model, t_eval=experiment_times(0.0, model.stop_time,
+                                                         model.step_size),
+                          rtol=1e-11, atol=1e-13, method=model.reference_method)
+        dev = {n: float(np.max(np.abs(c - tight.y[n])) /
+                        (np.ptp(tight.y[n]) or np.max(np.abs(tight.y[n])) or 1.0))
+               for n, c in cols.items()}
+        worst = max(dev, key=dev.get)
+        out[name] = {"worst": dev[worst], "worst_output": worst,
+                     "tight_seconds": time.perf_counter() - t0}
+        print(f"{name}: CSV vs rtol 1e-11: {dev[worst]:.1e} ({worst})", flush=True)
+    return out
+
+
 def table(data: dict) -> str:
     variants = list(next(iter(data["models"].values()))["variants"])
     head = ["model", "reference cold s", "cached s",
@@ -104,11 +130,22 @@ def main(argv=None) -> int:
     ap.add_argument("--out-dir", type=Path, default=Path("dist/ls_ref"))
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--table-from", type=Path, default=None)
+    ap.add_argument("--self-check", action="store_true",
+                    help="only compare each CSV with the reference at rtol 1e-11 "
+                         "(no builds); with --json, stored under 'self_check' in that file")
     args = ap.parse_args(argv)
     if args.table_from:
         print(table(json.loads(args.table_from.read_text())))
         return 0
     models = args.models or sorted(MODELS)
+    if args.self_check:
+        res = self_check(models)
+        if args.json:
+            data = json.loads(args.json.read_text()) if args.json.exists() else {}
+            data["self_check"] = {"command": "python benchmarks/ls_ref_matrix.py "
+                                  + " ".join(sys.argv[1:]), "models": res}
+            args.json.write_text(json.dumps(data, indent=1) + "\n")
+        return 0
     t0 = time.perf_counter()
     rows = run(models, args.variants, args.out_dir)
     data = {"command": "python benchmarks/ls_ref_matrix.py " + " ".join(sys.argv[1:]),
