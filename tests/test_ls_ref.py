@@ -286,3 +286,18 @@ def test_check_usage_errors_exit_2_in_one_line(tmp_path):
         assert res.returncode == 2, (path, res.stdout, res.stderr)
         lines = res.stderr.strip().splitlines()
         assert len(lines) == 1 and needle in lines[0] and "Traceback" not in res.stderr
+
+
+@pytest.mark.slow
+def test_a_model_the_reference_cannot_solve_still_builds_and_says_why(tmp_path, monkeypatch):
+    def refuse(model, **kw):
+        raise RuntimeError(f"reference of {model.name}: the default experiment stops at "
+                           "t = 0.1 s (a validity condition)")
+    monkeypatch.setattr(rr, "reference_result", refuse)
+    path = build_fmu(load_model("heald_frame_rigid"), out_dir=tmp_path).path
+    with zipfile.ZipFile(path) as z:
+        assert rr.manifest_problems(z.read(rr.LS_MANIFEST)) == []
+        assert "stops at t = 0.1 s" in z.read(rr.LS_DOC).decode()
+        assert not [n for n in z.namelist() if n.endswith("_ref.csv")]
+    with pytest.raises(rr.ReferenceResultError, match="lists no result .*stops at t = 0.1 s"):
+        rr.check_fmu(path)

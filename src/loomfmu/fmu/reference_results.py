@@ -228,13 +228,21 @@ def stated_tolerance(interfaces: list[str]) -> dict[str, float]:
     return {k: CHECK_TOLERANCE[k] for k in interfaces}
 
 
-def manifest_xml(model_name: str, tolerance: dict[str, float]) -> str:
+def manifest_xml(model_name: str, tolerance: dict[str, float] | None) -> str:
     """``fmi-ls-manifest.xml``: the three files with their roles, and the
-    check's tolerance as an annotation of the result."""
+    check's tolerance as an annotation of the result; tolerance None: the
+    report alone (no reference result could be computed)."""
     ET.register_namespace("fmi-ls", LS_NS)
     root = ET.Element("fmiReferences", {f"{{{LS_NS}}}fmi-ls-name": LS_NAME,
                                         f"{{{LS_NS}}}fmi-ls-version": LS_VERSION,
                                         f"{{{LS_NS}}}fmi-ls-description": LS_DESCRIPTION})
+    if tolerance is None:
+        ET.SubElement(root, "Related", {
+            "type": "text/plain", "source": f"../../{LS_DOC}", "role": ROLES["report"],
+            "description": "Why this FMU carries no reference result"})
+        ET.indent(root, "  ")
+        return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(
+            root, encoding="unicode") + "\n"
     result = ET.SubElement(root, "Related", {
         "type": "text/csv", "source": csv_name(model_name), "role": ROLES["result"],
         "description": "Outputs of the default experiment by the scipy reference "
@@ -315,22 +323,32 @@ def report_text(model: Model, ref: ReferenceResult, exp: ET.Element,
         ""])
 
 
-def write_reference_results(root: Path, model: Model) -> ReferenceResult:
+def write_reference_results(root: Path, model: Model) -> ReferenceResult | None:
     """The builder's hook: write the manifest, the reference CSV, the
     experiment and the report into the unzipped FMU at ``root`` (which holds
-    modelDescription.xml already)."""
+    modelDescription.xml already). Where the reference cannot be computed the
+    manifest lists the report alone, which says why; returns None then."""
     md = ET.parse(root / "modelDescription.xml").getroot()
     exp = md.find("DefaultExperiment")
     if exp is None:
         raise ValueError(f"{model.name}: no DefaultExperiment in the model description")
-    ref = reference_result(model)
-    tolerance = stated_tolerance(_interfaces(md))
     folder = root / LS_DIR
     folder.mkdir(parents=True, exist_ok=True)
+    (root / "documentation").mkdir(exist_ok=True)
+    try:
+        ref = reference_result(model)
+    except (RuntimeError, ValueError, ArithmeticError, np.linalg.LinAlgError) as e:
+        # a declaration the reference cannot solve over the default experiment (a
+        # validity condition failing in it, delays with events): the FMU is built
+        # without a result, and the report says why
+        reason = " ".join(str(e).split())
+        (folder / "fmi-ls-manifest.xml").write_text(manifest_xml(model.name, None))
+        (root / LS_DOC).write_text(f"No reference result for {model.name}: {reason}\n")
+        return None
+    tolerance = stated_tolerance(_interfaces(md))
     (folder / "fmi-ls-manifest.xml").write_text(manifest_xml(model.name, tolerance))
     (folder / csv_name(model.name)).write_text(ref.csv)
     (folder / EXPERIMENT_FILE).write_text(experiment_xml(model.name, exp))
-    (root / "documentation").mkdir(exist_ok=True)
     (root / LS_DOC).write_text(report_text(model, ref, exp, tolerance))
     return ref
 
@@ -445,14 +463,17 @@ def read_reference(fmu: Path | str) -> tuple[dict[str, float], np.ndarray, dict]
         results = [r for r in root.findall("Related")
                    if r.get("role") == "result" and r.get("type") == "text/csv"]
         if not results:
+            why = ""
+            if LS_DOC in names:
+                why = z.read(LS_DOC).decode("utf-8", "replace").strip().splitlines()[0][:300]
             raise ReferenceResultError(f"{path.name}: the manifest lists no result of type "
-                                 "text/csv")
+                                       "text/csv" + (f" ({LS_DOC}: {why})" if why else ""))
         rel = results[0]
         member = _resolve(rel.get("source"))
         if member is None or member not in names:
             raise ReferenceResultError(f"{path.name}: the reference result "
-                                 f"{rel.get('source')!r} listed in the manifest is not in the "
-                                 "FMU")
+                                       f"{rel.get('source')!r} listed in the manifest is not in the "
+                                       "FMU")
         tolerance = _tolerance(rel, path.name)
         try:
             text = z.read(member).decode("utf-8")
@@ -490,13 +511,13 @@ def _tolerance(rel: ET.Element, where: str) -> dict[str, float]:
                 value = math.nan
             if key is None or not (math.isfinite(value) and value > 0):
                 raise ReferenceResultError(f"{where}: the manifest's tolerance "
-                                     f"{ET.tostring(tol, encoding='unicode').strip()} is not "
-                                     "an interface (CoSimulation or ModelExchange) with a "
-                                     "number > 0")
+                                           f"{ET.tostring(tol, encoding='unicode').strip()} is not "
+                                           "an interface (CoSimulation or ModelExchange) with a "
+                                           "number > 0")
             out[key] = value
     if not out:
         raise ReferenceResultError(f"{where}: the manifest states no tolerance (annotation "
-                             f"{ANNOTATION_TYPE} of the result)")
+                                   f"{ANNOTATION_TYPE} of the result)")
     return out
 
 
@@ -506,7 +527,7 @@ def parse_csv(text: str, where: str) -> tuple[np.ndarray, dict[str, np.ndarray]]
     rows = list(csv.reader(io.StringIO(text)))
     if not rows or not rows[0] or rows[0][0] != "time" or len(rows[0]) < 2:
         raise ReferenceResultError(f"{where}: not a reference CSV (expected a header "
-                             "'time,<output>,...')")
+                                   "'time,<output>,...')")
     head = rows[0]
     if len(set(head)) != len(head):
         raise ReferenceResultError(f"{where}: a column name appears twice in the header")
@@ -517,12 +538,12 @@ def parse_csv(text: str, where: str) -> tuple[np.ndarray, dict[str, np.ndarray]]
     for i, r in enumerate(body, start=2):
         if len(r) != len(head):
             raise ReferenceResultError(f"{where} line {i}: {len(r)} values, the header has "
-                                 f"{len(head)}")
+                                       f"{len(head)}")
         try:
             data[i - 2] = [float(c) for c in r]
         except ValueError:
             raise ReferenceResultError(f"{where} line {i}: not a number in {','.join(r)[:80]!r}"
-                                 ) from None
+                                       ) from None
     bad = np.argwhere(~np.isfinite(data))
     if len(bad):
         i, j = bad[0]
@@ -572,13 +593,13 @@ def check_fmu(fmu: Path | str, interface: str | None = None) -> list[CheckResult
     if interface is not None:
         if interface not in have:
             raise ReferenceResultError(f"interface = {interface!r}: {Path(fmu).name} has "
-                                 f"{', '.join(have)}")
+                                       f"{', '.join(have)}")
         have = [interface]
     variables = {v.name for v in md.modelVariables}
     missing = [n for n in cols if n not in variables]
     if missing:
         raise ReferenceResultError(f"{Path(fmu).name}: the reference's column {missing[0]!r} is "
-                             "not a variable of the FMU")
+                                   "not a variable of the FMU")
     exp = md.defaultExperiment
     if exp is None or exp.stepSize is None:
         raise ReferenceResultError(f"{Path(fmu).name}: no DefaultExperiment with a stepSize")
@@ -587,7 +608,7 @@ def check_fmu(fmu: Path | str, interface: str | None = None) -> list[CheckResult
     for k in have:
         if k not in tolerance:
             raise ReferenceResultError(f"{Path(fmu).name}: the manifest states no tolerance for "
-                                 f"{'co-simulation' if k == 'cs' else 'model exchange'}")
+                                       f"{'co-simulation' if k == 'cs' else 'model exchange'}")
         log: list[str] = []
 
         def logger(*args, log=log):
