@@ -20,6 +20,7 @@ import argparse
 import importlib.metadata
 import json
 import platform
+import re
 import subprocess
 import sys
 import time
@@ -118,7 +119,9 @@ def table(data: dict) -> str:
                              f"{'≤' if c['ok'] else '>'} {c['tolerance']:g}")
             else:
                 err = str(res.get("error") or c.get("error") or "no result")
-                cells.append("failed: " + err[:120].replace("|", "/"))
+                at = re.search(r"At t = ([0-9.eE+-]+)", err)
+                cells.append(f"run failed: FMPy's CVode stopped at t = {float(at.group(1)):.3g} s"
+                             if at else "failed: " + err[:80].replace("|", "/"))
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
