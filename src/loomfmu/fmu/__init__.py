@@ -2,8 +2,9 @@
 
 Owns :func:`~.builder.build_fmu` (sources, gcc with strict flags, the
 exported-symbol check, validation, the .fmu), the compile cache
-(:mod:`.compile_cache`) and the FMU's own documentation page
-(:mod:`.documentation`).
+(:mod:`.compile_cache`), the FMU's own documentation page
+(:mod:`.documentation`) and the reference result it carries under FMI-LS-REF,
+with its check (:mod:`.reference_results`).
 
 May import: :mod:`loomfmu.declare`, :mod:`loomfmu.registry`,
 :mod:`loomfmu.export`, :mod:`loomfmu.verification`, :mod:`loomfmu.inspection`.
