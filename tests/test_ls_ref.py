@@ -110,7 +110,10 @@ def test_the_key_is_the_declaration_not_the_fmi_variant():
 
 def test_the_cache_serves_the_same_result_and_a_damaged_entry_is_recomputed(tmp_path,
                                                                             monkeypatch):
-    monkeypatch.setenv("LOOMFMU_BUILD_CACHE", str(tmp_path))
+    monkeypatch.setenv("LOOMFMU_BUILD_CACHE", str(tmp_path / "objects"))
+    assert rr.reference_cache_dir() == tmp_path / "references"
+    monkeypatch.setenv("LOOMFMU_BUILD_CACHE", str(tmp_path / "cache"))
+    assert rr.reference_cache_dir() == tmp_path / "cache-references"
     model = load_model("heald_frame_rigid")
     first = rr.reference_result(model)
     again = rr.reference_result(model)

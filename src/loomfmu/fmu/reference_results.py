@@ -34,8 +34,8 @@ default experiment run as its DefaultExperiment says (FMPy with no settings
 but the interface), at most that number.
 
 The reference run costs seconds to minutes per model (the spindles are the
-heavy ones); its result is cached on disk next to the compile cache
-(``<cache>/references/<key>.json``, off with ``LOOMFMU_BUILD_CACHE=off``),
+heavy ones); its result is cached on disk beside the compile cache
+(:func:`reference_cache_dir`, off with ``LOOMFMU_BUILD_CACHE=off``),
 keyed by a hash of the declaration's equations and variables, the default
 experiment, the reference settings and the reference's code, so that the
 four FMI variants of one model compute it once.
@@ -140,9 +140,21 @@ def reference_key(model: Model) -> str:
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
 
-def _cache_file(key: str) -> Path | None:
+def reference_cache_dir() -> Path | None:
+    """Where reference results are cached, beside the compile cache (not inside
+    it: that folder holds objects only): ``~/.cache/loomfmu/references`` next to
+    the default ``.../objects``, else ``<$LOOMFMU_BUILD_CACHE>-references``;
+    None when the compile cache is off."""
     base = cache_dir()
-    return None if base is None else base / "references" / f"{key}.json"
+    if base is None:
+        return None
+    return base.parent / "references" if base.name == "objects" else base.with_name(
+        base.name + "-references")
+
+
+def _cache_file(key: str) -> Path | None:
+    base = reference_cache_dir()
+    return None if base is None else base / f"{key}.json"
 
 
 def reference_result(model: Model, *, use_cache: bool = True) -> ReferenceResult:
