@@ -30,11 +30,12 @@ manifest, machine-readable, as an ``Annotation`` of the result's ``Related``
 element (type :data:`ANNOTATION_TYPE`): per output, the largest
 |y_FMU - y_ref| over the CSV's times divided by the output's range in the
 CSV (its magnitude where the range is zero, 1 where both are zero), for the
-default experiment run as its DefaultExperiment says (FMPy with no settings
-but the interface), at most that number.
+default experiment run as its DefaultExperiment says (FMPy with the
+interface, and the DefaultExperiment's stepSize as output interval), at most
+that number.
 
-The reference run costs seconds to minutes per model (the spindles are the
-heavy ones); its result is cached on disk beside the compile cache
+The reference run costs seconds to minutes per model (backrest_regularized,
+integrated by Radau, and the full spindle are the heavy ones); its result is cached on disk beside the compile cache
 (:func:`reference_cache_dir`, off with ``LOOMFMU_BUILD_CACHE=off``),
 keyed by a hash of the declaration's equations and variables, the default
 experiment, the reference settings and the reference's code, so that the
