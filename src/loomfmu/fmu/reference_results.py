@@ -47,6 +47,7 @@ the default experiment and compare it with the CSV inside.
 from __future__ import annotations
 
 import csv
+import functools
 import hashlib
 import inspect
 import io
@@ -120,9 +121,8 @@ def reference_key(model: Model) -> str:
     DAE form, variables, validity conditions, modes, default experiment, the
     reference's method and tolerances, and the text of the code that solves
     it; the same for every FMI variant of one declaration."""
-    from loomfmu.export import dae as dae_module
-    from loomfmu.verification import reference as ref_module
-    dae = dae_module.dae_form(model)
+    from loomfmu.export.dae import dae_form
+    dae = dae_form(model)
     parts = [f"{k}={v}" for k, v in sorted(vars(dae).items()) if k != "model"]
     parts += [f"{v.name}:{v.kind}:{v.start}:{v.unit}:{getattr(v, 'min', '')}:"
               f"{getattr(v, 'max', '')}" for v in model.variables]
@@ -131,11 +131,24 @@ def reference_key(model: Model) -> str:
               json.dumps(model.event_modes, sort_keys=True, default=repr),
               repr((model.name, model.stop_time, model.step_size, model.reference_method,
                     REF_RTOL, REF_ATOL))]
-    for file in (ref_module.__file__, dae_module.__file__):
-        parts.append(hashlib.sha256(Path(file).read_bytes()).hexdigest())
-    parts += [inspect.getsource(f) for f in (reference_result, experiment_times, result_csv)]
+    parts.append(_code_fingerprint())
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()
+
+
+@functools.lru_cache(maxsize=1)
+def _code_fingerprint() -> str:
+    """The code that makes the CSV (the reference's and the DAE form's modules,
+    the functions here that choose the times and write the CSV) and the
+    numerical packages' versions, read once per process: a file edited while a
+    process runs does not change the keys that process computes."""
     import casadi
     import scipy
+
+    from loomfmu.export import dae as dae_module
+    from loomfmu.verification import reference as ref_module
+    parts = [hashlib.sha256(Path(f).read_bytes()).hexdigest()
+             for f in (ref_module.__file__, dae_module.__file__)]
+    parts += [inspect.getsource(f) for f in (reference_result, experiment_times, result_csv)]
     parts.append(f"numpy {np.__version__} scipy {scipy.__version__} casadi "
                  f"{casadi.__version__}")
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
