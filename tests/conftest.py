@@ -4,7 +4,9 @@ Every build of the suite is for x86-64 Linux only (``LOOMFMU_PLATFORMS``,
 inherited by the ``loomfmu`` commands the tests run), unless a test asks for
 other platforms with ``build_fmu(..., platforms=...)``: cross-compiling is
 the subject of tests/test_platforms.py only, and would otherwise triple the
-suite's compile time.
+suite's compile time. Likewise the FMI-LS-REF reference result is left out of
+the suite's builds (``LOOMFMU_LS_REF=off``; the first reference of a variant
+can take a minute) except where tests/test_ls_ref.py asks for it.
 """
 from __future__ import annotations
 
@@ -25,6 +27,7 @@ from loomfmu import build_fmu, load_model
 from loomfmu.verification.fmpy_logger import restore_fmpy_proxy
 
 os.environ.setdefault("LOOMFMU_PLATFORMS", "linux64")
+os.environ.setdefault("LOOMFMU_LS_REF", "off")
 
 
 @pytest.fixture(scope="session")

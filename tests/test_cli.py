@@ -33,7 +33,7 @@ def run(*args, cwd=None, env=None, timeout=600) -> subprocess.CompletedProcess:
                           env={**os.environ, "LOOMFMU_PROGRESS": "plain", **(env or {})})
 
 
-SUBCOMMANDS = [["list"], ["build"], ["simulate"], ["verify"], ["docs"], ["heald"],
+SUBCOMMANDS = [["list"], ["build"], ["simulate"], ["verify"], ["check"], ["docs"], ["heald"],
                ["heald", "claims"], ["heald", "fidelity"], ["heald", "design"], ["drive"],
                ["drive", "table"], ["drive", "charts"], ["drive", "tracking"], ["rotor"],
                ["bench"], ["inspect"], ["scene"], ["scene", "run"], ["scene", "build"],

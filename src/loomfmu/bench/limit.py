@@ -140,7 +140,8 @@ def measure_model(name: str, solvers, work: Path, *, repeats: int, best_of: int,
     import fmpy
     model = load_model(name)
     work.mkdir(parents=True, exist_ok=True)
-    fmu = build_fmu(model, out_dir=work, validate=False, platforms=HOST).path
+    fmu = build_fmu(model, out_dir=work, validate=False, platforms=HOST,
+                    reference_results=False).path
     exe = compile_driver(fmu, work)
     unzipped = work / "unzipped"
     with zipfile.ZipFile(fmu) as z:
@@ -215,7 +216,8 @@ def _version() -> str:
 def _measure_c_only(name, solvers, work: Path, repeats, best_of) -> list[dict]:
     model = load_model(name)
     work.mkdir(parents=True, exist_ok=True)
-    exe = compile_driver(build_fmu(model, out_dir=work, validate=False, platforms=HOST).path, work)
+    exe = compile_driver(build_fmu(model, out_dir=work, validate=False, platforms=HOST,
+                    reference_results=False).path, work)
     return [row(run_driver(exe, stop=model.stop_time, step=model.step_size, solver=s,
                            repeats=repeats, best_of=best_of), None) for s in solvers]
 
@@ -383,7 +385,8 @@ def speed_points(name: str, rows: list[dict], *, quick: bool, work: Path,
     if model is None or not mine:
         return []
     work.mkdir(parents=True, exist_ok=True)
-    exe = compile_driver(build_fmu(model, out_dir=work, validate=False, platforms=HOST).path, work)
+    exe = compile_driver(build_fmu(model, out_dir=work, validate=False, platforms=HOST,
+                    reference_results=False).path, work)
     stop = (scene.quick_stop if quick and scene.quick_stop else scene.stop) or model.stop_time
     step = scene.interval or model.step_size
     out = []

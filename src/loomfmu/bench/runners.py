@@ -100,7 +100,8 @@ class Fmu:
 
     def __init__(self, model: Model, out_dir: Path):
         out_dir.mkdir(parents=True, exist_ok=True)
-        self.path = build_fmu(model, out_dir=out_dir, validate=False, platforms=HOST).path
+        self.path = build_fmu(model, out_dir=out_dir, validate=False, platforms=HOST,
+                    reference_results=False).path
         self.dir = out_dir / f"{model.name}_unzipped"
         with zipfile.ZipFile(self.path) as z:
             z.extractall(self.dir)

@@ -439,7 +439,8 @@ def cmd_simulate(args) -> int:
             from loomfmu.fmu.platforms import HOST
             with Progress(total=1, desc="build") as bar:
                 bar.stage(f"{model.name}: generating C, compiling")
-                fmu = build_fmu(model, out_dir=tmp, validate=False, platforms=HOST).path
+                fmu = build_fmu(model, out_dir=tmp, validate=False, platforms=HOST,
+                    reference_results=False).path
                 bar.advance(f"{model.name}: built")
         from loomfmu.verification.verify import quiet_callbacks
         try:
@@ -572,3 +573,32 @@ def cmd_verify(args) -> int:
     for line in bad:
         print(f"FAILED {line}", file=sys.stderr)
     return 1 if bad else 0
+
+
+# ---------------------------------------------------------------- check
+def cmd_check(args) -> int:
+    """Run the FMU's default experiment and compare it with the reference result
+    it carries (FMI-LS-REF): per output the deviation relative to its range."""
+    from loomfmu.fmu.reference_results import ReferenceResultError, check_fmu
+    hint = (f" ({args.fmu} is a model: build it with 'loomfmu build {args.fmu}' and pass "
+            f"dist/{args.fmu}.fmu)" if str(args.fmu) in MODELS else "")
+    try:
+        results = check_fmu(args.fmu, interface=args.interface)
+    except ReferenceResultError as exc:
+        raise UsageError(f"{exc}{hint}") from None
+    except (RuntimeError, OSError) as exc:  # no binary for this platform, a failing run
+        print(f"loomfmu check: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 1
+    head = [("interface", "<"), ("output", "<"), ("max abs dev", ">"),
+            ("rel. to range", ">"), ("tolerance", ">"), ("", "<")]
+    words = {"cs": "co-simulation", "me": "model exchange"}
+    rows = [[words[r.interface], o.name, f"{o.max_abs:.3e}", f"{o.rel_range:.3e}",
+             f"{r.tolerance:g}", "ok" if o.rel_range <= r.tolerance else "OUTSIDE"]
+            for r in results for o in r.outputs]
+    print(_table(head, rows))
+    for r in results:
+        w = r.worst
+        print(f"{words[r.interface]}: worst {w.name} {w.rel_range:.3e} of its range "
+              f"{'<=' if r.ok else '>'} {r.tolerance:g}: {'within' if r.ok else 'OUTSIDE'} "
+              "the tolerance", file=sys.stdout if r.ok else sys.stderr)
+    return 0 if all(r.ok for r in results) else 1

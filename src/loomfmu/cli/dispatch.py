@@ -6,6 +6,7 @@
                                        --platforms linux64,win64,aarch64)
     loomfmu simulate MODEL|FMU        one run, printed, --csv / --plot
     loomfmu verify FMU                compare an FMU with its scipy reference
+    loomfmu check FMU                 its default experiment against the reference inside it
     loomfmu docs                      docs/reference/models/<model>.md from the declarations
     loomfmu inspect MODEL | --all     derivation and equations, readable (docs/reference/inspect)
     loomfmu scene list|run|build|...  scenes co-simulated, composed into one FMU, SSP files
@@ -23,7 +24,14 @@ import os
 import sys
 from pathlib import Path
 
-from loomfmu.cli.commands import UsageError, cmd_build, cmd_list, cmd_simulate, cmd_verify
+from loomfmu.cli.commands import (
+    UsageError,
+    cmd_build,
+    cmd_check,
+    cmd_list,
+    cmd_simulate,
+    cmd_verify,
+)
 from loomfmu.declare.solvers import SOLVERS
 from loomfmu.fmu.builder import BuildError
 from loomfmu.registry import MODELS
@@ -135,6 +143,21 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--document", action="store_true",
                    help="write the result into the FMU's documentation/index.html")
 
+    p = sub.add_parser("check", help="an FMU's default experiment against the reference "
+                                     "result inside it",
+                       description="Run FMU's default experiment (the DefaultExperiment's "
+                                   "stop time, tolerance and step) through FMPy in each "
+                                   "interface it has and compare every output with the "
+                                   "reference result the FMU carries under "
+                                   "extra/org.fmi-standard.fmi-ls-ref (FMI-LS-REF): per "
+                                   "output the largest deviation relative to its range, "
+                                   "against the tolerance the FMU states. Exit 0 within it, "
+                                   "1 outside it or if the run fails, 2 if FMU is missing, "
+                                   "not an FMU or has no usable reference.")
+    p.add_argument("fmu", type=Path, metavar="FMU")
+    p.add_argument("--interface", choices=["cs", "me"], default=None,
+                   help="only this interface (default: every one the FMU has)")
+
     for name, (_, helptext) in ANALYSES.items():
         p = sub.add_parser(name, help=helptext, add_help=False,
                            description=f"{helptext}. Run 'loomfmu {name} --help'.")
@@ -148,7 +171,7 @@ def _option_arg(p: argparse.ArgumentParser) -> None:
 
 
 COMMANDS = {"list": cmd_list, "build": cmd_build, "simulate": cmd_simulate,
-            "verify": cmd_verify}
+            "verify": cmd_verify, "check": cmd_check}
 
 
 def main(argv: list[str] | None = None) -> int:

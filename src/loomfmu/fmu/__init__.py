@@ -4,8 +4,9 @@ Owns :func:`~.builder.build_fmu` (sources, gcc with strict flags, the
 exported-symbol check, validation, the .fmu), the platforms it builds
 binaries for (:mod:`.platforms`), the driver that runs those binaries
 natively and under emulators (:mod:`.platform_run`, ``platform_driver.c``),
-the compile cache (:mod:`.compile_cache`) and the FMU's own documentation
-page (:mod:`.documentation`).
+the compile cache (:mod:`.compile_cache`), the FMU's own documentation
+page (:mod:`.documentation`) and the reference result it carries under
+FMI-LS-REF, with its check (:mod:`.reference_results`).
 
 May import: :mod:`loomfmu.declare`, :mod:`loomfmu.registry`,
 :mod:`loomfmu.export`, :mod:`loomfmu.verification`, :mod:`loomfmu.inspection`.

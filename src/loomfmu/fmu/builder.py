@@ -23,6 +23,7 @@ from loomfmu.export.runtime_files import RUNTIME_DIR, runtime_headers, runtime_s
 from loomfmu.fmu import platforms as plat
 from loomfmu.fmu.compile_cache import BuildError, CompileJob, CompileStats, compile_jobs, run
 from loomfmu.fmu.documentation import write_documentation
+from loomfmu.fmu.reference_results import write_reference_results
 
 #: Flags for code we write (the runtime and the generated declaration), on
 #: every platform. -ffp-contract=off: no fused multiply-add where the source
@@ -232,7 +233,8 @@ def _check_symbols(objs: list[str], model_identifier: str, nm: str = "nm") -> No
 
 def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 2,
               interface: str = "cs", validate: bool = True,
-              platforms: str | list[str] | None = None) -> BuildResult:
+              platforms: str | list[str] | None = None,
+              reference_results: bool | None = None) -> BuildResult:
     """Build ``model`` into ``<out_dir>/<fmu_file_name(...)>``: FMI 2.0
     co-simulation as ``<model>.fmu``, any other variant as
     ``<model>_fmi<version>_<interface>.fmu``; with its documentation page
@@ -253,12 +255,20 @@ def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 
     ``$LOOMFMU_PLATFORMS`` if set, else every platform whose compiler is
     installed, with one line on stderr naming those skipped and the Debian
     package of each (:mod:`loomfmu.fmu.platforms`).
+    reference_results: carry the default experiment's reference result under
+    FMI-LS-REF (:mod:`loomfmu.fmu.reference_results`). Default: yes, unless
+    ``$LOOMFMU_LS_REF`` is ``off`` (the test suite's throwaway builds: the
+    reference of a variant can take a minute the first time).
     """
     if not isinstance(model, Model):
         raise ValueError(f"model = {model!r:.60}; allowed: a loomfmu Model (load_model(name))")
     check_variant(fmi_version, interface)
     check_bool("validate", validate)
     chosen, skipped = plat.select(platforms, fmi_version)
+    if reference_results is None:
+        reference_results = os.environ.get("LOOMFMU_LS_REF", "on").strip().lower() not in (
+            "off", "0", "no", "false")
+    check_bool("reference_results", reference_results)
     missing = [n for n in chosen if not plat.installed(n)]
     if missing:
         raise BuildError("no compiler for " + ", ".join(
@@ -292,6 +302,8 @@ def build_fmu(model: Model, *, out_dir: Path | str = "dist", fmi_version: int = 
         targets = [(p, root / "binaries" / p.folder(fmi_version) / f"{model.name}{p.suffix}")
                    for p in (plat.PLATFORMS[n] for n in chosen)]
         stats = compile_binaries(src, targets, generated_c)
+        if reference_results:  # extra/org.fmi-standard.fmi-ls-ref (FMI-LS-REF)
+            write_reference_results(root, model)
         fmu = out_dir / fmu_file_name(model.name, fmi_version, interface)
         _zip_dir(root, fmu)
     # documentation/index.html; `loomfmu build` rewrites it with the verification

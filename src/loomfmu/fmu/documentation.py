@@ -152,7 +152,7 @@ def html_for(model: Model, verification: dict | None = None, *,
         ("ports", "Ports", _ports(model)),
         ("build", "Rebuilding from sources/", _build(model, md, members)),
         ("solver", *_integration(model, md)),
-        ("experiment", "Default experiment", _experiment(md)),
+        ("experiment", "Default experiment", _experiment(md) + _reference_result(md, members)),
         ("verification", "Verification", _verification(model, verification)),
         ("variables", "Variables", _variables(model, md)),
         ("equations", "Derivation and equations" if readable and model.quantities
@@ -890,6 +890,23 @@ def _experiment(md: ET.Element) -> str:
             f"<td>{what.get(k, ('', ''))[0]}</td><td>{what.get(k, ('', ''))[1]}</td></tr>"
             for k, v in exp.attrib.items()]
     return _table(["attribute", "value", "unit", "meaning"], rows)
+
+
+def _reference_result(md: ET.Element, members: list[str] | None) -> str:
+    """Where the FMU carries its reference result (FMI-LS-REF) and how to check it."""
+    from loomfmu.fmu.reference_results import LS_DIR, LS_DOC, LS_MANIFEST, csv_name
+    if LS_MANIFEST not in (members or []):
+        return ""
+    name = md.get("modelName", "")
+    return (f'<div class="rule"><strong>Reference result inside.</strong> '
+            f"<code>{LS_DIR}/{_e(csv_name(name))}</code> holds the outputs of this default "
+            "experiment computed by the scipy reference at a tight tolerance, listed with "
+            f"the experiment and the tolerance the FMU is checked to in "
+            f"<code>{LS_MANIFEST}</code> (the layered standard FMI-LS-REF); "
+            f"<code>{LS_DOC}</code> says how it was made. Check the FMU against it: "
+            "<code>loomfmu check FMU</code>, or run the default experiment with "
+            "<code>fmpy.simulate_fmu</code> and compare each output at the CSV's times, "
+            "relative to its range.</div>")
 
 
 def _verification(model: Model, ver: dict | None) -> str:

@@ -119,7 +119,8 @@ def fmu_blob(study: Study, fmu: Path | str | None = None) -> FmuBlob:
             model = (study.declaration if study.declaration is not None
                      else load_model(study.model, **study.options))
             path = build_fmu(model, out_dir=tmp,
-                             validate=False, platforms=HOST).path
+                             validate=False, platforms=HOST,
+                    reference_results=False).path
             data = Path(path).read_bytes()
             name = Path(path).name
     else:
