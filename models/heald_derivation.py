@@ -26,7 +26,6 @@ from loomfmu.models.heald_common import (
     Warp,
     defect,
     motion_law,
-    shaft_angle,
 )
 
 G_SEC = "1. slat and side-stay sections"
@@ -126,7 +125,7 @@ def declare_quantities(m: Model, *, mo: Motion, w: Warp, sec: Section | None = N
           "m_l/2, the same as y1", source=SEED0 + ", m_y1, m_y2")
 
     # -- motion law ----------------------------------------------------------------
-    _, phi_r, phi_a, sign = shaft_angle(mo.phi, mo.end_dwell)
+    phi_r, phi_a, sign = mo.phi_r, mo.phi_a, mo.sign  # the nodes the model uses
     Q("phi_r", phi_r, unit="rad", group=G_H, symbol=r"\phi_r",
       description="main-shaft angle within the current revolution",
       source=SEED0 + ", motion law: phi_r = phi - 2 pi (k_f - 1)")
@@ -148,12 +147,15 @@ def declare_quantities(m: Model, *, mo: Motion, w: Warp, sec: Section | None = N
       description="the motion law exactly as printed (coefficient 1.2, phi_a = 0 after "
       "320 deg); not used: " + D1 + "; " + D2, source=SEED0 + ", motion law as printed")
     Q("dH_dphi", mo.H1, unit="m", group=G_H, symbol=r"H'(\phi)",
-      description="first derivative of H by the shaft angle (per rad; CasADi AD); "
-      "h' = H' omega", source="derived: AD of H")
+      description="first derivative of H by the shaft angle (per rad): h_m k_H (1 - "
+      "cos(k_H phi_a)) / pi (-1)^(k_f+1) while the frame moves (0 < phi_a < 280 deg), 0 in "
+      "the dwells (at a boundary, a single angle, the dwell's 0); h' = H' omega",
+      source="derived: d/dphi of H (d phi_a / d phi = 1 while the frame moves)")
     Q("d2H_dphi2", mo.H2, unit="m", group=G_H, symbol=r"H''(\phi)",
       description="second derivative of H by the shaft angle (per rad^2); h'' = H'' "
-      "omega^2 (omega held over a step: its derivative taken as zero)",
-      source="derived: AD of H")
+      "omega^2 (omega held over a step: its derivative taken as zero); h_m k_H^2 "
+      "sin(k_H phi_a) / pi (-1)^(k_f+1) while the frame moves, 0 in the dwells",
+      source="derived: d/dphi of H'")
 
     # -- shed geometry and warp forces --------------------------------------------------
     Q("L_1", w.L1, unit="m", group=G_W, symbol=r"\sqrt{l_1^2 + h^2}",

@@ -143,21 +143,38 @@ def _variables(model) -> list[Section]:
     return out
 
 
+#: the prefix of the report's own equation labels, E1, E2, ... (the seeds number
+#: theirs (1), (2), ...; docs/guides/derivation.md gives the convention)
+EQUATION_TAG = "E"
+
+
 def _equations(model, lst: readable.Listing) -> Section:
     sec = Section("Equations")
+    if lst.named:
+        sec.blocks += [f"Written with the derivation's named quantities wherever the model "
+                       f"uses them ({len(lst.named)}, each defined in the Derivation above):",
+                       Table(["symbol", "quantity", "group"],
+                             [[Math(s), Code(s.name.split("[")[0]), _group(model, s)]
+                              for s, _ in lst.named])]
     if lst.shared:
-        sec.blocks += [f"Shared subexpressions, each defined once and used by name below "
-                       f"({len(lst.shared)}):",
+        sec.blocks += [f"Shared subexpressions that have no name in the derivation, each "
+                       f"defined once and used by name below ({len(lst.shared)}):",
                        Equations([(_eq(s, d), "") for s, d in lst.shared])]
     sec.blocks += [f"The {len(lst.equations)} equations (terms with the unknowns "
-                   "der(x) and the algebraic variables on the left), numbered E1, E2, ... "
-                   "apart from the seed's own equation numbers:",
-                   Equations([(_eq(lhs, rhs), f"E{k}")
+                   "der(x) and the algebraic variables on the left), numbered "
+                   f"{EQUATION_TAG}1, {EQUATION_TAG}2, ... apart from the seed's own "
+                   "equation numbers:",
+                   Equations([(_eq(lhs, rhs), f"{EQUATION_TAG}{k}")
                               for k, (lhs, rhs) in enumerate(lst.equations, 1)])]
     if lst.outputs:
         sec.blocks += [f"The {len(lst.outputs)} outputs:",
                        Equations([(_eq(y, e), "") for y, e in lst.outputs])]
     return sec
+
+
+def _group(model, sym) -> str:
+    name = sym.name.split("[")[0]
+    return next((q.group for q in model.quantities if q.name == name), "")
 
 
 def _sparsity(jac: ca.Sparsity, rows: int, cols: int) -> str:
@@ -187,7 +204,8 @@ def _solving(model, dae: DaeForm) -> Section:
         sec.blocks.append(
             f"F is nonlinear in w: the runtime solves all {nw} unknowns together by "
             "Newton's method with the exact Jacobian \u2202F/\u2202w, at every right-hand "
-            f"side evaluation. Equations nonlinear in w: {', '.join(f'E{i + 1}' for i in second)}; "
+            f"side evaluation. Equations nonlinear in w: "
+            f"{', '.join(f'{EQUATION_TAG}{i + 1}' for i in second)}; "
             "unknowns that enter them nonlinearly:")
         sec.blocks.append(Table(["name", "symbol"], [[Code(n), _sym(n)] for n in nonlin]))
     sp = A.sparsity()
