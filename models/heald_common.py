@@ -139,9 +139,11 @@ def stroke_derivatives(phi_a, sign, h_m, k_H):
     angle where the event indicators restart the step, the dwell's 0 is
     taken; with k_H = 9/7 both derivatives are continuous there anyway."""
     theta = k_H * phi_a
-    moving = ca.logic_and(phi_a > 0, phi_a < 280 * DEG)
-    return (ca.if_else(moving, sign * h_m * k_H * (1 - ca.cos(theta)) / math.pi, 0),
-            ca.if_else(moving, sign * h_m * k_H**2 * ca.sin(theta) / math.pi, 0))
+    moving = ca.logic_and(phi_a > 0, phi_a < 280 * DEG)  # 1 while moving, else 0
+    # a product with the 0/1 of the comparison (an if_else would take in the factor
+    # omega of h' = H' omega, and h' would no longer show as H' omega)
+    return (sign * h_m * k_H * (1 - ca.cos(theta)) / math.pi * moving,
+            sign * h_m * k_H**2 * ca.sin(theta) / math.pi * moving)
 
 
 def warp_geometry(H, l_1, l_2):

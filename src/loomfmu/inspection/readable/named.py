@@ -20,7 +20,7 @@ import casadi as ca
 import sympy
 from sympy.core.parameters import distribute
 
-from loomfmu.inspection.readable.convert import _BINARY, _OP_NAMES, _constant, OPS, symbols
+from loomfmu.inspection.readable.convert import _BINARY, _OP_NAMES, OPS, _constant, symbols
 from loomfmu.inspection.readable.names import Var
 from loomfmu.inspection.readable.quantity_forms import (
     ENTRY_VOCABULARY,
