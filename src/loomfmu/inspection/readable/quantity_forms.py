@@ -277,7 +277,11 @@ class _Vocabulary:
         if e in memo:
             return memo[e]
         out = e
-        if not e.is_Atom and isinstance(e, sympy.Expr):
+        if not e.is_Atom and not isinstance(e, sympy.Expr) and e.args:
+            # a case's condition (phi_a > 0) or a Piecewise's (value, condition) pair
+            args = [self.write(a, memo) for a in e.args]
+            out = e.func(*args) if args != list(e.args) else e
+        elif not e.is_Atom and isinstance(e, sympy.Expr):
             args = [self.write(a, memo) for a in e.args]
             out = e.func(*args) if args != list(e.args) else e
             out = self.exact.get(out, out)
