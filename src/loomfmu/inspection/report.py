@@ -150,12 +150,14 @@ EQUATION_TAG = "E"
 
 def _equations(model, lst: readable.Listing) -> Section:
     sec = Section("Equations")
-    if lst.named:
+    used = _quantities_used(model, lst)
+    if used:
         sec.blocks += [f"Written with the derivation's named quantities wherever the model "
-                       f"uses them ({len(lst.named)}, each defined in the Derivation above):",
+                       f"uses them; those used below ({len(used)}, each defined in the "
+                       "Derivation above, a matrix's entries by their indices):",
                        Table(["symbol", "quantity", "group"],
-                             [[Math(s), Code(s.name.split("[")[0]), _group(model, s)]
-                              for s, _ in lst.named])]
+                             [[Math(readable.QuantitySymbol(q.name, q.symbol)), Code(q.name),
+                               q.group] for q in used])]
     if lst.shared:
         sec.blocks += [f"Shared subexpressions that have no name in the derivation, each "
                        f"defined once and used by name below ({len(lst.shared)}):",
@@ -172,9 +174,21 @@ def _equations(model, lst: readable.Listing) -> Section:
     return sec
 
 
-def _group(model, sym) -> str:
-    name = sym.name.split("[")[0]
-    return next((q.group for q in model.quantities if q.name == name), "")
+def _quantities_used(model, lst: readable.Listing) -> list:
+    """The quantities whose symbols (or entries' symbols) the printed lines
+    use directly, in declaration order."""
+    lines = [e for pair in lst.shared + lst.equations + lst.outputs + lst.events
+             + lst.modes + lst.delays for e in pair]
+    names, seen, todo = set(), set(), list(lines)
+    while todo:  # each node once (a DAG walked as a tree is exponential)
+        e = todo.pop()
+        if e in seen:
+            continue
+        seen.add(e)
+        if isinstance(e, readable.QuantitySymbol):
+            names.add(e.name.split("[")[0])
+        todo += e.args
+    return [q for q in model.quantities if q.name in names]
 
 
 def _sparsity(jac: ca.Sparsity, rows: int, cols: int) -> str:
