@@ -10,10 +10,10 @@ an entry of a matrix quantity small enough that the derivation prints its
 entries), the SymPy form takes the quantity's symbol instead of its
 expression.  The match is by node identity, not by the form of the
 expression: an equation shows a quantity's symbol exactly where the
-declaration used that quantity (or built the very same expression again, as
-the spindle's assembly builds element 1's matrices: CasADi's common
-subexpression elimination merges those nodes first), and substituting the
-definitions back gives the declared expression.  Each definition is itself written with the
+declaration used that quantity, and substituting the definitions back gives
+the declared expression.  (Merging structurally equal nodes first would
+be wrong for a reader: the heald frame's M_y2 = M_x2 = m_l/2 would print
+as the other plane's mass, a symmetric C_21 in place of C_12.)  Each definition is itself written with the
 quantities computed before it.
 """
 from __future__ import annotations
@@ -67,7 +67,7 @@ def to_sympy_named(model, exprs: list) -> tuple[list[sympy.Expr],
     table = symbols(model)
     args = [table.get(s.name()) or Var(s.name()) for s in syms]
     f = ca.Function("named", [ca.vertcat(*syms) if syms else ca.SX(0, 1)], [nodes, body],
-                    {"live_variables": False, "cse": True})  # a slot per distinct node
+                    {"live_variables": False})  # one work slot per node: its identity
     rows = f.sparsity_out(1).row()
     by_slot: dict[int, QuantitySymbol] = {}
     for k in range(f.n_instructions()):
