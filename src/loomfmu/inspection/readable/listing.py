@@ -105,6 +105,9 @@ class Listing:
 
 #: a named subexpression shorter than this (characters of ``str``) is not worth a name
 _MIN_LIFT = 40
+#: characters of a line besides its right side ("Eq(xi123, " and ")"): a line
+#: fits max_len when its right side fits max_len less this
+_EQ_ROOM = 20
 
 
 def _lift(e, max_len: int, defs: list, temps) -> sympy.Basic:
@@ -263,9 +266,10 @@ def _shared(flat: list, min_ops: int, max_len: int | None):
         return kept, reduced
     lifted = (sympy.Symbol(f"_lift{k}") for k in itertools.count())
     defs: list = []
+    room = max_len - _EQ_ROOM
     for sym, definition in kept:
-        definition = _lift(definition, max_len, defs, lifted)
+        definition = _lift(definition, room, defs, lifted)
         defs.append((sym, definition))
-    out = [_lift(e, max_len, defs, lifted) for e in reduced]
+    out = [_lift(e, room, defs, lifted) for e in reduced]
     return defs, out
 
