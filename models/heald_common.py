@@ -117,8 +117,33 @@ def motion_law(phi, h_m, k_H, end_dwell="corrected"):
     H(phi + 2 pi) = -H(phi)).  Works on CasADi symbols and on floats.
     """
     _, _, phi_a, sign = shaft_angle(phi, end_dwell)
+    return stroke(phi_a, sign, h_m, k_H)
+
+
+def stroke(phi_a, sign, h_m, k_H):
+    """H from the stroke's angle phi_a and sign (see :func:`motion_law`)."""
     theta = k_H * phi_a
     return h_m * ((theta - ca.sin(theta)) / math.pi - 1) * sign
+
+
+def stroke_derivatives(phi_a, sign, h_m, k_H):
+    """dH/dphi and d2H/dphi2 of :func:`stroke` as formulas (not automatic
+    differentiation): with theta = k_H phi_a and s the stroke's sign,
+
+        H'  = s h_m k_H (1 - cos theta) / pi,
+        H'' = s h_m k_H^2 sin(theta) / pi
+
+    while the stroke moves (0 < phi_a < 280 deg, where d phi_a / d phi = 1),
+    and 0 in the dwells (phi_a constant; the revolution count and the sign
+    are constant between revolutions).  At a dwell's boundary, a single
+    angle where the event indicators restart the step, the dwell's 0 is
+    taken; with k_H = 9/7 both derivatives are continuous there anyway."""
+    theta = k_H * phi_a
+    moving = ca.logic_and(phi_a > 0, phi_a < 280 * DEG)  # 1 while moving, else 0
+    # a product with the 0/1 of the comparison (an if_else would take in the factor
+    # omega of h' = H' omega, and h' would no longer show as H' omega)
+    return (sign * h_m * k_H * (1 - ca.cos(theta)) / math.pi * moving,
+            sign * h_m * k_H**2 * ca.sin(theta) / math.pi * moving)
 
 
 def warp_geometry(H, l_1, l_2):
@@ -140,6 +165,9 @@ class Motion:
     end_dwell: str = "corrected"
     H1: ca.SX = None     # dH/dphi
     H2: ca.SX = None     # d2H/dphi2
+    phi_r: ca.SX = None  # angle within the revolution
+    phi_a: ca.SX = None  # the stroke's angle
+    sign: ca.SX = None   # the stroke's sign (-1)^(k_f+1)
 
 
 def declare_motion(m: Model, *, end_dwell: str) -> Motion:
@@ -157,9 +185,9 @@ def declare_motion(m: Model, *, end_dwell: str) -> Motion:
                   "bottom dwell; a second frame in opposition, as in a plain weave, starts "
                   "at 2 pi: one stroke per revolution, H(phi + 2 pi) = -H(phi))")
     m.eq(m.der(phi), omega)
-    H = motion_law(phi, h_m, k_H, end_dwell)
-    H1 = ca.jacobian(H, phi)
-    H2 = ca.jacobian(H1, phi)
+    _, phi_r, phi_a, sign = shaft_angle(phi, end_dwell)
+    H = stroke(phi_a, sign, h_m, k_H)
+    H1, H2 = stroke_derivatives(phi_a, sign, h_m, k_H)
     # sin((phi - phi_k)/2), zero once a revolution at the break phi_k,
     # written sin(phi/2) cos(phi_k/2) - cos(phi/2) sin(phi_k/2): one sine and
     # one cosine of phi/2 for the three indicators (the compiler makes them
@@ -170,7 +198,8 @@ def declare_motion(m: Model, *, end_dwell: str) -> Motion:
         m.event(f"dwell_{int(deg)}deg", s_half * math.cos(a) - c_half * math.sin(a),
                 description=f"main shaft passes {deg:g} deg (dwell boundary): "
                 f"sin((phi - {deg:g} deg)/2), expanded")
-    return Motion(phi, omega, h_m, H, H1 * omega, H2 * omega**2, k_H, end_dwell, H1, H2)
+    return Motion(phi, omega, h_m, H, H1 * omega, H2 * omega**2, k_H, end_dwell, H1, H2,
+                  phi_r, phi_a, sign)
 
 
 #: Values of the build option ``warp_tension``.

@@ -26,7 +26,6 @@ from loomfmu.models.heald_common import (
     Warp,
     defect,
     motion_law,
-    shaft_angle,
 )
 
 G_SEC = "1. slat and side-stay sections"
@@ -126,7 +125,7 @@ def declare_quantities(m: Model, *, mo: Motion, w: Warp, sec: Section | None = N
           "m_l/2, the same as y1", source=SEED0 + ", m_y1, m_y2")
 
     # -- motion law ----------------------------------------------------------------
-    _, phi_r, phi_a, sign = shaft_angle(mo.phi, mo.end_dwell)
+    phi_r, phi_a, sign = mo.phi_r, mo.phi_a, mo.sign  # the nodes the model uses
     Q("phi_r", phi_r, unit="rad", group=G_H, symbol=r"\phi_r",
       description="main-shaft angle within the current revolution",
       source=SEED0 + ", motion law: phi_r = phi - 2 pi (k_f - 1)")
@@ -148,12 +147,15 @@ def declare_quantities(m: Model, *, mo: Motion, w: Warp, sec: Section | None = N
       description="the motion law exactly as printed (coefficient 1.2, phi_a = 0 after "
       "320 deg); not used: " + D1 + "; " + D2, source=SEED0 + ", motion law as printed")
     Q("dH_dphi", mo.H1, unit="m", group=G_H, symbol=r"H'(\phi)",
-      description="first derivative of H by the shaft angle (per rad; CasADi AD); "
-      "h' = H' omega", source="derived: AD of H")
+      description="first derivative of H by the shaft angle (per rad): h_m k_H (1 - "
+      "cos(k_H phi_a)) / pi (-1)^(k_f+1) while the frame moves (0 < phi_a < 280 deg), 0 in "
+      "the dwells (at a boundary, a single angle, the dwell's 0); h' = H' omega",
+      source="derived: d/dphi of H (d phi_a / d phi = 1 while the frame moves)")
     Q("d2H_dphi2", mo.H2, unit="m", group=G_H, symbol=r"H''(\phi)",
       description="second derivative of H by the shaft angle (per rad^2); h'' = H'' "
-      "omega^2 (omega held over a step: its derivative taken as zero)",
-      source="derived: AD of H")
+      "omega^2 (omega held over a step: its derivative taken as zero); h_m k_H^2 "
+      "sin(k_H phi_a) / pi (-1)^(k_f+1) while the frame moves, 0 in the dwells",
+      source="derived: d/dphi of H'")
 
     # -- shed geometry and warp forces --------------------------------------------------
     Q("L_1", w.L1, unit="m", group=G_W, symbol=r"\sqrt{l_1^2 + h^2}",
@@ -210,3 +212,160 @@ def declare_quantities(m: Model, *, mo: Motion, w: Warp, sec: Section | None = N
           description="static deflection of x1, x2, x3 under the warp load, delta_xf f_x "
           "(the start values of x)",
           source=SEED0 + ", (1) with the accelerations zero")
+
+
+#: the parameters the frame's sketch is drawn with (their start values)
+FIGURE_PARAMETERS = ("l", "l_n", "s_L", "h1", "b1", "d1")
+
+FIGURE_CAPTION = (
+    "The slat model of seed 000 (its fig. 1 is missing), drawn at the default "
+    "parameters, heights to scale: the frame in its plane (z along the slats, y up) "
+    "with the plane's normal x drawn obliquely, towards the long (back) side of the "
+    "shed; the axes move with the drive locks, which follow h = H(phi). Top slat "
+    "of length l, lower slat, side stays of length s_L; two lifting hooks (drive "
+    "hinges, n_hinge) under the lower slat, l_n in from its ends; the coordinates "
+    "y1, y2, y3 {x}of the top slat's left corner, mid-section and right corner, "
+    "with the reduced masses m_y{mx}; the warp loads {f} at the mid-section; "
+    "the slats' box section h1 x b1, wall d1. The layout is read from (3): "
+    "the corners' vertical influence delta_y11 = l_n^3 / 3EJ_x is that of the lower "
+    "slat's cantilevers beyond the hooks{hb}.")
+
+
+def frame_svg(p: dict, *, spatial: bool) -> str:
+    """An SVG sketch of the heald frame's slat model at the parameter values
+    ``p`` (the names of :data:`FIGURE_PARAMETERS`, and ``h_B`` when
+    ``spatial``, SI units): the x coordinates, f_x and the side stays'
+    cantilevers h_B only when ``spatial``."""
+    import math
+    l, l_n, s_L, h1 = p["l"], p["l_n"], p["s_L"], p["h1"]
+    scale = 520.0 / l  # px per m
+    ox, oy = 90.0, 250.0  # the lower slat's left end, on the canvas
+    ob = (0.45 * math.cos(math.radians(35)), 0.45 * math.sin(math.radians(35)))
+
+    def pt(zz, yy, xx=0.0):  # frame (m): z along the slats, y up, x out of the plane
+        return (ox + scale * (zz + ob[0] * xx), oy - scale * (yy + ob[1] * xx))
+
+    def line(a, b, style):
+        return (f'<line x1="{a[0]:.1f}" y1="{a[1]:.1f}" x2="{b[0]:.1f}" y2="{b[1]:.1f}" '
+                f'{style}/>')
+
+    def label(xy, s, dx=0, dy=0, size=14, anchor="start"):
+        return (f'<text x="{xy[0] + dx:.1f}" y="{xy[1] + dy:.1f}" font-size="{size}" '
+                f'font-style="italic" text-anchor="{anchor}">{s}</text>')
+
+    def sub(s, i):
+        return f'{s}<tspan baseline-shift="sub" font-size="10">{i}</tspan>'
+
+    def arrow(a, b, colour="#000", width=1.5):
+        return line(a, b, f'stroke="{colour}" stroke-width="{width}" '
+                    'marker-end="url(#harr)"')
+
+    def dim(a, b, text, dx=0, dy=0):
+        return (line(a, b, 'stroke="#555" marker-start="url(#harr)" marker-end="url(#harr)"')
+                + label(((a[0] + b[0]) / 2, (a[1] + b[1]) / 2), text, dx, dy, 13, "middle"))
+
+    def bar(z0, z1, y0, y1, fill):
+        a, b = pt(z0, y1), pt(z1, y0)
+        return (f'<rect x="{a[0]:.1f}" y="{a[1]:.1f}" width="{b[0] - a[0]:.1f}" '
+                f'height="{b[1] - a[1]:.1f}" fill="{fill}" stroke="#1f4e79" '
+                'stroke-width="1.5"/>')
+
+    top = s_L  # the top slat's axis
+    hs = h1 / 2
+    w_stay = 0.03
+    parts = [
+        bar(0, l, -hs, hs, "#e8eef5"),                           # lower slat
+        bar(0, w_stay, hs, top - hs, "#dfe7f0"),                 # side stays
+        bar(l - w_stay, l, hs, top - hs, "#dfe7f0"),
+        bar(0, l, top - hs, top + hs, "#cddbeb"),                # top slat
+        label(pt(l / 4, top + hs), "top slat", 0, -6, 13, "middle"),
+        label(pt(l / 2, -hs), "lower slat", 0, 16, 13, "middle"),
+        label(pt(l, top / 2), "side stay", 8, 16, 13),
+    ]
+    # drive hinges: lifting hooks l_n in from the lower slat's ends, moved by H(phi)
+    for zh in (l_n, l - l_n):
+        a = pt(zh, -hs)
+        parts += [f'<circle cx="{a[0]:.1f}" cy="{a[1] + 7:.1f}" r="6" fill="#fff" '
+                  'stroke="#000" stroke-width="1.5"/>',
+                  line((a[0], a[1] + 13), (a[0], a[1] + 40), 'stroke="#000" stroke-width="3"'),
+                  arrow((a[0] + 14, a[1] + 44), (a[0] + 14, a[1] + 14), "#9c2a00")]
+    hook = pt(l - l_n, -hs)
+    a = pt(l_n, -hs)
+    parts += [label(hook, "h = H(φ)", 20, 34, 13),
+              label(a, "drive hinge (lifting hook)", 24, 36, 12),
+              dim((pt(0, -hs)[0], a[1] + 30), (a[0], a[1] + 30), sub("l", "n"), 0, 16)]
+    # the coordinates of the top slat's points 1, 2, 3 (and the reduced masses)
+    for i, zi in ((1, 0.0), (2, l / 2), (3, l)):
+        c = pt(zi, top)
+        parts += [f'<circle cx="{c[0]:.1f}" cy="{c[1]:.1f}" r="5" fill="#1f4e79"/>',
+                  arrow(c, (c[0], c[1] - 58), "#2e7d32", 2),
+                  label((c[0], c[1] - 58), sub("y", i), -4, -6, 15, "end")]
+        if spatial:
+            e = pt(zi, top, 0.22)
+            parts += [arrow(c, e, "#6a1b9a", 2), label(e, sub("x", i), 6, 2, 15)]
+        masses = sub("m", f"y{i}") + (" " + sub("m", f"x{i}") if spatial else "")
+        parts.append(label(c, masses, {1: 10, 2: -8, 3: -10}[i], 30, 12,
+                           {1: "start", 2: "end", 3: "end"}[i]))
+    # warp loads on the mid-section
+    c = pt(l / 2, top)
+    parts += [arrow((c[0] + 40, c[1] - 55), (c[0] + 40, c[1] - 17), "#b71c1c", 2),
+              label((c[0] + 40, c[1] - 55), sub("f", "y"), 6, 8, 15)]
+    if spatial:
+        a = pt(l / 2 + 0.05, top - 0.1, -0.2)
+        b = pt(l / 2 + 0.01, top - 0.02, -0.02)
+        parts += [arrow(a, b, "#b71c1c", 2), label(a, sub("f", "x"), 4, 14, 15)]
+        hb = p["h_B"]
+        for zs in (0.0, l):  # the side stays' cantilevers: held across the frame h_B below
+            g = pt(zs, top - hb)
+            parts.append(f'<rect x="{g[0] - 9:.1f}" y="{g[1] - 4:.1f}" width="18" height="8" '
+                         'fill="#999"/>')
+        g = pt(0, top - hb)
+        parts += [label(g, "stays held across the frame here", 14, 4, 12),
+                  dim((g[0] - 24, g[1]), (pt(0, top)[0] - 24, pt(0, top)[1]),
+                      sub("h", "B"), -14, 4)]
+    # dimensions: l along the top slat, s_L the frame's height
+    a, b = pt(0, top + hs), pt(l, top + hs)
+    parts.append(dim((a[0], a[1] - 75), (b[0], b[1] - 75), "l", 0, -6))
+    a, b = pt(0, 0), pt(0, top)
+    parts.append(dim((a[0] - 60, a[1]), (b[0] - 60, b[1]), sub("s", "L"), -14, 4))
+    # axes, moving with the drive locks
+    o = (40.0, 350.0)
+    parts += [arrow(o, (o[0] + 50, o[1])), label(o, "z", 52, 5),
+              arrow(o, (o[0], o[1] - 50)), label(o, "y", -4, -54),
+              label(o, "axes move with the drive locks", 64, 18, 11)]
+    if spatial:
+        parts += [arrow(o, (o[0] + 40 * math.cos(math.radians(35)),
+                            o[1] - 40 * math.sin(math.radians(35)))), label(o, "x", 36, -28)]
+    # the slats' box section
+    bx0, by0, k = 660.0, 250.0, 600.0  # px per m of the section
+    wb, hh, d1 = p["b1"] * k, p["h1"] * k, max(p["d1"] * k, 1.5)
+    parts += [f'<rect x="{bx0:.1f}" y="{by0:.1f}" width="{wb:.1f}" height="{hh:.1f}" '
+              'fill="#cddbeb" stroke="#1f4e79" stroke-width="1.5"/>',
+              f'<rect x="{bx0 + d1:.1f}" y="{by0 + d1:.1f}" width="{wb - 2 * d1:.1f}" '
+              f'height="{hh - 2 * d1:.1f}" fill="#fff" stroke="#1f4e79"/>',
+              label((bx0, by0), "slat section", wb / 2, -10, 12, "middle"),
+              label((bx0, by0 + hh / 2), sub("h", "1"), -6, 4, 13, "end"),
+              label((bx0, by0 + hh), sub("b", "1"), wb / 2, 16, 13, "middle"),
+              label((bx0 + wb, by0 + 10), sub("d", "1") + " wall", 6, 4, 12)]
+    return ('<svg xmlns="http://www.w3.org/2000/svg" width="720" height="380" '
+            'viewBox="0 0 720 380" role="img" aria-label="heald frame slat model: top '
+            'and lower slats, side stays, drive hinges, coordinates of the top slat\'s '
+            'points 1, 2, 3"><defs><marker id="harr" viewBox="0 0 10 10" refX="9" '
+            'refY="5" markerWidth="9" markerHeight="9" markerUnits="userSpaceOnUse" '
+            'orient="auto-start-reverse">'
+            '<path d="M0,0 L10,5 L0,10 z"/></marker></defs>'
+            '<rect width="720" height="380" fill="#fff"/>' + "".join(parts) + "</svg>")
+
+
+def frame_figure(m: Model, *, spatial: bool) -> None:
+    """Keep the sketch of the slat model on ``m`` (a planar or spatial frame)."""
+    names = FIGURE_PARAMETERS + (("h_B",) if spatial else ())
+    caption = FIGURE_CAPTION.format(
+        x="(vertical, relative to the drive locks) and x1, x2, x3 (across the frame) "
+        if spatial else "(vertical, relative to the drive locks) ",
+        mx=" and m_x" if spatial else "", f="f_y and f_x" if spatial else "f_y",
+        hb=", their horizontal one delta_x11 = h_B^3 / 3EJ_z that of the side stays "
+        "held across the frame h_B below the top slat (the place of that hold is an "
+        "assumption: the seed gives only its distance)" if spatial else "")
+    m.figure("frame", frame_svg({n: m.var(n).start for n in names}, spatial=spatial),
+             caption=caption)

@@ -138,6 +138,7 @@ def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
     # start at the static deflection under the warp load at the start angle
     m.set_starts_from(ca.vertcat(X, Y), ca.vertcat(dx_f * w.f_x, -dy_f * w.f_y))
     declare_ports(m, w)
-    from loomfmu.models.heald_derivation import declare_quantities
+    from loomfmu.models.heald_derivation import declare_quantities, frame_figure
     declare_quantities(m, mo=mo, w=w, sec=sec, bx=bx, by=by, k_B=k_B, inertia=inertia)
+    frame_figure(m, spatial=True)
     return m

@@ -64,6 +64,7 @@ def build(*, end_dwell: str = "corrected", inertia: str = "corrected",
     apply_preset(m, preset)
     m.set_starts_from(Y, -dy_f * w.f_y)
     declare_ports(m, w)
-    from loomfmu.models.heald_derivation import declare_quantities
+    from loomfmu.models.heald_derivation import declare_quantities, frame_figure
     declare_quantities(m, mo=mo, w=w, sec=sec, by=by)
+    frame_figure(m, spatial=False)
     return m

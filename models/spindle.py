@@ -32,6 +32,7 @@ import math
 from dataclasses import dataclass, field
 
 import casadi as ca
+import numpy as np
 
 from loomfmu.declare.checks import check_choice, check_int
 from loomfmu.declare.model import Model
@@ -49,6 +50,7 @@ from loomfmu.mechanics.rotor import (
 )
 from loomfmu.models.spindle_derivation import (
     force_quantities,
+    mesh_svg,
     modal_quantities,
     rotor_quantities,
     unbalance_quantity,
@@ -269,7 +271,44 @@ def declare_rotor(m: Model, Omega: ca.SX, *, beam: str = "euler", n_turns: int =
                       {"bobbin": m_b + fill * m_y, "whorl": m_w}, sup)
     if quantities:
         rotor_quantities(m, sp)
+        lay = mesh_layout(m, sp)
+        m.figure("mesh", mesh_svg(lay), caption=(
+            f"The finite-element mesh the model is built on, drawn from its own node heights "
+            f"and element diameters at the default parameters (diameters {6:g} times the "
+            f"length scale): {len(lay['z'])} nodes n0 ... n{len(lay['z']) - 1} (each with "
+            f"x, y and the slopes ax, ay), {len(lay['d'])} "
+            f"{'Timoshenko' if timo else 'Euler-Bernoulli'} beam elements "
+            f"e1 ... e{len(lay['d'])} ({n_low} from the footstep to the bolster "
+            f"bearing over L_s, one to the whorl over L_w, {n_cone} stepped ones along the "
+            "blade's cone over L_up); rigid disks for the whorl and the bobbin (tube and "
+            "yarn, by fill); the bolster bearing (upper support) with 8 coefficients to "
+            "the frame; the footstep bearing film (k_f, c_f) to the housing, a mass with "
+            f"its own x, y on the coil spring with {n_turns} turns and the squeeze-film "
+            "layers between them (seed 003, fig. 4 and (1)-(5)). The seed gives no "
+            "D1201 dimensions: lengths and diameters are the model's assumptions."))
     return sp
+
+
+def mesh_layout(m: Model, sp: SpindleRotor) -> dict:
+    """The mesh of ``sp`` at the default parameters of ``m``, for its drawing:
+    node heights ``z`` (m), element diameters ``d`` (m), node roles, the disk,
+    support and housing nodes, the element spans and the film layers."""
+    rotor = sp.rotor
+    f = ca.Function("mesh", [m.syms("parameter")],
+                    [ca.vertcat(*[ca.SX(v) for v in rotor.node_z()]),
+                     ca.vertcat(*[ca.SX(e[1]) for e in rotor.elements])])
+    z, d = (np.asarray(v.full()).ravel().tolist() for v in f(m.starts("parameter")))
+    nodes = sp.nodes
+    roles = {nodes["footstep"]: "footstep", nodes["bolster"]: "bolster bearing",
+             nodes["whorl"]: "whorl", nodes["top"]: "top of the blade"}
+    roles[nodes["bobbin"]] = "bobbin seat" + (", top of the blade"
+                                              if nodes["bobbin"] == nodes["top"] else "")
+    return {"z": z, "d": d, "roles": roles, "whorl": nodes["whorl"],
+            "bobbin": nodes["bobbin"], "bolster": rotor.springs[0][0],
+            "housing": rotor.housings[0][0], "layers": len(sp.support["K_i1"]),
+            "n_low": nodes["bolster"], "n_cone": nodes["top"] - nodes["whorl"],
+            "span_low": (0, nodes["bolster"]), "span_w": (nodes["bolster"], nodes["whorl"]),
+            "span_up": (nodes["whorl"], nodes["top"])}
 
 
 def spindle_system(**options):

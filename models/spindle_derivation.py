@@ -267,3 +267,120 @@ def static_correction_quantities(m, R, F, dF, q, v) -> None:
       symbol=r"\{\dot F\}", source="derived: d/dt of " + SEED + " (13)", group=MODAL)
     Q("v_corr", v, description="recovered rates B eta' + R F' (m/s, rad/s)",
       symbol=r"\{v_c\}", source=src, group=MODAL)
+
+
+def mesh_svg(lay: dict) -> str:
+    """An SVG drawing of the finite-element mesh ``lay`` (from
+    models/spindle.py's ``mesh_layout``: node heights ``z`` (m), element
+    diameters ``d`` (m), node ``roles``, disk nodes, the bolster spring's
+    node, the housing's node and the number of film layers), so that the
+    figure shows the very mesh the model is built on."""
+    z, d = lay["z"], lay["d"]
+    top, bottom, height, width = 30.0, 70.0, 510.0, 720.0
+    scale = (height - top - bottom) / max(z[-1], 1e-9)  # px per m along the blade
+    k_d = 6.0  # diameters drawn k_d times their scale, or the blade is a line
+    cx = 330.0
+
+    def Z(zz):
+        return height - bottom - scale * zz
+
+    def text(x, y, s, size=13, anchor="start", style="italic"):
+        return (f'<text x="{x:.1f}" y="{y:.1f}" font-size="{size}" text-anchor="{anchor}" '
+                f'font-style="{style}">{s}</text>')
+
+    parts = []
+    # elements: one quadrilateral each, its diameter at the element's middle
+    for e, de in enumerate(d):
+        half = k_d * scale * de / 2
+        y0, y1 = Z(z[e]), Z(z[e + 1])
+        parts.append(f'<rect class="element" x="{cx - half:.1f}" y="{y1:.1f}" '
+                     f'width="{2 * half:.1f}" height="{y0 - y1:.1f}" fill="#e8eef5" '
+                     'stroke="#1f4e79" stroke-width="1.2"/>')
+        parts.append(text(cx + half + 4, (y0 + y1) / 2 + 4, f"e{e + 1}", 11, "start",
+                          "normal"))
+    # disks: whorl and bobbin
+    for node, name, w, h in ((lay["whorl"], "whorl (m_w, I_dw, I_pw)", 0.024, 0.010),
+                             (lay["bobbin"], "bobbin's equivalent disk", 0.022, 0.040)):
+        half, hh = k_d * scale * w / 2 / 3, scale * h / 2
+        parts.append(f'<rect x="{cx - half:.1f}" y="{Z(z[node]) - hh:.1f}" '
+                     f'width="{2 * half:.1f}" height="{2 * hh:.1f}" fill="#f3d9b1" '
+                     'stroke="#9c5a00" stroke-width="1.5" opacity="0.85"/>')
+        parts.append(text(cx - half - 8, Z(z[node]) - hh + (0 if h < 0.02 else 10), name, 12,
+                          "end"))
+    # the axis and the nodes
+    parts.append(f'<line x1="{cx}" y1="{Z(0) + 30:.1f}" x2="{cx}" y2="{Z(z[-1]) - 25:.1f}" '
+                 'stroke="#777" stroke-dasharray="6 3 1 3"/>')
+    for k, zk in enumerate(z):
+        parts.append(f'<circle class="node" cx="{cx}" cy="{Z(zk):.1f}" r="3.5" fill="#000"/>')
+        role = lay["roles"].get(k, "")
+        parts.append(text(cx + 52, Z(zk) + 4, f"n{k}", 12, "start", "normal"))
+        parts.append(text(cx + 78, Z(zk) + 4, f"z = {zk * 1e3:.1f} mm" +
+                          (f" ({role})" if role else ""), 11, "start", "normal"))
+        parts.append(f'<line x1="{cx + 6}" y1="{Z(zk):.1f}" x2="{cx + 48}" y2="{Z(zk):.1f}" '
+                     'stroke="#bbb"/>')
+
+    def spring(x0, x1, y, label, below=False):
+        n, dx = 8, (x1 - x0) / 10
+        pts = [f"{x0:.1f},{y:.1f}", f"{x0 + dx:.1f},{y:.1f}"]
+        pts += [f"{x0 + dx * (1 + k):.1f},{y + (5 if k % 2 else -5):.1f}" for k in range(n)]
+        pts += [f"{x1 - dx:.1f},{y:.1f}", f"{x1:.1f},{y:.1f}"]
+        return (f'<polyline points="{" ".join(pts)}" fill="none" stroke="#9c2a00" '
+                'stroke-width="1.5"/>' + text((x0 + x1) / 2, y + (20 if below else -9),
+                                             label, 11, "middle"))
+
+    def ground(x, y0, y1):
+        hatch = "".join(f'<line x1="{x:.1f}" y1="{y:.1f}" x2="{x - 7:.1f}" y2="{y + 7:.1f}" '
+                        'stroke="#555"/>' for y in range(int(y0), int(y1), 7))
+        return f'<line x1="{x:.1f}" y1="{y0:.1f}" x2="{x:.1f}" y2="{y1:.1f}" ' \
+               f'stroke="#555" stroke-width="2"/>' + hatch
+
+    # upper support: the bolster bearing, 8 coefficients (k, c direct and cross)
+    yb = Z(z[lay["bolster"]])
+    half = k_d * scale * d[lay["bolster"] - 1] / 2
+    xg = cx - 200
+    parts.append(spring(xg, cx - half, yb, ""))
+    parts.append(ground(xg, yb - 18, yb + 18))
+    parts.append(text(xg - 40, yb + 34, "bolster bearing (upper support):", 12))
+    parts.append(text(xg - 40, yb + 49, "k_u, c_u, k_uxy, c_uxy", 11))
+    # lower support: the footstep film to the housing (m_p), the housing on the
+    # coil spring with the squeeze-film layers between its turns, to the frame
+    yf = Z(z[lay["housing"]])
+    hb = 30.0
+    parts.append(f'<rect x="{cx - hb:.1f}" y="{yf - 14:.1f}" width="{2 * hb:.1f}" '
+                 'height="28" fill="none" stroke="#2e7d32" stroke-width="2"/>')
+    parts.append(spring(cx - hb, cx - 4, yf + 5, ""))
+    parts.append(text(cx + hb + 4, yf + 26, "housing m_p (own x, y); film k_f, c_f to "
+                      "the blade", 11))
+    layers = lay["layers"]
+    parts.append(spring(xg, cx - hb, yf, ""))
+    for i in range(layers):  # the film layers between the spring's turns
+        x = xg + (cx - hb - xg) * (i + 1) / (layers + 1)
+        parts.append(f'<line x1="{x:.1f}" y1="{yf - 14:.1f}" x2="{x:.1f}" '
+                     f'y2="{yf + 14:.1f}" stroke="#2e7d32" stroke-dasharray="3 2"/>')
+    parts.append(ground(xg, yf - 18, yf + 18))
+    parts.append(text(xg - 40, yf + 32, "footstep bearing (lower support): coil spring,", 12))
+    parts.append(text(xg - 40, yf + 47, f"{layers} squeeze-film layers: k_spring + K_film, "
+                      "C_film", 11))
+    # dimensions along the blade
+    xd = cx + 270
+    for (a, b), label in ((lay["span_low"], f"L_s ({lay['n_low']} el.)"),
+                          (lay["span_w"], "L_w"),
+                          (lay["span_up"], f"L_up ({lay['n_cone']} el.)")):
+        parts.append(f'<line x1="{xd}" y1="{Z(z[a]):.1f}" x2="{xd}" y2="{Z(z[b]):.1f}" '
+                     'stroke="#000" marker-start="url(#sarr)" marker-end="url(#sarr)"/>')
+        parts.append(text(xd + 6, (Z(z[a]) + Z(z[b])) / 2 + 4, label, 12))
+    # axes
+    xa, ya = width - 60, height - 14
+    parts.append(f'<line x1="{xa}" y1="{ya}" x2="{xa}" y2="{ya - 45}" stroke="#000" '
+                 'marker-end="url(#sarr)"/>' + text(xa + 6, ya - 38, "z", 14))
+    parts.append(f'<line x1="{xa}" y1="{ya}" x2="{xa + 45}" y2="{ya}" stroke="#000" '
+                 'marker-end="url(#sarr)"/>' + text(xa + 40, ya - 6, "x", 14))
+    n = len(z)
+    return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0f}" '
+            f'height="{height:.0f}" viewBox="0 0 {width:.0f} {height:.0f}" role="img" '
+            f'aria-label="spindle finite-element mesh: {n} nodes, {len(d)} elements, '
+            'bolster and footstep supports, whorl and bobbin disks"><defs><marker '
+            'id="sarr" viewBox="0 0 10 10" refX="9" refY="5" markerWidth="7" '
+            'markerHeight="7" orient="auto-start-reverse"><path d="M0,0 L10,5 L0,10 z"/>'
+            f'</marker></defs><rect width="{width:.0f}" height="{height:.0f}" fill="#fff"/>'
+            + "".join(parts) + "</svg>")

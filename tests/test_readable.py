@@ -83,13 +83,15 @@ def _points(model, names: list[str], rng: np.random.Generator, shrink: float) ->
 
 def _printed_function(model, lst: readable.Listing, extras_sym, args):
     """The Listing (what the reports print) as one numeric function of args:
-    the shared definitions in order, then each residual lhs - rhs, each
-    output expression and each extra expression."""
+    the named quantities it uses and the shared definitions in order, then
+    each residual lhs - rhs, each output expression and each extra expression."""
     exprs = [lhs - rhs for lhs, rhs in lst.equations]
     exprs += [e for group in (lst.outputs, lst.events, lst.modes, lst.delays) for _, e in group]
     exprs += extras_sym
-    return sympy.lambdify(args, exprs, modules="numpy",
-                          cse=lambda es: (list(lst.shared), list(es)))
+    ren = {s: sympy.Dummy() for s, _ in lst.named}  # "r_O2[0,0]" is no Python name
+    defs = [(ren.get(s, s), d.xreplace(ren)) for s, d in list(lst.named) + list(lst.shared)]
+    exprs = [e.xreplace(ren) for e in exprs]
+    return sympy.lambdify(args, exprs, modules="numpy", cse=lambda es: (defs, list(es)))
 
 
 def _compare(model, *, ops=None, lst=None) -> tuple[int, int, list[str]]:
@@ -319,13 +321,21 @@ def test_tampered_op_is_detected():
 
 
 def test_tampered_listing_is_detected():
-    """A shared definition off by one part in a million must be caught."""
-    model = load_model("backrest")
+    """A shared definition, or a named quantity's definition, off by one part
+    in a million must be caught."""
+    model = load_model("heald_frame")
     lst = readable.listing(model)
     sym, definition = lst.shared[0]
     lst.shared[0] = (sym, definition * (1 + sympy.Rational(1, 10**6)))
     _, _, bad = _compare(model, lst=lst)
     assert bad, "a wrong shared definition went unnoticed"
+    model = load_model("backrest")
+    lst = readable.listing(model)
+    k = next(k for k, (s, _) in enumerate(lst.named) if s.name == "S_1")
+    sym, definition = lst.named[k]
+    lst.named[k] = (sym, definition * (1 + sympy.Rational(1, 10**6)))
+    _, _, bad = _compare(model, lst=lst)
+    assert bad, "a wrong named definition went unnoticed"
 
 
 def test_untampered_compare_path_agrees():
@@ -530,10 +540,14 @@ def test_inspect_report_rejects_unknown_format():
 
 
 def test_long_equations_break_without_changing_them():
-    """drive's cam series is a long sum: its rows hold every term once, and
-    the broken MathML and LaTeX are well-formed."""
-    lst = readable.listing(load_model("drive"))
+    """drive's cam series is a long sum (in the derivation; the equations
+    name it r(phi)): its rows hold every term once, and the broken MathML and
+    LaTeX are well-formed."""
+    model = load_model("drive")
+    lst = readable.listing(model)
     lines = [sympy.Eq(a, b, evaluate=False) for a, b in lst.shared + lst.outputs]
+    lines += [sympy.Eq(sym, form, evaluate=False) for _, sym, form
+              in readable.quantities_written(model) if not isinstance(form, sympy.MatrixBase)]
     broken = [(e, inspect_doc._rows(e)) for e in lines]
     broken = [(e, rows) for e, rows in broken if rows]
     assert broken, "no line of the drive was long enough to break"

@@ -143,21 +143,52 @@ def _variables(model) -> list[Section]:
     return out
 
 
+#: the prefix of the report's own equation labels, E1, E2, ... (the seeds number
+#: theirs (1), (2), ...; docs/guides/derivation.md gives the convention)
+EQUATION_TAG = "E"
+
+
 def _equations(model, lst: readable.Listing) -> Section:
     sec = Section("Equations")
+    used = _quantities_used(model, lst)
+    if used:
+        sec.blocks += [f"Written with the derivation's named quantities wherever the model "
+                       f"uses them; those used below ({len(used)}, each defined in the "
+                       "Derivation above, a matrix's entries by their indices):",
+                       Table(["symbol", "quantity", "group"],
+                             [[Math(readable.QuantitySymbol(q.name, q.symbol)), Code(q.name),
+                               q.group] for q in used])]
     if lst.shared:
-        sec.blocks += [f"Shared subexpressions, each defined once and used by name below "
-                       f"({len(lst.shared)}):",
+        sec.blocks += [f"Shared subexpressions that have no name in the derivation, each "
+                       f"defined once and used by name below ({len(lst.shared)}):",
                        Equations([(_eq(s, d), "") for s, d in lst.shared])]
     sec.blocks += [f"The {len(lst.equations)} equations (terms with the unknowns "
-                   "der(x) and the algebraic variables on the left), numbered E1, E2, ... "
-                   "apart from the seed's own equation numbers:",
-                   Equations([(_eq(lhs, rhs), f"E{k}")
+                   "der(x) and the algebraic variables on the left), numbered "
+                   f"{EQUATION_TAG}1, {EQUATION_TAG}2, ... apart from the seed's own "
+                   "equation numbers:",
+                   Equations([(_eq(lhs, rhs), f"{EQUATION_TAG}{k}")
                               for k, (lhs, rhs) in enumerate(lst.equations, 1)])]
     if lst.outputs:
         sec.blocks += [f"The {len(lst.outputs)} outputs:",
                        Equations([(_eq(y, e), "") for y, e in lst.outputs])]
     return sec
+
+
+def _quantities_used(model, lst: readable.Listing) -> list:
+    """The quantities whose symbols (or entries' symbols) the printed lines
+    use directly, in declaration order."""
+    lines = [e for pair in lst.shared + lst.equations + lst.outputs + lst.events
+             + lst.modes + lst.delays for e in pair]
+    names, seen, todo = set(), set(), list(lines)
+    while todo:  # each node once (a DAG walked as a tree is exponential)
+        e = todo.pop()
+        if e in seen:
+            continue
+        seen.add(e)
+        if isinstance(e, readable.QuantitySymbol):
+            names.add(e.name.split("[")[0])
+        todo += e.args
+    return [q for q in model.quantities if q.name in names]
 
 
 def _sparsity(jac: ca.Sparsity, rows: int, cols: int) -> str:
@@ -187,7 +218,8 @@ def _solving(model, dae: DaeForm) -> Section:
         sec.blocks.append(
             f"F is nonlinear in w: the runtime solves all {nw} unknowns together by "
             "Newton's method with the exact Jacobian \u2202F/\u2202w, at every right-hand "
-            f"side evaluation. Equations nonlinear in w: {', '.join(f'E{i + 1}' for i in second)}; "
+            f"side evaluation. Equations nonlinear in w: "
+            f"{', '.join(f'{EQUATION_TAG}{i + 1}' for i in second)}; "
             "unknowns that enter them nonlinearly:")
         sec.blocks.append(Table(["name", "symbol"], [[Code(n), _sym(n)] for n in nonlin]))
     sp = A.sparsity()

@@ -200,11 +200,18 @@ class Rotor:
 
     def element_matrices(self, e: int):
         """Planar (K, M_t, M_r) of element ``e`` (see :func:`beam_planar`), as
-        :meth:`assemble` places them in both bending planes."""
+        :meth:`assemble` places them in both bending planes.  The same
+        expressions each call (kept per element and its data), so that a
+        derivation naming element 1's matrices names what the assembly uses."""
         l, A, I, EI = self.element_section(e)
-        phi = (12 * EI / (self.kappa * self.G_shear * A * l**2)
-               if self.timoshenko else 0.0)
-        return beam_planar(l, EI, self.rho * A, self.rho * I, phi)
+        key = (e, id(self.elements[e]), id(self.E), id(self.rho), self.timoshenko)
+        cache = self.__dict__.setdefault("_element_cache", {})
+        if key not in cache:
+            phi = (12 * EI / (self.kappa * self.G_shear * A * l**2)
+                   if self.timoshenko else 0.0)
+            cache[key] = (self.elements[e], beam_planar(l, EI, self.rho * A, self.rho * I,
+                                                        phi))
+        return cache[key][1]
 
     def assemble(self):
         """(M, C, G, K) as SX matrices: M q'' + (C + Omega G) q' + K q = F.

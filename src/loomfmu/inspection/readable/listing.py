@@ -3,6 +3,7 @@ shared subexpressions named once (:func:`listing`)."""
 from __future__ import annotations
 
 import itertools
+import re
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -10,7 +11,9 @@ import sympy
 from sympy.core.parameters import distribute
 
 from loomfmu.inspection.readable.convert import symbols, to_sympy
+from loomfmu.inspection.readable.named import _used, to_sympy_named
 from loomfmu.inspection.readable.names import Shared, Var
+from loomfmu.inspection.readable.quantity_forms import entry_symbols, quantities_written
 
 
 def _unknowns(model) -> set[Var]:
@@ -86,7 +89,7 @@ class Listing:
     ``equations`` (lhs, rhs), the ``outputs``, the ``events`` (indicator
     expressions), the ``modes`` (validity expressions) and the ``delays``
     (delayed expressions), each (symbol, expression), all written with the
-    shared names."""
+    derivation's named quantities (``named``) and the shared names."""
 
     shared: list[tuple[Shared, sympy.Expr]]
     equations: list[tuple[sympy.Expr, sympy.Expr]]
@@ -94,10 +97,17 @@ class Listing:
     events: list[tuple[Var, sympy.Expr]] = field(default_factory=list)
     modes: list[tuple[Var, sympy.Expr]] = field(default_factory=list)
     delays: list[tuple[Var, sympy.Expr]] = field(default_factory=list)
+    #: the derivation's quantity symbols these use, with their definitions
+    #: (each written with the earlier ones; the reports print them in the
+    #: derivation, the round-trip test evaluates them)
+    named: list[tuple[sympy.Symbol, sympy.Expr]] = field(default_factory=list)
 
 
 #: a named subexpression shorter than this (characters of ``str``) is not worth a name
 _MIN_LIFT = 40
+#: characters of a line besides its right side ("Eq(xi123, " and ")"): a line
+#: fits max_len when its right side fits max_len less this
+_EQ_ROOM = 20
 
 
 def _lift(e, max_len: int, defs: list, temps) -> sympy.Basic:
@@ -121,7 +131,8 @@ def _lift(e, max_len: int, defs: list, temps) -> sympy.Basic:
     return e
 
 
-def listing(model, *, min_ops: int = 3, max_len: int | None = 240) -> Listing:
+def listing(model, *, min_ops: int = 3, max_len: int | None = 240,
+            named: bool = True) -> Listing:
     """The model's equations, outputs, event indicators, mode rules and
     delayed expressions, with shared subexpressions named once (sympy.cse).
 
@@ -130,15 +141,38 @@ def listing(model, *, min_ops: int = 3, max_len: int | None = 240) -> Listing:
     max_len: a line longer than this (characters of SymPy's ``str``, a rough
     measure of printed width) has its longest subexpressions named too, even
     when used once, so that it fits a page; None keeps long lines whole.
+    named: write the expressions with the derivation's named quantities
+    where the declaration used them (:mod:`.named`; their definitions are
+    ``Listing.named``); the shared subexpressions name only what is left.
     """
     if not isinstance(min_ops, int) or min_ops < 0:
         raise ValueError(f"min_ops = {min_ops!r}; allowed: an integer >= 0")
     if max_len is not None and (not isinstance(max_len, int) or max_len < 2 * _MIN_LIFT):
         raise ValueError(f"max_len = {max_len!r}; allowed: None or an integer >= "
                          f"{2 * _MIN_LIFT}")
-    eqs = equations(model)
-    named = [outputs(model), events(model), mode_rules(model), delays(model)]
-    flat = [e for pair in eqs for e in pair] + [e for group in named for _, e in group]
+    outs = model.of_kind("output")
+    modes = [v for v in model.of_kind("mode") if v.name in model.mode_valid]
+    heads = [[Var(v.name) for v in outs], [Var(e.name) for e in model.events],
+             [Var(v.name) for v in modes], [Var(d.sym.name()) for d in model.delays]]
+    eq_rows = _rows(model.equations)  # a vector equation is one equation per row
+    exprs = eq_rows + [v.expr for v in outs] + [e.expr for e in model.events] \
+        + [model.mode_valid[v.name] for v in modes] + [d.expr for d in model.delays]
+    if named and model.quantities:
+        forms, defs = to_sympy_named(model, exprs)
+    else:
+        forms, defs = _convert(model, exprs), []
+    dmap = dict(defs)
+    unknowns, memo = _unknowns(model), {}
+    for sym, d in defs:  # in the order computed: a symbol's definition uses earlier ones
+        if _depends(d, unknowns, memo):
+            unknowns.add(sym)
+    n_eq = len(eq_rows)
+    opener = _Opener(model, dmap)
+    with distribute(False):
+        eqs = [_equation(r, opener, unknowns, memo) for r in forms[:n_eq]]
+        rest = iter(forms[n_eq:])
+        named_groups = [[(y, _opened(y, next(rest), opener)) for y in ys] for ys in heads]
+    flat = [e for pair in eqs for e in pair] + [e for g in named_groups for _, e in g]
     with distribute(False):  # rebuilding c*(a + b) must not expand it
         kept, reduced = _shared(flat, min_ops, max_len)
     names = {sym: Shared(f"xi{k}") for k, (sym, _) in enumerate(kept, 1)}
@@ -147,8 +181,72 @@ def listing(model, *, min_ops: int = 3, max_len: int | None = 240) -> Listing:
         reduced = [e.xreplace(names) for e in reduced]
     n = 2 * len(eqs)
     rest = iter(reduced[n:])
-    groups = [[(y, next(rest)) for y, _ in group] for group in named]
-    return Listing(shared, list(zip(reduced[0:n:2], reduced[1:n:2])), *groups)
+    groups = [[(y, next(rest)) for y, _ in group] for group in named_groups]
+    used = _used(reduced + [d for _, d in shared], {**dmap, **opener.written})
+    named = [(s, d) for s, d in opener.written.items() if s in used]
+    named += [(s, d) for s, d in defs if s in used and s not in opener.written]
+    return Listing(shared, list(zip(reduced[0:n:2], reduced[1:n:2])), *groups, named=named)
+
+
+def _rows(exprs: list) -> list:
+    """The scalar rows of a list of CasADi columns (structural zeros as 0)."""
+    if not exprs:
+        return []
+    return ca.vertsplit(ca.densify(ca.vertcat(*[ca.SX(e) for e in exprs])))
+
+
+class _Opener:
+    """A quantity symbol's definition, for a line that would be just that
+    symbol: the shorter (fewest operations) of the form the derivation prints
+    (:func:`~.quantity_forms.quantities_written`, computed when first needed)
+    and the declared one written with the quantities it uses."""
+
+    def __init__(self, model, dmap: dict):
+        self.model, self.dmap = model, dmap
+        self.written: dict = {}  # the derivation's forms, once one is taken
+
+    def single(self, e):
+        """The named symbol that ``e`` is (times a number), else None."""
+        if not isinstance(e, sympy.Expr):
+            return None
+        c, rest = e.as_coeff_Mul()
+        return rest if rest in self.dmap and c.is_Number else None
+
+    def open(self, e, sym):
+        declared = self.dmap[sym]
+        with distribute(True):  # simplify needs SymPy's usual rules
+            forms = dict(entry_symbols(quantities_written(self.model)))
+        derivation = forms.get(sym)
+        if derivation is not None and sympy.count_ops(derivation) < sympy.count_ops(declared):
+            self.written = forms
+            declared = derivation
+        return e.xreplace({sym: declared})
+
+
+def _equation(residual, opener: _Opener, unknowns: set, memo: dict):
+    """lhs = rhs of a residual written with named quantities; a side that is
+    just one quantity's symbol (the whole equation a Lagrange row, a joint's
+    friction law) is opened to its definition, which says what the equation is."""
+    for _ in range(4):
+        lhs, rhs = _split(residual, unknowns, memo)
+        sym = opener.single(lhs) or opener.single(rhs)
+        if sym is None:
+            break
+        residual = opener.open(residual, sym)
+    return lhs, rhs
+
+
+def _opened(y, e, opener: _Opener):
+    """An output's (or indicator's) expression; opened one level where it is
+    just a quantity that prints as the output itself (S_1 = S_1 says nothing)."""
+    sym = opener.single(e)
+    if sym is not None and _plain(sympy.latex(sym)) == _plain(sympy.latex(y)):
+        return opener.open(e, sym)
+    return e
+
+
+def _plain(tex: str) -> str:
+    return re.sub(r"[{}\s]|\\,", "", tex)
 
 
 def _shared(flat: list, min_ops: int, max_len: int | None):
@@ -168,9 +266,10 @@ def _shared(flat: list, min_ops: int, max_len: int | None):
         return kept, reduced
     lifted = (sympy.Symbol(f"_lift{k}") for k in itertools.count())
     defs: list = []
+    room = max_len - _EQ_ROOM
     for sym, definition in kept:
-        definition = _lift(definition, max_len, defs, lifted)
+        definition = _lift(definition, room, defs, lifted)
         defs.append((sym, definition))
-    out = [_lift(e, max_len, defs, lifted) for e in reduced]
+    out = [_lift(e, room, defs, lifted) for e in reduced]
     return defs, out
 

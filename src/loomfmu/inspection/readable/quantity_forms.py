@@ -14,6 +14,7 @@ import contextlib
 import re
 import signal
 import threading
+import weakref
 from xml.dom import minidom
 from xml.sax.saxutils import escape
 
@@ -276,7 +277,11 @@ class _Vocabulary:
         if e in memo:
             return memo[e]
         out = e
-        if not e.is_Atom and isinstance(e, sympy.Expr):
+        if not e.is_Atom and not isinstance(e, sympy.Expr) and e.args:
+            # a case's condition (phi_a > 0) or a Piecewise's (value, condition) pair
+            args = [self.write(a, memo) for a in e.args]
+            out = e.func(*args) if args != list(e.args) else e
+        elif not e.is_Atom and isinstance(e, sympy.Expr):
             args = [self.write(a, memo) for a in e.args]
             out = e.func(*args) if args != list(e.args) else e
             out = self.exact.get(out, out)
@@ -335,7 +340,7 @@ def quantities_written(model, *, min_ops: int = 1) -> list[tuple[object, Quantit
     a later one, alone or as factors of a product, is replaced by its symbol),
     so that e.g. C = delta^-1 shows in terms of the deltas.  Substituting the
     earlier definitions back gives the quantity (the round-trip test does)."""
-    return _written(model, min_ops)[0]
+    return list(_written(model, min_ops)[0])
 
 
 def written_with_quantities(model, exprs, *, min_ops: int = 1) -> list:
@@ -349,7 +354,25 @@ def written_with_quantities(model, exprs, *, min_ops: int = 1) -> list:
     return [vocab.write(f, {}) if vocab.exact else f for f in forms]
 
 
+#: id(model) -> (its quantities' count, min_ops, the written forms and vocabulary):
+#: the report's derivation and equations both need them (tens of seconds for
+#: the larger models); an entry goes with its model (weakref.finalize)
+_CACHE: dict[int, tuple] = {}
+
+
 def _written(model, min_ops: int):
+    key = (len(model.quantities), min_ops)
+    hit = _CACHE.get(id(model))
+    if hit is not None and hit[0] == key:
+        return hit[1]
+    result = _write_all(model, min_ops)
+    if id(model) not in _CACHE:
+        weakref.finalize(model, _CACHE.pop, id(model), None)
+    _CACHE[id(model)] = (key, result)
+    return result
+
+
+def _write_all(model, min_ops: int):
     out, vocab = [], _Vocabulary(min_ops)
     for q, form in quantities(model):
         sym = QuantitySymbol(q.name, q.symbol)
