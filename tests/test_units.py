@@ -216,3 +216,15 @@ def test_drive_speed_is_the_rpm_speed_converted(tmp_path, slave_factory):
     assert np.ptp(rpm) > 100.0  # the step is seen
     assert np.max(np.abs(float(shown.factor) * got - rpm)) < 1e-6
     assert np.max(np.abs(got - rpm * 2 * math.pi / 60)) < 1e-6 * 2 * math.pi / 60
+
+
+def test_sweep_values_take_a_unit_of_the_same_quantity():
+    from loomfmu.cli.sweep import _valuer
+    value = _valuer("backrest", {})
+    assert value("omega_loom", "240rpm", "--grid omega_loom") == pytest.approx(8 * math.pi,
+                                                                              rel=1e-15)
+    assert value("omega_loom", "25.5", "--set omega_loom") == 25.5
+    assert value("S0", "600", "--set S0") == 600
+    with pytest.raises(ValueError, match=r"^--set omega_loom: '240 m': omega_loom is in "
+                                         r"rad/s; allowed units: rad/s, rpm$"):
+        value("omega_loom", "240 m", "--set omega_loom")

@@ -226,7 +226,8 @@ TREND_REVS = 3  # revolutions run; the first is skipped by the figures
 def prepare_trend(case: dict, fixed: dict) -> tuple[dict, float]:
     """Trend study TRENDS[case['trend']] at x = case['x'] (its factor or
     value), applied to the base values in ``fixed`` as loomfmu.spindle.trends
-    does; start on the periodic orbit of (15) at fixed['n_rpm']."""
+    does; start on the periodic orbit of (15) at fixed['n_rpm'] (rpm; the
+    FMU's input Omega is set in rad/s)."""
     i = case["trend"]
     if not isinstance(i, int) or not 0 <= i < len(TRENDS):
         raise ValueError(f"trend = {i!r}; allowed: an integer in [0, {len(TRENDS) - 1}]")
