@@ -228,3 +228,11 @@ def test_sweep_values_take_a_unit_of_the_same_quantity():
     with pytest.raises(ValueError, match=r"^--set omega_loom: '240 m': omega_loom is in "
                                          r"rad/s; allowed units: rad/s, rpm$"):
         value("omega_loom", "240 m", "--set omega_loom")
+
+
+def test_a_composed_scene_keeps_the_display_units():
+    from loomfmu.machines import spinning
+    from loomfmu.scene import compose
+    m = compose(spinning.scene(fidelity="spindle_modal"))
+    shown = {v.name for v in m.variables if v.display_unit == "rpm"}
+    assert {"drive.n", "drive.n_out", "drive.n_min", "spindle.Omega"} <= shown, shown

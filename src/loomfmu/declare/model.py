@@ -341,10 +341,11 @@ class Model:
         return self._add(name, "input", start, unit, description, min=min, max=max,
                          display_unit=display_unit)
 
-    def algebraic(self, name, *, unit="", description="") -> ca.SX:
+    def algebraic(self, name, *, unit="", description="", display_unit="") -> ca.SX:
         """Declare an algebraic unknown ``name`` of the DAE (solved with the
         derivatives, by Newton where the equations are implicit in it)."""
-        return self._add(name, "algebraic", None, unit, description)
+        return self._add(name, "algebraic", None, unit, description,
+                         display_unit=display_unit)
 
     def delay(self, name, expr, tau, *, max_delay: float, description="") -> ca.SX:
         """A symbol for ``expr`` delayed by ``tau`` (an expression of parameters).
