@@ -77,6 +77,9 @@ STUDIES = {
     },
 }
 
+#: the drive's speed n_out is rad/s; the figures and tables show rpm
+RPM_PER_RAD_S = 60.0 / (2 * math.pi)
+
 
 def spinning_study_scene():
     """The sweep's spinning scene: the 4-mode spindle (the master's error is
@@ -284,7 +287,7 @@ def chart_spinning(layer: dict, path: Path) -> dict:
     for cam, colour in (("compensated", "C0"), ("uncompensated", "C3")):
         d = {k: np.array(v) for k, v in layer["cams"][cam]["data"].items()}
         t = d["time"] - d["time"][0]
-        axes[0].plot(t, d["drive.n_out"], color=colour, label=f"cam {cam}")
+        axes[0].plot(t, d["drive.n_out"] * RPM_PER_RAD_S, color=colour, label=f"cam {cam}")
         tc, r = envelope(t, d["spindle.r_top"], 0.05)
         axes[1].plot(tc, r * 1e6, color=colour)
         tc, fu = envelope(t, d["spindle.F_upper"], 0.05)
@@ -292,7 +295,8 @@ def chart_spinning(layer: dict, path: Path) -> dict:
         axes[2].plot(tc, fu, color=colour)
         axes[3].plot(tc2, fl, color=colour)
         figures[cam] = {
-            "n_rpm_range": [float(d["drive.n_out"].min()), float(d["drive.n_out"].max())],
+            "n_rpm_range": [float(d["drive.n_out"].min() * RPM_PER_RAD_S),
+                            float(d["drive.n_out"].max() * RPM_PER_RAD_S)],
             "r_top_um_range": [float(r.min() * 1e6), float(r.max() * 1e6)],
             "F_upper_N_range": [float(fu.min()), float(fu.max())],
             "F_lower_N_range": [float(fl.min()), float(fl.max())],

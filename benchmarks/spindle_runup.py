@@ -4,7 +4,7 @@ the full FE FMU against the modal FMUs, and the real-time factor of each.
     python benchmarks/spindle_runup.py [--modes 1 2 3 4 5 6] [--solver rodas4]
         [--out docs/results/spindle_runup.json]
 
-Scene: n_rpm ramps linearly from 0 to 16 000 rpm in ``RAMP`` seconds and is
+Scene: the spin speed (the FMU's input Omega, rad/s) ramps linearly from 0 to 16 000 rpm in ``RAMP`` seconds and is
 held for ``HOLD`` seconds, set at every communication step (``DT``) as the
 drive would; bobbin and whorl eccentricity 5 um each.  The error of a
 reduced model is max_t |r_top,red - r_top,full| / max_t r_top,full (r_top:
@@ -57,6 +57,7 @@ from loomfmu.fmu.builder import fmi_headers_dir
 from loomfmu.progress import Progress
 
 RAMP, HOLD, DT, TOP_RPM, ECC = 1.0, 0.25, 2e-4, 16000.0, 5e-6
+RAD_S_PER_RPM = 2 * np.pi / 60  # the FMU's input Omega is rad/s
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -78,9 +79,9 @@ def write_json(path: Path, result: dict) -> None:
 
 def scene(t_end: float = RAMP + HOLD) -> np.ndarray:
     t = np.arange(0.0, t_end + DT / 2, DT)
-    sig = np.zeros(len(t), dtype=[("time", float), ("n_rpm", float), ("e_b", float),
+    sig = np.zeros(len(t), dtype=[("time", float), ("Omega", float), ("e_b", float),
                                   ("e_w", float)])
-    sig["time"], sig["n_rpm"] = t, TOP_RPM * np.clip(t / RAMP, 0, 1)
+    sig["time"], sig["Omega"] = t, TOP_RPM * RAD_S_PER_RPM * np.clip(t / RAMP, 0, 1)
     sig["e_b"], sig["e_w"] = ECC, ECC
     return sig
 
@@ -101,7 +102,7 @@ def run(fmu: Path, solver: str, rtol: float, repeats: int):
 
 
 def ramp_rpm(t: float) -> tuple[float, float]:
-    """n_rpm of the scene at t and its slope (the slope after the ramp: 0)."""
+    """The spin speed (rpm) of the scene at t and its slope (the slope after the ramp: 0)."""
     if t < RAMP - 1e-12:
         return TOP_RPM * t / RAMP, TOP_RPM / RAMP
     return TOP_RPM, 0.0
@@ -109,7 +110,7 @@ def ramp_rpm(t: float) -> tuple[float, float]:
 
 def run_driven(fmu: Path, solver: str, rtol: float, h: float, interp: bool):
     """The scene driven call by call at communication step h:
-    n_rpm set at each communication point (held: a staircase), with its
+    Omega set at each communication point (held: a staircase), with its
     slope as an input derivative if ``interp``.  (times, r_top), wall s."""
     md = fmpy.read_model_description(str(fmu))
     vr = {v.name: v.valueReference for v in md.modelVariables}
@@ -122,16 +123,16 @@ def run_driven(fmu: Path, solver: str, rtol: float, h: float, interp: bool):
     slave.instantiate()
     slave.setupExperiment(tolerance=rtol, startTime=0.0)
     slave.setInteger([vr["solver"]], [SOLVERS.index(solver) + 1])
-    slave.setReal([vr["solver_atol"], vr["e_b"], vr["e_w"], vr["n_rpm"]], [1e-12, ECC, ECC, 0.0])
+    slave.setReal([vr["solver_atol"], vr["e_b"], vr["e_w"], vr["Omega"]], [1e-12, ECC, ECC, 0.0])
     slave.enterInitializationMode()
     slave.exitInitializationMode()
     times, r_top = [], []
     for i in range(n):
         t = i * h
-        n_rpm, slope = ramp_rpm(t)
-        slave.setReal([vr["n_rpm"]], [n_rpm])
+        rpm, slope = ramp_rpm(t)
+        slave.setReal([vr["Omega"]], [rpm * RAD_S_PER_RPM])
         if interp and slope:
-            slave.setRealInputDerivatives([vr["n_rpm"]], [1], [slope])
+            slave.setRealInputDerivatives([vr["Omega"]], [1], [slope * RAD_S_PER_RPM])
         slave.doStep(t, h)
         times.append((i + 1) * h)
         r_top.append(slave.getReal([vr["r_top"]])[0])
@@ -211,7 +212,7 @@ def run_counters(exe: Path, fmu: Path, solver: str, rtol: float, interp: bool,
     md = fmpy.read_model_description(str(fmu))
     vr = {v.name: v.valueReference for v in md.modelVariables}
     args = [SOLVERS.index(solver) + 1, rtol, 1e-12, DT, int(interp), RAMP, HOLD, TOP_RPM, ECC,
-            repeats] + [vr[k] for k in ("solver", "solver_atol", "n_rpm", "e_b", "e_w", "r_top")] \
+            repeats] + [vr[k] for k in ("solver", "solver_atol", "Omega", "e_b", "e_w", "r_top")] \
         + [md.guid]
     proc = subprocess.run([str(exe), *map(str, args)], capture_output=True, text=True)
     if proc.returncode != 0:

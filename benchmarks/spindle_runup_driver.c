@@ -5,7 +5,7 @@
  *
  * Usage: spindle_runup_driver <solver id> <rtol> <atol> <comm step> <interp 0|1>
  *            <ramp s> <hold s> <top rpm> <ecc m> <repeats>
- *            <vr solver> <vr solver_atol> <vr n_rpm> <vr e_b> <vr e_w> <vr r_top> <guid>
+ *            <vr solver> <vr solver_atol> <vr Omega> <vr e_b> <vr e_w> <vr r_top> <guid>
  * Prints "key value" lines: cpu_s (median of the repeats), steps, rejected,
  * rhs, jac, lu, r_top_max, r_top_end.
  */
@@ -22,6 +22,9 @@
 #include <string.h>
 #include <time.h>
 #include <math.h>
+
+/* the spindle FMU's input Omega is rad/s; the scene is written in rpm */
+#define RAD_S_PER_RPM (2.0 * 3.14159265358979323846 / 60.0)
 
 static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status,
                    fmi2String category, fmi2String message, ...) {
@@ -102,7 +105,7 @@ int main(int argc, char **argv) {
         fmi2ExitInitializationMode(comp);
         rmax = 0.0;
         for (i = 0; i < nsteps; i++) {
-            double t = (double)i * h, rpm, slope, r;
+            double t = (double)i * h, rpm, omega, slope, r;
             if (t < ramp - 1e-12) {
                 rpm = top * t / ramp;
                 slope = top / ramp;
@@ -110,7 +113,9 @@ int main(int argc, char **argv) {
                 rpm = top;
                 slope = 0.0;
             }
-            fmi2SetReal(comp, &vr_rpm, 1, &rpm);
+            omega = rpm * RAD_S_PER_RPM; /* the input Omega is rad/s */
+            slope *= RAD_S_PER_RPM;
+            fmi2SetReal(comp, &vr_rpm, 1, &omega);
             if (interp && slope != 0.0) fmi2SetRealInputDerivatives(comp, &vr_rpm, 1, &one, &slope);
             if (fmi2DoStep(comp, t, h, fmi2True) != fmi2OK) {
                 fprintf(stderr, "doStep failed at t=%g\n", t);

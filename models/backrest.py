@@ -17,8 +17,8 @@ shown by ``loomfmu inspect backrest``); tests check them against the seed's
 (7), (10) and (11).
 
 Build options: ``friction`` ("events" or "regularized", ``eps``),
-``shedding`` (True: a built-in shedding elongation A_shed at n_loom picks per
-minute; False: the warp is stretched only through the front port's input,
+``shedding`` (True: a built-in shedding elongation A_shed, one pick per
+main-shaft revolution at omega_loom; False: the warp is stretched only through the front port's input,
 as in a loom scene) and ``fronts`` (1: one upper branch, port ``warp_front``;
 2: two half-sheets, the ends of heald frames A and B, ports ``warp_front_a``
 and ``warp_front_b``, each with its own elongation input and tension output,
@@ -87,7 +87,7 @@ def build(*, friction: str = "events", eps: float = 1e-3, shedding: bool = True,
           fronts: int = 1) -> Model:
     """friction: "events" (stick/slip state machine) or "regularized"
     (torque ~ tanh(speed / eps), eps in rad/s).  shedding: True adds the
-    built-in shedding elongation (parameters A_shed, n_loom); False leaves the
+    built-in shedding elongation (parameters A_shed, omega_loom); False leaves the
     warp to the front ports' inputs.  fronts: 1 (port warp_front: input
     warp_pull, output S2) or 2 (ports warp_front_a, warp_front_b: inputs
     warp_pull_a, warp_pull_b, outputs S2a, S2b, each half of the sheet)."""
@@ -300,10 +300,12 @@ def _parameters(m: Model, shedding: bool) -> dict:
                         "pick", min=0.0, max=0.05, source=A + "the heald frame's elongation "
                         "per end at the open shed (seed 000 geometry at its defaults); a "
                         "scene builds shedding=False and drives the front ports instead")
-        p["n_loom"] = P("n_loom", 240.0, unit="rpm", description="loom speed for the built-in"
-                        " shedding (picks per minute: one pick per main-shaft revolution)",
-                        min=1.0, max=2000.0, source=A + "200-300 picks/min; 240 rpm = 8 pi "
-                        "rad/s, the loom_shaft model's omega_0")
+        p["omega_loom"] = P("omega_loom", 8 * math.pi, unit="rad/s", display_unit="rpm",
+                            description="main-shaft speed for the built-in shedding (one "
+                            "pick per main-shaft revolution)", min=2 * math.pi / 60,
+                            max=2000 * 2 * math.pi / 60, source=A + "200-300 picks/min; "
+                            "240 rpm = 8 pi rad/s, the loom_shaft model's omega_0; range "
+                            "1-2000 rpm")
     return p
 
 
@@ -375,8 +377,7 @@ def _warp(m: Model, p: dict, x: _X, shedding: bool, fronts: int) -> dict:
                      f"(closed shed); positive stretches them{shed_text}",
                      min=-0.5, max=0.5) for h in halves]
     if shedding:
-        shed = m.quantity("shed", p["A_shed"] * (1 - ca.cos(2 * math.pi * p["n_loom"] / 60
-                                                           * m.t)) / 2,
+        shed = m.quantity("shed", p["A_shed"] * (1 - ca.cos(p["omega_loom"] * m.t)) / 2,
                           unit="m", group=W, symbol=r"\Delta_{sh}", description="built-in "
                           "shedding elongation of every end of the upper branch",
                           source=A + "one (1 - cos)/2 pulse per pick")

@@ -7,10 +7,12 @@ K exp(-S t)/(TS + 1) (defect D9: the delay is tau, t is time).
 
     T n' + n = K u(t - tau)                      the drive (9)
     u = U_z + cam_on k_g (r(phi) - r_min) + u_ext  drive input signal (3)
-    phi' = f_rad n                               cam geared to the spindles (4)
+    phi' = f_rad n / (2 pi)                      cam geared to the spindles (4)
     r(phi) = A_0 + sum_j A_j cos(j phi) + B_j sin(j phi)   cam profile table
 
-U_z = n_min / K is the set point (r = r_min gives n_min statically, defect
+The speeds n, n_min (and n_out) are in rad/s, shown in rpm (FMI
+displayUnit); K in rad/(s V); f_rad is the cam angle per spindle
+revolution, hence the 2 pi.  U_z = n_min / K is the set point (r = r_min gives n_min statically, defect
 D10 of the spec).  The cam turns with the spindles, so its angle depends on
 the realised speed: the delayed signal depends on the state phi and the
 FMU keeps its history (cubic Hermite between accepted steps by default).
@@ -22,12 +24,14 @@ next to the quantities they affect (``loomfmu inspect drive``).
 """
 from __future__ import annotations
 
+import math
+
 import casadi as ca
 
 from loomfmu.declare.checks import check_choice, check_int, check_number
 from loomfmu.declare.model import Model
 from loomfmu.mechanics.drive_law import MAX_HARMONICS
-from loomfmu.mechanics.drive_params import FMU_RANGES, DriveParams
+from loomfmu.mechanics.drive_params import FMU_RANGES, RAD_S, DriveParams
 from loomfmu.mechanics.layer_cam import cam_profile_phi
 from loomfmu.mechanics.layer_cam import f_rad as cam_ratio
 from loomfmu.models.drive_derivation import (
@@ -73,8 +77,9 @@ def build(*, cam: str = "compensated", harmonics: int = 96, m: int = 40,
         return dict(min=lo, max=hi if name != "tau" else max_delay)
 
     dp = DriveParams()  # the assumed machine values, documented in loomfmu.mechanics.drive_params
-    K = P("K", dp.K * 60.0, unit="rpm/V", description="static gain of the drive", **rng("K"),
-          source=SEED + " (9); value " + A + "0-10 V <-> 0-18000 rpm")
+    K = P("K", dp.K * RAD_S, unit="rad/(s.V)", description="static gain of the drive",
+          **rng("K"), source=SEED + " (9); value " + A + "1800 rpm/V (0-10 V <-> "
+          "0-18000 rpm)")
     T = P("T", dp.T, unit="s", description="time constant of the drive", **rng("T"),
           source=SEED + " (9); value " + A + "ring-frame inertia, inverter ramps")
     tau = P("tau", dp.tau, unit="s", description="pure delay of the drive", **rng("tau"),
@@ -84,8 +89,9 @@ def build(*, cam: str = "compensated", harmonics: int = 96, m: int = 40,
             source=SEED + " (3), W_g not given: assumption W_g = k_g")
     r_min = P("r_min", dp.r_min, unit="m", description="cam datum radius (signal zero, n = n_min)",
               **rng("r_min"), source=SEED + " (3), read as a datum (defect D10); value " + A)
-    n_min = P("n_min", dp.n_min * 60.0, unit="rpm", description="spindle speed at the set point U_z",
-              **rng("n_min"), source=A + "10-20 krpm as in seed 003")
+    n_min = P("n_min", dp.n_min * RAD_S, unit="rad/s", display_unit="rpm",
+              description="spindle speed at the set point U_z", **rng("n_min"),
+              source=A + "12000 rpm, 10-20 krpm as in seed 003")
     f_rad = P("f_rad", cam_ratio(dp), unit="rad", description="cam angle per spindle revolution",
               min=0.0, max=1.0, source=SEED + " (4), units fixed (defect D11): 2 pi / "
               "(mean speed x double-stroke period) for the assumed law")
@@ -105,7 +111,8 @@ def build(*, cam: str = "compensated", harmonics: int = 96, m: int = 40,
                          source="loomfmu.mechanics.layer_cam.cam_profile_phi")))
     u_ext = m_.input("u_ext", 0.0, unit="V", description="external control signal added to "
                      "the drive input", min=-100.0, max=100.0)
-    n = m_.state("n", 12000.0, unit="rpm", description="spindle speed")
+    n = m_.state("n", 12000.0 * RAD_S / 60.0, unit="rad/s", display_unit="rpm",
+                 description="spindle speed")
     phi = m_.state("phi", 0.0, unit="rad", description="cam angle")
 
     if cam != "none":
@@ -119,11 +126,11 @@ def build(*, cam: str = "compensated", harmonics: int = 96, m: int = 40,
                          description="drive input signal, tau ago")
     drive_quantities(m_, U_z=U_z, U_p=U_p, u=u, u_delayed=u_delayed, n=n, K=K)
     m_.eq(T * m_.der(n), K * u_delayed - n)
-    m_.eq(m_.der(phi), f_rad * n / 60.0)
+    m_.eq(m_.der(phi), f_rad * n / (2 * math.pi))  # f_rad per revolution, n in rad/s
     m_.set_starts_from(n, K * u)  # steady state of the initial signal
     history_quantities(m_, u=u, tau=tau, K=K, max_delay=max_delay)
 
-    m_.output("n_out", n, unit="rpm", description="spindle speed")
+    m_.output("n_out", n, unit="rad/s", display_unit="rpm", description="spindle speed")
     m_.output("u", u, unit="V", description="drive input signal")
     m_.output("u_delayed", u_delayed, unit="V", description="drive input signal, tau ago")
     m_.output("r", r, unit="m", description="cam radius at the follower")

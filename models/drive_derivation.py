@@ -13,6 +13,8 @@ affect.
 """
 from __future__ import annotations
 
+import math
+
 import casadi as ca
 import numpy as np
 
@@ -70,20 +72,20 @@ def law_quantities(m, cam: str, harmonics_m: int) -> None:
     p = DriveParams()
     c = law_constants(p)
     C0, a, b = fourier(p, harmonics_m)
-    rpm = 60.0
+    rad_s = 2 * math.pi  # rad/s per rev/s: the model's speeds are rad/s
     Q("P", c.P, unit="s", description="period of the speed law, one double stroke "
       "(interlayer and layer); " + defect_note("D12"), symbol="P",
       source=SEED + " (8), corrected (D12): P = T_n + T_c", group=LAW)
     Q("omega_P", c.omega, unit="rad/s", description="fundamental angular frequency of the "
       "speed law's series", symbol=r"\omega", source="derived: 2 pi / P (not stated in "
       + SEED + ")", group=LAW)
-    Q("n1", c.n1 * rpm, unit="rpm", description="intercept of the linear law n0(d) = n1 + "
+    Q("n1", c.n1 * rad_s, unit="rad/s", description="intercept of the linear law n0(d) = n1 + "
       "K_n d between the cop diameter d and the speed (" + defect_note("D5") + "); n1 = "
       "(D_N n_min - D_B n_max)/(D_N - D_B), may be negative", symbol="n_1",
       source=SEED + " (5)", group=LAW)
-    Q("K_n", c.K_n * rpm, unit="rpm/m", description="slope of the linear law (5): K_n = "
+    Q("K_n", c.K_n * rad_s, unit="rad/(s.m)", description="slope of the linear law (5): K_n = "
       "(n_max - n_min)/(D_N - D_B)", symbol="K_n", source=SEED + " (5)", group=LAW)
-    Q("Delta", c.Delta * rpm, unit="rpm", description="n_max - n_min - n1 ln(n_max/n_min), "
+    Q("Delta", c.Delta * rad_s, unit="rad/s", description="n_max - n_min - n1 ln(n_max/n_min), "
       "which the winding (2) with (5) makes g1 K_n^2 T_c and g2 K_n^2 T_n (" +
       defect_note("D3") + ")", symbol=r"\Delta", source="derived: integrating seed 001 "
       "(2) with (5) (docs/guides/seed_notes/drive_spec.md)", group=LAW)
@@ -93,16 +95,16 @@ def law_quantities(m, cam: str, harmonics_m: int) -> None:
       symbol="g_1", source=SEED + " (2), (6)", group=LAW)
     Q("g2", c.g2, unit="m2", description="winding constant of the interlayer (fast stroke), "
       "Delta/(K_n^2 T_n)", symbol="g_2", source=SEED + " (2), (7)", group=LAW)
-    Q("n0_mean", C0 / 2 * rpm, unit="rpm", description="mean of the optimal speed law n0(t) "
+    Q("n0_mean", C0 / 2 * rad_s, unit="rad/s", description="mean of the optimal speed law n0(t) "
       "over a period; n0 solves (6) in the layer and (7) in the interlayer ("
       + defect_note("D6") + ")", symbol=r"C_0/2", source=SEED + " (5)-(8)", group=LAW)
-    Q("a_k", a * rpm, unit="rpm", description=f"cosine coefficients of n0(t), k = 1 ... "
+    Q("a_k", a * rad_s, unit="rad/s", description=f"cosine coefficients of n0(t), k = 1 ... "
       f"{harmonics_m}: n0 = C0/2 + sum a_k cos k w t + b_k sin k w t", symbol="a_k",
       source=SEED + " (8)", group=LAW)
-    Q("b_k", b * rpm, unit="rpm", description="sine coefficients of n0(t)", symbol="b_k",
+    Q("b_k", b * rad_s, unit="rad/s", description="sine coefficients of n0(t)", symbol="b_k",
       source=SEED + " (8)", group=LAW)
     C, psi = amplitude_phase(a, b)
-    Q("C_k", C * rpm, unit="rpm", description="amplitudes of (8): C_k = sqrt(a_k^2 + b_k^2)",
+    Q("C_k", C * rad_s, unit="rad/s", description="amplitudes of (8): C_k = sqrt(a_k^2 + b_k^2)",
       symbol="C_k", source=SEED + " (8)", group=LAW)
     Q("psi_k", psi, unit="rad", description="phases of (8), n0 = C0/2 + sum C_k sin(k w t + "
       "psi_k); " + defect_note("D8"), symbol=r"\psi_k", source=SEED + " (8), corrected (D8)",
@@ -111,11 +113,11 @@ def law_quantities(m, cam: str, harmonics_m: int) -> None:
       "arctg(b_k/a_k) (not used: wrong quantity and quadrant); " + defect_note("D8"),
       symbol=r"\varphi_{\mathrm{printed}}", source=SEED + " (8) as printed", group=LAW)
     if cam == "compensated":
-        G = inverse_gain(p, harmonics_m) / rpm
+        G = inverse_gain(p, harmonics_m) / rad_s
         Q("alpha_k", G.real, description="real part of G_k = 1/(W W_g)(i k w) = (1 + i k w T)"
-          "(1 + i k w T_g) e^{i k w tau}/(K k_g), in m per rpm; " + defect_note("D13"),
+          "(1 + i k w T_g) e^{i k w tau}/(K k_g), in m per rad/s; " + defect_note("D13"),
           symbol=r"\alpha_k", source=SEED + " (3), (9), corrected (D9, D13)", group=CAM)
-        Q("beta_k", G.imag, description="imaginary part of G_k, in m per rpm",
+        Q("beta_k", G.imag, description="imaginary part of G_k, in m per rad/s",
           symbol=r"\beta_k", source=SEED + " (3), (9)", group=CAM)
     R0, ar, br = cam_from_fourier(p, C0, a, b, compensate=(cam == "compensated"))
     how = ("ar_k = alpha_k a_k + beta_k b_k, br_k = alpha_k b_k - beta_k a_k (compensated)"
@@ -143,8 +145,9 @@ def cam_quantities(m, phi, n, r, coeffs, a0, f_rad) -> None:
     Q("r_cam", r, unit="m", description="cam radius at the follower, the cam series "
       "r(phi) = A_0 + sum_j A_j cos j phi + B_j sin j phi; " + defect_note("D10"),
       symbol=r"r(\varphi)", source=SEED + " (3) (the profile in polar form)", group=CAM)
-    Q("phi_dot", f_rad * n / 60.0, unit="rad/s", description="cam angular speed: the cam "
-      "is geared to the spindles, phi' = f_rad n (n in rev/s); " + defect_note("D11"),
+    Q("phi_dot", f_rad * n / (2 * math.pi), unit="rad/s", description="cam angular "
+      "speed: the cam is geared to the spindles, phi' = f_rad n / (2 pi) (f_rad per "
+      "spindle revolution, n in rad/s); " + defect_note("D11"),
       symbol=r"\dot\varphi", source=SEED + " (4), corrected (D11)", group=CAM)
 
 
@@ -161,7 +164,7 @@ def drive_quantities(m, *, U_z, U_p, u, u_delayed, n, K) -> None:
     Q("u_tau", u_delayed, unit="V", description="the delayed signal u(t - tau), tau the "
       "pure delay (parameter tau), read from the FMU's history; " + defect_note("D9"),
       symbol=r"u(t-\tau)", source=SEED + " (9): e^{-s tau}, corrected (D9)", group=DRIVE)
-    Q("T_ndot", K * u_delayed - n, unit="rpm", description="the delay equation (9) in the "
+    Q("T_ndot", K * u_delayed - n, unit="rad/s", description="the delay equation (9) in the "
       "time domain: T n' = K u(t - tau) - n (the lag 1/(T s + 1) after the delay)",
       symbol=r"T\dot n", source=SEED + " (9), corrected (D9)", group=DRIVE)
 
@@ -177,7 +180,7 @@ def history_quantities(m, *, u, tau, K, max_delay: float) -> None:
     Q("u_before_start", u, unit="V", description="the history before t = 0: constant at "
       "the signal's start value u(0), so the drive starts in the steady state n(0) = K u(0)",
       symbol=r"u(t<0)", source="derived: assumption of a steady start", group=HISTORY)
-    Q("n_start", K * u, unit="rpm", description="start speed, the steady state of the "
+    Q("n_start", K * u, unit="rad/s", description="start speed, the steady state of the "
       "initial signal (recomputed from the parameters)", symbol="n(0)",
       source="derived: (9) at rest, n = K u", group=HISTORY)
     Q("breakpoint_lag", tau, unit="s", description="an input jump (u_ext) at t_j is a jump "

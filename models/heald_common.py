@@ -178,7 +178,8 @@ def declare_motion(m: Model, *, end_dwell: str) -> Motion:
             min=1.0, max=1.5)
     h_m = P("h_m", 0.029, unit="m", description="largest frame displacement from the middle",
             source=SEED0, min=0.001, max=0.2)
-    omega = m.input("omega", 60.0, unit="rad/s", description="main-shaft angular speed "
+    omega = m.input("omega", 60.0, unit="rad/s", display_unit="rpm",
+                    description="main-shaft angular speed "
                     "(held constant over a communication step; its derivative is taken "
                     "as zero in the frame acceleration)", min=0.0, max=500.0)
     phi = m.state("phi", 0.0, unit="rad", description="main-shaft angle (0: start of the "

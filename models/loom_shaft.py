@@ -28,10 +28,10 @@ def build() -> Model:
               "with an optional once-per-revolution fluctuation; drives the heald frames",
               stop_time=1.0, step_size=1e-3, h_fixed=1e-4)
     P = m.parameter
-    omega_0 = P("omega_0", 8 * math.pi, unit="rad/s", description="mean main-shaft speed "
-                "(one revolution per pick)", min=0.1, max=500.0,
-                source=A + "240 picks/min, the backrest's loom speed n_loom (200-300 "
-                "picks/min)")
+    omega_0 = P("omega_0", 8 * math.pi, unit="rad/s", display_unit="rpm",
+                description="mean main-shaft speed (one revolution per pick)", min=0.1,
+                max=500.0, source=A + "240 picks/min (8 pi rad/s), the backrest's loom "
+                "speed omega_loom (200-300 picks/min)")
     delta = P("delta", 0.0, description="relative speed fluctuation within a revolution",
               min=0.0, max=0.5, source=A + "0: constant speed, as the heald frame's motion "
               "law assumes; 0.02-0.05 on looms with a heavy sley")
@@ -40,7 +40,8 @@ def build() -> Model:
     theta = m.state("theta", 0.0, unit="rad", description="main-shaft angle")
     omega = omega_0 * (1 + delta * ca.cos(theta - theta_b))
     m.eq(m.der(theta), omega)
-    m.output("omega_out", omega, unit="rad/s", description="main-shaft speed")
+    m.output("omega_out", omega, unit="rad/s", display_unit="rpm",
+             description="main-shaft speed")
     m.output("theta_out", theta, unit="rad", description="main-shaft angle")
     m.port("frames", "flange", speed="omega_out", description="main shaft to the heald "
            "frames' drive (speed imposed; the frames' torque is not fed back)")

@@ -370,9 +370,9 @@ def build(*, beam: str = "euler", n_turns: int = 4, damper: str = "corrected",
               stop_time=0.02, step_size=2e-4, h_fixed=2e-6,
               options={"beam": beam, "n_turns": n_turns, "damper": damper,
                        "n_low": n_low, "n_cone": n_cone})
-    n_rpm = m.input("n_rpm", 16000.0, unit="rpm", description="spin speed, from the drive",
-                    min=0.0, max=40000.0)
-    Omega = n_rpm * RPM
+    Omega = m.input("Omega", 16000.0 * RPM, unit="rad/s", display_unit="rpm",
+                    description="spin speed, from the drive (default 16 000 rpm)",
+                    min=0.0, max=40000.0 * RPM)
     sp = declare_rotor(m, Omega, beam=beam, n_turns=n_turns, damper=damper,
                        n_low=n_low, n_cone=n_cone)
     declare_dynamics(m, sp, Omega, sp.M, sp.C, sp.G, sp.K)
@@ -456,8 +456,8 @@ def declare_dynamics(m: Model, sp: SpindleRotor, Omega, M, C, G, K, basis=None,
         m.eq(m.der(qv[i]), vv[i])
         m.eq(m.der(vv[i]), a[i])
     _outputs(m, sp, q, v)
-    m.port("drive", "flange", speed="n_rpm", description="spindle speed from the drive "
-           "(tape on the whorl), rev/min")
+    m.port("drive", "flange", speed="Omega", description="spindle speed from the drive "
+           "(tape on the whorl)")
 
 
 def _outputs(m: Model, sp: SpindleRotor, q, v) -> None:

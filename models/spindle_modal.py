@@ -108,9 +108,9 @@ def build(*, n_modes: int = 4, basis_rpm: float = 16000.0, beam: str = "euler",
               options={"n_modes": n_modes, "basis_rpm": basis_rpm, "beam": beam,
                        "n_turns": n_turns, "damper": damper, "n_low": n_low,
                        "n_cone": n_cone, "static_correction": static_correction})
-    n_rpm = m.input("n_rpm", 16000.0, unit="rpm", description="spin speed, from the drive",
-                    min=0.0, max=40000.0)
-    Omega = n_rpm * RPM
+    Omega = m.input("Omega", 16000.0 * RPM, unit="rad/s", display_unit="rpm",
+                    description="spin speed, from the drive (default 16 000 rpm)",
+                    min=0.0, max=40000.0 * RPM)
     sp = declare_rotor(m, Omega, beam=beam, n_turns=n_turns, damper=damper,
                        n_low=n_low, n_cone=n_cone)
     am, free = spindle_system(beam=beam, n_turns=n_turns, damper=damper, n_low=n_low,

@@ -25,9 +25,9 @@ def _params(model):
 def test_shedding_off_removes_its_parameters_and_time_dependence():
     for name, opts in (("backrest", {}), ("backrest_regularized", {"friction": "regularized"})):
         on, off = load_model(name, **opts), load_model(name, shedding=False, **opts)
-        assert {"A_shed", "n_loom"} <= set(_params(on))
-        assert not {"A_shed", "n_loom"} & set(_params(off))
-        assert set(_params(on)) - set(_params(off)) == {"A_shed", "n_loom"}
+        assert {"A_shed", "omega_loom"} <= set(_params(on))
+        assert not {"A_shed", "omega_loom"} & set(_params(off))
+        assert set(_params(on)) - set(_params(off)) == {"A_shed", "omega_loom"}
         assert off.options["shedding"] is False
         for m, depends in ((on, True), (off, False)):
             S2 = m.var("S2").expr

@@ -17,7 +17,9 @@ from loomfmu.verification.verify import compare, simulate
 
 pytestmark = pytest.mark.slow  # builds FMUs
 
-K, T, N_MIN = 1800.0, 2.0, 12000.0
+#: rad/s per rpm: the FMU's speeds are rad/s, the seed's values rpm
+RPM = 2 * math.pi / 60
+K, T, N_MIN = 1800.0 * RPM, 2.0, 12000.0 * RPM   # rad/(s V), s, rad/s
 #: a small cam, fast enough that the delayed signal varies within solver steps
 CAM = {"cam_on": 1.0, "cam_A0": 0.06, "cam_A1": 0.01, "cam_B2": 0.004, "cam_A3": 0.002,
        "f_rad": 0.02}
@@ -56,7 +58,7 @@ def test_step_response_is_exact(drive_fmu, slave_factory, solver, tau):
     """T n' + n = K u(t - tau): n = n_min + K U (1 - exp(-(t - tau)/T)) after tau;
     tau = 0 is the pure lag.  (tau = 0.37 does not fall on a communication
     point: the jump must be found inside the step.)"""
-    assert _step_response(drive_fmu.path, slave_factory, solver, tau) < 1e-6
+    assert _step_response(drive_fmu.path, slave_factory, solver, tau) < 1e-6 * RPM
 
 
 def test_negative_delay_and_time_constant_are_rejected(drive_fmu, slave_factory):
@@ -96,7 +98,7 @@ def test_state_delay_matches_method_of_steps_reference(drive_fmu, ref, solver):
                    output=["n_out", "phi_out", "u_delayed"],
                    values={**CAM, "solver_h_fixed": 2e-3})
     errs = compare(run, ref, ["n_out", "phi_out", "u_delayed"])
-    assert errs["n_out"]["max_abs"] < 1e-3  # rpm, on a 2300 rpm swing
+    assert errs["n_out"]["max_abs"] < 1e-3 * RPM  # 1e-3 rpm, on a 2300 rpm swing
     assert errs["phi_out"]["max_abs"] < 1e-6
 
 
@@ -111,8 +113,8 @@ def test_linear_history_is_not_accurate_enough(drive_fmu, ref):
                            stop_time=10.0, output=["n_out"],
                            values={**CAM, "delay_interpolation": interp})
             errs[interp, rtol] = compare(run, ref, ["n_out"])["n_out"]["max_abs"]
-    assert errs[1, 1e-9] < errs[1, 1e-6] / 5 and errs[1, 1e-9] < 1e-3
-    assert errs[2, 1e-9] > 0.01 and errs[2, 1e-9] > 100 * errs[1, 1e-9]
+    assert errs[1, 1e-9] < errs[1, 1e-6] / 5 and errs[1, 1e-9] < 1e-3 * RPM
+    assert errs[2, 1e-9] > 0.01 * RPM and errs[2, 1e-9] > 100 * errs[1, 1e-9]
 
 
 def test_compensated_cam_removes_lag_and_delay_up_to_truncation(tmp_path):
@@ -134,7 +136,8 @@ def test_compensated_cam_removes_lag_and_delay_up_to_truncation(tmp_path):
         run = simulate(fmu, solver="dopri5", rtol=1e-8, atol=1e-6, stop_time=t_end,
                        output_interval=0.01, output=["n_out", "phi_out"],
                        values=cam_values(p, 12, comp, 48))
-        errs[comp] = tracking_error(run.t, run.y["n_out"] / 60.0, p, 12, phi=run.y["phi_out"])
+        errs[comp] = tracking_error(run.t, run.y["n_out"] / (2 * math.pi), p, 12,
+                                    phi=run.y["phi_out"])  # rev/s in, rpm out
     assert errs[True] < 1e-2  # rpm
     assert errs[False] > 300
 
@@ -170,7 +173,7 @@ def test_input_step_after_the_start_reaches_the_lag_tau_later(drive_fmu, slave_f
     solver restarts there.  (0.5, 0.5, 0.1): the breakpoint 1.0 falls on a
     communication point.)"""
     err = _late_step(drive_fmu.path, slave_factory, solver, tau, t_s, comm)
-    assert err < 1e-6, err
+    assert err < 1e-6 * RPM, err
 
 
 def test_input_step_against_reference_with_input_steps(model, drive_fmu, slave_factory):
@@ -180,7 +183,7 @@ def test_input_step_against_reference_with_input_steps(model, drive_fmu, slave_f
                     atol=1e-9, values={"tau": 0.37}, input_steps=[(1.0, {"u_ext": 1.0})])
     lag = np.maximum(ref.t - 1.0 - 0.37, 0.0)
     exact = N_MIN + K * (1 - np.exp(-lag / T))
-    assert np.max(np.abs(ref.y["n_out"] - exact)) < 1e-6
+    assert np.max(np.abs(ref.y["n_out"] - exact)) < 1e-6 * RPM
     with pytest.raises(ValueError, match="input_steps"):
         reference(model, t_end=3.0, input_steps=[(5.0, {"u_ext": 1.0})])
     with pytest.raises(ValueError, match="input_steps"):
@@ -211,7 +214,7 @@ def test_zero_delay_keeps_no_history_on_long_fast_runs(tmp_path):
         if ref is None:
             ref = reference(fast, t_end=5.0, t_eval=run.t, rtol=1e-11, atol=1e-9,
                             values=values)
-        assert np.max(np.abs(run.y["n_out"] - ref.y["n_out"])) < 2e-3, solver  # rpm
+        assert np.max(np.abs(run.y["n_out"] - ref.y["n_out"])) < 2e-3 * RPM, solver
 
 
 @pytest.mark.parametrize("solver", [1, 2, 3, 4])

@@ -309,7 +309,8 @@ def test_tracking_error_helper():
     (dict(D_B=0.0), "D_B"), (dict(K=0.0), "K"), (dict(k_g=-1.0), "k_g"),
     (dict(r_min=float("nan")), "r_min"), (dict(T_g=-0.01), "T_g"),
     (dict(T=0.0), r"T must be in \[1e-06, 100\] s"), (dict(T=101.0), "T"),
-    (dict(K=1e-3), r"K must be in \[1, 1e\+06\] rpm/V"), (dict(tau=4000.0), "tau"),
+    (dict(K=1e-3), r"K must be in \[0.10472, 104720\] rad/\(s.V\) = \[0.0166667, "
+                   r"16666.7\]"), (dict(tau=4000.0), "tau"),
     (dict(r_min=2.0), "r_min"), (dict(n_min=1e4), "n_min"), (dict(k_g=1e7), "k_g")])
 def test_bad_params_raise(kw, field):
     with pytest.raises(ValueError, match=rf"\b{field}"):

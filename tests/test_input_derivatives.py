@@ -300,7 +300,8 @@ def test_model_description_declares_interpolation(poly_fmu):
 
 # ---- the spindle under a speed ramp ------------------------------------------
 
-N0, RAMP = 3000.0, 2.0e5      # n_rpm(t) = N0 + RAMP t: 3000 -> 7000 rpm over 0.02 s
+# Omega(t) = N0 + RAMP t (rad/s): 3000 -> 7000 rpm over 0.02 s
+N0, RAMP = 3000.0 * 2 * math.pi / 60, 2.0e5 * 2 * math.pi / 60
 T_END, H_COARSE, H_FINE = 0.02, 2e-3, 2e-5
 OUT = ("x_top", "y_top", "F_upper_x")
 
@@ -313,14 +314,14 @@ def spindle(tmp_path_factory):
 
 def _spindle_run(slave, h, derivatives):
     s = slave
-    s.start(n_rpm=N0, solver_rtol=1e-9, solver_atol=1e-13)
+    s.start(Omega=N0, solver_rtol=1e-9, solver_atol=1e-13)
     n = int(round(T_END / h))
     got = []
     for i in range(n):
         t = i * h
-        s.fmu.setReal([s.vr["n_rpm"]], [N0 + RAMP * t])
+        s.fmu.setReal([s.vr["Omega"]], [N0 + RAMP * t])
         if derivatives:
-            s.fmu.setRealInputDerivatives([s.vr["n_rpm"]], [1], [RAMP])
+            s.fmu.setRealInputDerivatives([s.vr["Omega"]], [1], [RAMP])
         s.fmu.doStep(t, h)
         if abs((t + h) / H_COARSE - round((t + h) / H_COARSE)) < 1e-9:
             got.append(s.get(*OUT))
@@ -328,14 +329,14 @@ def _spindle_run(slave, h, derivatives):
 
 
 def test_spindle_ramp_through_input_derivatives(spindle, slave_factory):
-    """n_rpm ramped through input derivatives at a coarse communication step
+    """Omega ramped through input derivatives at a coarse communication step
     (10 steps) agrees with the scipy reference fed the exact ramp n(t) to the
     solver's tolerance, and with a 100x finer staircase to that staircase's
     own O(h) error; the coarse staircase is far off."""
     model, fmu = spindle
     t_cp = np.arange(1, int(round(T_END / H_COARSE)) + 1) * H_COARSE
     ref = reference(model, t_end=T_END, t_eval=t_cp, rtol=1e-11, atol=1e-14,
-                    values={"n_rpm": N0}, input_functions={"n_rpm": lambda t: N0 + RAMP * t})
+                    values={"Omega": N0}, input_functions={"Omega": lambda t: N0 + RAMP * t})
     exact = np.column_stack([ref.y[k] for k in OUT])
     scale = np.max(np.abs(exact), axis=0)
 

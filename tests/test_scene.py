@@ -31,6 +31,21 @@ def loom() -> Scene:
     return s
 
 
+def tacho():
+    """A declared speed source in rpm (every registered model's speeds are
+    rad/s): what a foreign FMU in another unit looks like to a scene."""
+    from loomfmu.declare.model import Model
+    m = Model("tacho", description="constant speed source in rpm", stop_time=0.02,
+              step_size=1e-3, h_fixed=1e-4)
+    n = m.parameter("n", 2000.0, unit="rpm", description="speed", min=1.0, max=1e5,
+                    source="assumption: a test value")
+    x = m.state("x", 0.0, unit="rad", description="angle")
+    m.eq(m.der(x), n * RPM)
+    m.output("speed", n, unit="rpm", description="speed")
+    m.port("shaft", "flange", speed="speed", description="speed in rpm")
+    return m
+
+
 def raises(match: str):
     return pytest.raises(ValueError, match=match)
 
@@ -66,13 +81,17 @@ def test_direction_each_role_an_output_on_one_side_and_an_input_on_the_other():
 
 def test_units_must_measure_the_same_quantity_and_are_converted():
     s = loom()
-    with raises(r"connection drive.n_out -> back.warp_pull: unit 'rpm' of drive.n_out "
+    s.add("tacho", model=tacho())
+    with raises(r"connection tacho.speed -> back.warp_pull: unit 'rpm' of tacho.speed "
                 r"cannot be converted to 'm' of back.warp_pull; allowed: units of the "
                 r"same quantity"):
-        s.connect("drive.n_out", "back.warp_pull")
-    (c,) = s.connect("drive.spindles", "frame.shaft")   # rpm out, rad/s in
-    assert (c.src, c.src_var, c.dst, c.dst_var) == ("drive", "n_out", "frame", "omega")
+        s.connect("tacho.speed", "back.warp_pull")
+    (c,) = s.connect("tacho.shaft", "frame.shaft")   # rpm out, rad/s in
+    assert (c.src, c.src_var, c.dst, c.dst_var) == ("tacho", "speed", "frame", "omega")
     assert c.gain == pytest.approx(RPM, rel=1e-15) and c.bias == 0.0
+    s = loom()
+    (c,) = s.connect("drive.spindles", "frame.shaft")   # rad/s both
+    assert (c.gain, c.bias) == (1.0, 0.0)
 
 
 def test_an_input_is_driven_once():
@@ -117,9 +136,29 @@ def test_unknown_names_are_refused_with_what_is_allowed():
         s.record("frame.nope")
 
 
+def test_a_value_with_a_unit_is_converted_or_refused_naming_the_allowed_units():
+    s = loom()
+    s.set("back", parameters={"omega_loom": "240 rpm"})
+    assert s.components["back"].parameters["omega_loom"] == pytest.approx(8 * math.pi,
+                                                                           rel=1e-15)
+    s.set("back", parameters={"omega_loom": "240rpm"})
+    assert s.components["back"].parameters["omega_loom"] == pytest.approx(8 * math.pi,
+                                                                           rel=1e-15)
+    s.set("back", parameters={"omega_loom": "25 rad/s"})
+    assert s.components["back"].parameters["omega_loom"] == 25.0
+    with raises(r"back.omega_loom \(parameters\) = '240 m': omega_loom is in rad/s; "
+                r"allowed units: rad/s, rpm$"):
+        s.set("back", parameters={"omega_loom": "240 m"})
+    with raises(r"back.S0 \(parameters\) = '240 rpm': S0 is in N; allowed units: N$"):
+        s.set("back", parameters={"S0": "240 rpm"})
+    with raises(r"back.omega_loom \(parameters\) = 'fast'; allowed: a finite number"):
+        s.set("back", parameters={"omega_loom": "fast"})
+
+
 def test_values_are_checked():
     s = loom()
-    with raises(r"drive.n_min = -5.0 rpm; allowed: a number in \[1, 100000\]"):
+    with raises(r"drive.n_min = -5 rad/s \(-47.7465 rpm\); allowed: a number in "
+                r"\[0.10472, 10472\] rad/s = \[1, 100000\] rpm"):
         s.set("drive", parameters={"n_min": -5.0})
     with raises(r"back.S2 \(start\): an output variable; allowed: .*letoff"):
         s.set("back", start={"S2": 1.0})
@@ -164,12 +203,12 @@ def test_an_fmu_file_is_a_component_without_ports(fmu_dir, tmp_path):
 @pytest.mark.slow
 def test_a_unit_conversion_is_applied_in_the_run(tmp_path):
     s = loom()
-    s.set("drive", parameters={"n_min": 2000.0})
-    s.connect("drive.spindles", "frame.shaft")
-    s.record("drive.n_out", "frame.omega")
+    s.add("tacho", model=tacho(), parameters={"n": 2000.0})
+    s.connect("tacho.shaft", "frame.shaft")
+    s.record("tacho.speed", "frame.omega")
     res = run(s, fmu_dir=tmp_path)
-    assert res["drive.n_out"][-1] == pytest.approx(2000.0, rel=1e-9)
-    assert np.allclose(res["frame.omega"], RPM * res["drive.n_out"], rtol=1e-14, atol=0)
+    assert res["tacho.speed"][-1] == pytest.approx(2000.0, rel=1e-9)
+    assert np.allclose(res["frame.omega"], RPM * res["tacho.speed"], rtol=1e-14, atol=0)
     assert not any("outside its range" in line for line in res.log["frame"])
 
 
@@ -215,10 +254,11 @@ def test_the_fmu_cache_is_keyed_by_the_code_not_only_the_variables(monkeypatch):
 def test_ssd_validates_and_carries_connections_values_and_conversions():
     s = loom()
     s.set("back", parameters={"S0": 2500.0})
-    s.connect("drive.spindles", "frame.shaft")
+    s.add("tacho", model=tacho())
+    s.connect("tacho.shaft", "frame.shaft")
     text = ssd_text(s)
     assert validate_ssd(text) == []
-    assert ('<ssd:Connection startElement="drive" startConnector="n_out" endElement="frame" '
+    assert ('<ssd:Connection startElement="tacho" startConnector="speed" endElement="frame" '
             'endConnector="omega">') in text
     assert f'<ssc:LinearTransformation factor="{RPM!r}" offset="0.0" />' in text
     assert '<ssv:Parameter name="S0">' in text and '<ssv:Real value="2500.0" />' in text

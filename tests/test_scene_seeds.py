@@ -41,7 +41,7 @@ def test_the_seed_scenes_are_in_the_library():
     assert s.components["spindle"].model == "spindle"     # the full FE rotor
     (c,) = s.connections
     assert (c.src, c.src_var, c.dst, c.dst_var, c.gain) == ("drive", "n_out", "spindle",
-                                                            "n_rpm", 1.0)
+                                                            "Omega", 1.0)
     lm = load_scene("loom")
     assert set(lm.components) == {"shaft", "frame_a", "frame_b", "back"}
     pairs = {(c.src + "." + c.src_var, c.dst + "." + c.dst_var) for c in lm.connections}
@@ -60,16 +60,16 @@ def test_the_seed_scenes_are_in_the_library():
 @pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
 def test_spinning_runs_and_the_spindle_takes_the_drive_speed(fmu_dir, master):
     s = spin(stop_time=0.05, step=1e-3)
-    s.record("spindle.n_rpm")
+    s.record("spindle.Omega")
     res = run(s, master=master, fmu_dir=fmu_dir)
     d = res.data
     assert res.accepted == 50 and np.all(np.isfinite(d.view((float, len(d.dtype)))))
-    n, u = d["drive.n_out"], d["spindle.n_rpm"]
+    n, u = d["drive.n_out"], d["spindle.Omega"]
     if master == "gauss-seidel":   # the spindle steps after the drive: its newest speed
         assert np.array_equal(u[1:], n[1:])
     else:                          # Jacobi: the speed at the step's start
         assert np.array_equal(u[1:], n[:-1])
-    assert spinning.start_speed() == pytest.approx(n[0], rel=1e-12)
+    assert spinning.start_speed() * 2 * math.pi / 60 == pytest.approx(n[0], rel=1e-12)
 
 
 def _orbit_spread(res) -> float:
@@ -81,12 +81,12 @@ def test_the_spindle_started_by_the_helper_stays_periodic_at_constant_speed(fmu_
     n = 16000.0   # rpm: 26.7 revolutions over 0.1 s
     s = spin(n_const=n, stop_time=0.1, step=1e-3)
     res = run(s, master="gauss-seidel", fmu_dir=fmu_dir)
-    assert np.all(res["drive.n_out"] == pytest.approx(n, rel=1e-12))
+    assert np.all(res["drive.n_out"] == pytest.approx(n * 2 * math.pi / 60, rel=1e-12))
     assert _orbit_spread(res) < 1e-3, _orbit_spread(res)
     # the same scene with the spindle started at rest rings: the test can fail
     rest = Scene("spinning_from_rest", stop_time=0.1, step=1e-3)
     rest.add("drive", model="drive", options={"cam": "compensated"},
-             parameters={"cam_on": 0.0, "n_min": n})
+             parameters={"cam_on": 0.0, "n_min": f"{n!r} rpm"})
     rest.add("spindle", model="spindle_modal")
     rest.connect("drive.spindles", "spindle.drive")
     rest.record("spindle.r_top")

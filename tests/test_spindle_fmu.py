@@ -94,7 +94,7 @@ def test_constant_speed_response_is_the_unbalance_response_15(spindle_fmu, rpm):
     start, A1, A2 = _steady_start(sp, rpm, ecc)
     top = sp.sp.nodes["top"]
     ix = sp.sp.idx(f"n{top}.x")
-    values = {"n_rpm": rpm, "e_b": ecc, "e_w": ecc, **start}
+    values = {"Omega": rpm * RPM, "e_b": ecc, "e_w": ecc, **start}
     run = simulate(spindle_fmu.path, solver="rodas4", rtol=1e-8, atol=1e-14,
                    stop_time=0.02, values=values, output=["x_top"])
     w = rpm * RPM
@@ -106,7 +106,7 @@ def test_constant_speed_response_is_the_unbalance_response_15(spindle_fmu, rpm):
     _, A1, A2 = _steady_start(sp, rpm, ecc, eta=0.5)
     rest = simulate(spindle_fmu.path, solver="rodas4", rtol=1e-6, atol=1e-12,
                     stop_time=0.3, output_interval=1e-3,
-                    values={"n_rpm": rpm, "e_b": ecc, "e_w": ecc, "eta": 0.5},
+                    values={"Omega": rpm * RPM, "e_b": ecc, "e_w": ecc, "eta": 0.5},
                     output=["x_top"])
     exp_r = A1[ix] * np.sin(w * rest.t) + A2[ix] * np.cos(w * rest.t)
     dev = np.abs(rest.y["x_top"] - exp_r)

@@ -49,7 +49,7 @@ def _point(m, rng):
     vals.update(fill=rng.uniform(0, 1), k_u_xy=0.1 * vals["k_u"] * rng.uniform(-1, 1),
                 k_f_xy=0.1 * vals["k_f"] * rng.uniform(-1, 1), c_u_xy=rng.uniform(-5, 5),
                 c_f_xy=rng.uniform(-5, 5), phase_b=rng.uniform(-3, 3))
-    vals.update(n_rpm=rng.uniform(2000, 30000), e_b=rng.uniform(1e-6, 1e-5),
+    vals.update(Omega=rng.uniform(2000, 30000) * RPM, e_b=rng.uniform(1e-6, 1e-5),
                 e_w=rng.uniform(1e-6, 1e-5))
     for v in m.of_kind("state"):
         vals[v.name] = rng.normal() * (1.0 if v.name == "phi" else
@@ -213,7 +213,7 @@ def test_equations_of_motion_use_exactly_M_C_G_K_and_F(full):
     rates = [s for s in names if ".v" in s]
     a0, Aq, Av = _linear_parts(full, v, q, rates)
     M, C, G, K, F = (quantity(full, n, v) for n in ("M", "C", "G", "K", "F"))
-    W = v["n_rpm"] * RPM
+    W = v["Omega"]
     _close(M @ Aq, -K, rtol=1e-8)
     _close(M @ Av, -(C + W * G), rtol=1e-8)
     _close(M @ a0, F.ravel(), rtol=1e-8)
@@ -249,14 +249,14 @@ def test_modal_matrices_are_the_projection_the_equations_use(modal, full):
     r = B.shape[1]
     a0, Aq, Av = _linear_parts(modal, v, [f"eta{i}" for i in range(r)],
                                [f"deta{i}" for i in range(r)])
-    W = v["n_rpm"] * RPM
+    W = v["Omega"]
     _close(Mm @ Aq, -Km, rtol=1e-8)
     _close(Mm @ Av, -(Cm + W * Gm), rtol=1e-8)
     _close(Mm @ a0, Fm.ravel(), rtol=1e-8)
     # B's columns are the x-plane modes at the defaults (film at basis_rpm):
     # K_x b = omega^2 M_x b, scaled to 1 at the largest translation
     d = {x.name: x.start for x in modal.variables if x.kind == "parameter"}
-    d.update(n_rpm=modal.options["basis_rpm"], phi=0.0, e_b=0.0, e_w=0.0)
+    d.update(Omega=modal.options["basis_rpm"] * RPM, phi=0.0, e_b=0.0, e_w=0.0)
     d.update({x.name: 0.0 for x in modal.of_kind("state")})
     M0, K0 = quantity(modal, "M", d), quantity(modal, "K", d)
     w = quantity(modal, "omega_k", d).ravel()
@@ -325,7 +325,7 @@ def test_film_layers_are_formulas_1_to_5(full):
     r = r1 + c * np.arange(n)
     s = r[:-1].sum()
     eps = 1 - ((n - 1) * c - d0) / c * r / s
-    W = v["n_rpm"] * RPM
+    W = v["Omega"]
     IK = [quad(lambda t, e=e: math.cos(t)**2 * math.sin(t) / (1 - e * math.cos(t))**2.28,
                0, math.pi / 2)[0] for e in eps]
     IC = [quad(lambda t, e=e: math.sin(t) * math.cos(t) / (1 - e * math.cos(t))**1.28,

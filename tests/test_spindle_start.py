@@ -2,6 +2,8 @@
 their periodic solution (no transient), full FE and modal."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -19,7 +21,7 @@ def _run(fmu, rpm, start, parameters=None, solver="rodas4"):
     stop = REVOLUTIONS * 60.0 / rpm
     return simulate(fmu.path, solver=solver, rtol=1e-8, atol=1e-14, stop_time=stop,
                     output_interval=stop / 200,
-                    values={"n_rpm": rpm, "e_b": ECC, "e_w": ECC, **(parameters or {}),
+                    values={"Omega": rpm * 2 * math.pi / 60, "e_b": ECC, "e_w": ECC, **(parameters or {}),
                             **start},
                     output=["r_top", "r_footstep"])
 

@@ -4,6 +4,7 @@ q = B eta + R F): against the full FE spindle on the periodic solution at
 the blade's top stays as good.  Real gcc builds, real fmpy runs."""
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -24,7 +25,7 @@ def _amplitudes(fmu_path, start):
     t0 = time.process_time()
     run = simulate(fmu_path, solver="rodas4", rtol=1e-8, atol=1e-14, stop_time=stop,
                    output_interval=stop / 150,
-                   values={"n_rpm": RPM, "e_b": ECC, "e_w": ECC, **start}, output=OUTPUTS)
+                   values={"Omega": RPM * 2 * math.pi / 60, "e_b": ECC, "e_w": ECC, **start}, output=OUTPUTS)
     cpu = (time.process_time() - t0) / stop
     return {k: float(np.mean(run.y[k])) for k in OUTPUTS}, cpu
 

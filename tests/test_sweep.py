@@ -351,7 +351,8 @@ def test_trend_case_starts_on_the_periodic_orbit_with_the_studys_parameter():
     fixed = {"n_rpm": 16000.0, "ecc": 5e-6, "base": {"k_f": 2.0e6, "a_s": 6e-4, "k_u": 1.0e7}}
     values, stop = studies.prepare_trend({"trend": 1, "x": 3.0}, fixed)  # upper support x 3
     assert values["k_u"] == 3.0e7 and "k_f" not in values
-    assert (values["n_rpm"], values["e_b"], values["e_w"]) == (16000.0, 5e-6, 5e-6)
+    assert values["Omega"] == pytest.approx(16000.0 * 2 * math.pi / 60, rel=1e-15)  # rad/s
+    assert (values["e_b"], values["e_w"]) == (5e-6, 5e-6)
     assert stop == pytest.approx(3 * 60 / 16000.0, rel=1e-15)
     assert any(v != 0.0 for k, v in values.items() if k.endswith(".x"))  # off-centre start
     with pytest.raises(ValueError, match=r"trend = 4; allowed: an integer in \[0, 3\]"):

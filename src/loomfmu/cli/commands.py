@@ -334,10 +334,59 @@ def _bound(var, which: str):
     return None if value is None else float(value)
 
 
+def display_units(md, unit: str) -> dict[str, tuple[float, float]]:
+    """The display units the model description ``md`` defines under
+    ``unit``: {name: (factor, offset)}, value_display = factor * value + offset."""
+    for u in getattr(md, "unitDefinitions", None) or []:
+        if u.name == unit:
+            return {d.name: (float(d.factor), float(d.offset))
+                    for d in getattr(u, "displayUnits", None) or []}
+    return {}
+
+
+def _display_unit(var) -> str:
+    return getattr(var, "displayUnit", None) or (getattr(var.declaredType, "displayUnit", None)
+                                                 if getattr(var, "declaredType", None)
+                                                 is not None else None) or ""
+
+
+def show_value(md, var, value: float, fmt: str = ".6g") -> str:
+    """'25.1327 rad/s (240 rpm)': the value in its unit, and in its display
+    unit where the model description gives it one."""
+    from loomfmu.declare.units import show
+    unit, shown = _unit(var), _display_unit(var)
+    table = display_units(md, unit)
+    return show(value, unit, shown if shown in table else "", table, fmt)
+
+
+def _with_unit(md, name: str, var, value):
+    """A Real's value given as text with a unit ('240rpm', '240 rpm') in the
+    variable's unit; other values unchanged.  UsageError for a unit that
+    does not measure the variable's quantity."""
+    from loomfmu.declare.units import allowed_units, split_quantity, to_unit
+    if var.type != "Real" or not isinstance(value, str):
+        return value
+    parsed = split_quantity(value)
+    if parsed is None:
+        return value
+    number, given = parsed
+    unit = _unit(var)
+    table = display_units(md, unit)
+    try:
+        return to_unit(number, given, unit, table)
+    except ValueError:
+        allowed = allowed_units(unit, table)
+        raise UsageError(f"--set {name}={value}: {name} is in {unit or 'no unit'}"
+                         f"; allowed units: {', '.join(allowed) if allowed else 'none (a plain number)'}"
+                         ) from None
+
+
 def check_start_values(md, start: dict) -> dict:
     """Each --set NAME=VALUE against the model description: the name is a
     parameter, input or state; the value a number of the variable's type
-    within its min/max; an Enumeration also takes its item names."""
+    within its min/max (a Real's may carry a unit of the same quantity,
+    '240rpm' or '240 rpm', converted to the variable's unit); an
+    Enumeration also takes its item names."""
     variables = {v.name: v for v in md.modelVariables}
     settable = _settable(md)
     out = {}
@@ -347,6 +396,7 @@ def check_start_values(md, start: dict) -> dict:
                              f"{md.modelName}{_suggest(name, settable)}; see the FMU's "
                              "documentation/index.html for the list")
         var = variables[name]
+        value = _with_unit(md, name, var, value)
         if var.type == "Enumeration" and isinstance(value, str):
             items = [item.name for item in var.declaredType.items]
             if value not in items:
@@ -369,6 +419,12 @@ def check_start_values(md, start: dict) -> dict:
                 span = (", ".join(item.name for item in var.declaredType.items)
                         + f", or {lo:g}..{hi:g}")
             unit = _unit(var)
+            shown = _display_unit(var)
+            table = display_units(md, unit)
+            if shown in table and lo is not None and hi is not None:
+                f, offset = table[shown]
+                span += f" {unit} = [{f * lo + offset:g}, {f * hi + offset:g}] {shown}"
+                unit = ""
             raise UsageError(f"--set {name}={value!r}: allowed: {span}"
                              + (f" {unit}" if unit else ""))
         out[name] = int(value) if var.type in ("Integer", "Enumeration") else float(value)
@@ -463,11 +519,22 @@ def cmd_simulate(args) -> int:
     t = res["time"]
     print(f"{md.modelName}: {len(t)} points, t = {t[0]:g} .. {t[-1]:g} s, step {step:g} s, "
           f"solver {solver}, rtol {args.rtol:g}")
+    given = [n for n in start if n in set(parse_assignments(args.set, "--set"))]
+    if given:
+        print("set: " + ", ".join(f"{n} = {show_value(md, variables[n], start[n])}"
+                                  if variables[n].type == "Real" else f"{n} = {start[n]}"
+                                  for n in given))
     print(f"{'variable':<16}{'final':>14}{'min':>14}{'max':>14}  unit")
     for name in outputs:
         y = res[name]
         print(f"{name:<16}{y[-1]:>14.6g}{y.min():>14.6g}{y.max():>14.6g}  "
               f"{_unit(variables[name])}")
+        shown = _display_unit(variables[name])
+        table = display_units(md, _unit(variables[name]))
+        if shown in table:  # the same values in the display unit
+            f, offset = table[shown]
+            print(f"{'':<16}{f * y[-1] + offset:>14.6g}{f * y.min() + offset:>14.6g}"
+                  f"{f * y.max() + offset:>14.6g}  {shown}")
     for status, line in log:
         if status != 0:
             print(f"  log [{STATUS[status]}] {line}")

@@ -114,6 +114,31 @@ def _number(text: str, what: str):
         raise ValueError(f"{what}: {text!r:.40}; allowed: numbers (or true/false)") from None
 
 
+def _valuer(model: str, options: dict):
+    """value(name, text, what): ``text`` as a number (:func:`_number`), or a
+    number with a unit of the same quantity as the model's variable
+    ``name`` ('240rpm', '240 rpm'), converted to the variable's unit."""
+    from loomfmu.declare.units import allowed_units, split_quantity, to_unit
+    declared = []
+
+    def value(name: str, text: str, what: str):
+        parsed = split_quantity(text)
+        if parsed is None or not parsed[1]:
+            return _number(text, what)
+        if not declared:
+            from loomfmu.registry import load_model
+            declared.append(load_model(model, **options))
+        unit = declared[0].var(name).unit
+        try:
+            return to_unit(parsed[0], parsed[1], unit)
+        except ValueError:
+            allowed = allowed_units(unit)
+            raise ValueError(f"{what}: {text!r:.40}: {name} is in {unit or 'no unit'}; "
+                             f"allowed units: {', '.join(allowed) if allowed else 'none'}"
+                             ) from None
+    return value
+
+
 def _pairs(items: list[str], flag: str) -> dict[str, str]:
     out = {}
     for item in items:
@@ -132,6 +157,9 @@ def _run_study_from_args(args):
     if args.model not in MODELS:
         raise ValueError(f"MODEL = {args.model!r:.60}; allowed: one of "
                          f"{', '.join(sorted(MODELS))}")
+    options = {k: _number(v, f"--option {k}") if v.strip().lstrip("+-").replace(
+        ".", "", 1).isdigit() else v for k, v in _pairs(args.option, "--option").items()}
+    value = _valuer(args.model, options)
     kinds = [k for k in ("grid", "list", "lhs") if getattr(args, k)]
     if len(kinds) != 1:
         raise ValueError("--grid, --list, --lhs: give one kind of space; allowed: exactly one "
@@ -141,17 +169,15 @@ def _run_study_from_args(args):
         for k, v in _pairs(args.lhs, "--lhs").items():
             if ":" not in v:
                 raise ValueError(f"--lhs {k}={v!r:.40}; allowed: NAME=LO:HI")
-            bounds[k] = tuple(_number(x, f"--lhs {k}") for x in v.split(":", 1))
+            bounds[k] = tuple(value(k, x, f"--lhs {k}") for x in v.split(":", 1))
         cases = latin_hypercube(bounds, n=args.samples, seed=args.seed)
     else:
-        axes = {k: [_number(x, f"--{kinds[0]} {k}") for x in v.split(",")]
+        axes = {k: [value(k, x, f"--{kinds[0]} {k}") for x in v.split(",")]
                 for k, v in _pairs(getattr(args, kinds[0]), f"--{kinds[0]}").items()}
         cases = (grid if kinds == ["grid"] else lists)(**axes)
     stop = check_number("--stop", args.stop, lo=0.0, lo_open=True, unit="s")
     step = stop / 1000 if args.step is None else args.step
-    fixed = {k: _number(v, f"--set {k}") for k, v in _pairs(args.set, "--set").items()}
-    options = {k: _number(v, f"--option {k}") if v.strip().lstrip("+-").replace(
-        ".", "", 1).isdigit() else v for k, v in _pairs(args.option, "--option").items()}
+    fixed = {k: value(k, v, f"--set {k}") for k, v in _pairs(args.set, "--set").items()}
     return Study(args.model, cases=cases, figures=[parse_figure(f) for f in args.figure],
                  stop_time=stop, output_interval=step, solver=args.solver, rtol=args.rtol,
                  atol=args.atol, fixed=fixed, options=options,

@@ -35,7 +35,7 @@ from loomfmu.declare.checks import (
     is_real,
 )
 from loomfmu.declare.solvers import SETTINGS, SOLVER_INDEX
-from loomfmu.declare.units import check_unit
+from loomfmu.declare.units import check_display_unit, check_unit
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
@@ -102,6 +102,9 @@ class Variable:
     max: float = math.inf
     nominal: float | None = None
     source: str = ""  # parameters: seed file + equation, or "assumption: why"
+    # a unit of UNITS measuring the same quantity that people read it in
+    # (FMI displayUnit), e.g. "rpm" for a speed in rad/s; "" none
+    display_unit: str = ""
 
     @property
     def causality(self) -> str:
@@ -250,6 +253,10 @@ class Model:
             raise ValueError(f"name = {name!r} is reserved (every FMU has it); reserved: "
                              f"{', '.join(reserved_names())}")
         check_unit(unit)
+        if kw.get("display_unit"):
+            check_display_unit(kw["display_unit"], unit, f"{name}: display_unit")
+        else:
+            kw.pop("display_unit", None)
         if not description or not isinstance(description, str):
             raise ValueError(f"variable {name!r} needs a description (a non-empty string)")
         check_text(f"{name}: description", description)
@@ -308,32 +315,37 @@ class Model:
         return name
 
     def parameter(self, name, value, *, unit="", description="", source,
-                  min=-math.inf, max=math.inf) -> ca.SX:
-        """Declare a parameter; ``source`` is mandatory (seed + equation or assumption)."""
+                  min=-math.inf, max=math.inf, display_unit="") -> ca.SX:
+        """Declare a parameter; ``source`` is mandatory (seed + equation or
+        assumption).  display_unit (here and for the other kinds): a unit
+        measuring the same quantity that people read the value in (FMI
+        ``displayUnit``, e.g. "rpm" for rad/s); values stay in ``unit``."""
         if not source:
             raise ValueError(f"parameter {name!r} needs a source (seed/equation or assumption)")
         return self._add(name, "parameter", value, unit, description,
-                         min=min, max=max, source=source)
+                         min=min, max=max, source=source, display_unit=display_unit)
 
     def state(self, name, start, *, unit="", description="", nominal=None,
-              min=-math.inf, max=math.inf) -> ca.SX:
+              min=-math.inf, max=math.inf, display_unit="") -> ca.SX:
         """Declare a continuous state ``name`` with its start value; its
         derivative is ``der(sym)`` in the equations."""
         sym = self._add(name, "state", start, unit, description, nominal=nominal,
-                        min=min, max=max)
+                        min=min, max=max, display_unit=display_unit)
         self._der[name] = ca.SX.sym(f"der({name})")
         return sym
 
     def input(self, name, start, *, unit="", description="", min=-math.inf,
-              max=math.inf) -> ca.SX:
+              max=math.inf, display_unit="") -> ca.SX:
         """Declare a Real input ``name`` (held or interpolated by the
         importer) with its start value and range."""
-        return self._add(name, "input", start, unit, description, min=min, max=max)
+        return self._add(name, "input", start, unit, description, min=min, max=max,
+                         display_unit=display_unit)
 
-    def algebraic(self, name, *, unit="", description="") -> ca.SX:
+    def algebraic(self, name, *, unit="", description="", display_unit="") -> ca.SX:
         """Declare an algebraic unknown ``name`` of the DAE (solved with the
         derivatives, by Newton where the equations are implicit in it)."""
-        return self._add(name, "algebraic", None, unit, description)
+        return self._add(name, "algebraic", None, unit, description,
+                         display_unit=display_unit)
 
     def delay(self, name, expr, tau, *, max_delay: float, description="") -> ca.SX:
         """A symbol for ``expr`` delayed by ``tau`` (an expression of parameters).
@@ -480,11 +492,11 @@ class Model:
         name = as_symbol("reinit: state", state, self._der)
         self.reinits[name] = self._expr(f"reinit {name!r}: expr", expr)
 
-    def output(self, name, expr, *, unit="", description="") -> ca.SX:
+    def output(self, name, expr, *, unit="", description="", display_unit="") -> ca.SX:
         """Declare an output defined by ``expr``, a scalar expression of the
         model's variables."""
         expr = self._expr(f"output {name!r}: expr", expr)
-        sym = self._add(name, "output", None, unit, description)
+        sym = self._add(name, "output", None, unit, description, display_unit=display_unit)
         self._by_name[name].expr = expr  # type: ignore[attr-defined]
         return sym
 

@@ -14,7 +14,8 @@ and are re-exported here:
 The analyses: :mod:`.report` (``loomfmu drive {table, charts}``) and
 :mod:`.tracking` (``loomfmu drive tracking``).
 
-Speeds are rev/s inside, rpm only at the edges (:data:`RPM`).
+Speeds are rev/s inside, rpm only at the edges (:data:`RPM`); the drive FMU's
+speeds are rad/s (shown in rpm), converted where values go in and out.
 
 May import: every layer below the mechanism packages; not another
 mechanism's package.

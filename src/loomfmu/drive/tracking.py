@@ -21,7 +21,7 @@ from loomfmu.declare.checks import check_array, check_bool, check_int, check_num
 from loomfmu.fmu.builder import build_fmu
 from loomfmu.fmu.platforms import HOST
 from loomfmu.mechanics.drive_law import MAX_HARMONICS, law_constants
-from loomfmu.mechanics.drive_params import DriveParams, check_params
+from loomfmu.mechanics.drive_params import RAD_S, DriveParams, check_params
 from loomfmu.mechanics.layer_cam import cam_profile_phi, fmu_cam_parameters, tracking_error
 from loomfmu.registry import load_model
 from loomfmu.verification.verify import simulate
@@ -40,7 +40,7 @@ def cam_values(p: DriveParams, m: int, compensate: bool, harmonics: int) -> dict
     harmonics = check_int("harmonics", harmonics, lo=1, hi=512)
     A0, A, B = cam_profile_phi(p, m, compensate=compensate, M=harmonics)
     n_start = fmu_cam_parameters(p, m, compensate=compensate)["n_start"]
-    values = {"tau": p.tau, "T": p.T, "cam_A0": A0, "n": n_start * 60.0}
+    values = {"tau": p.tau, "T": p.T, "cam_A0": A0, "n": n_start * RAD_S}
     for j, (a, b) in enumerate(zip(A, B), 1):
         values[f"cam_A{j}"] = float(a)
         values[f"cam_B{j}"] = float(b)
@@ -74,7 +74,7 @@ def tracking_rows(taus=TAUS, time_constants=TIME_CONSTANTS, m: int = M_HARMONICS
                                    stop_time=t_end, output_interval=0.01,
                                    output=["n_out", "phi_out"],
                                    values=cam_values(p, m, comp, harmonics))
-                    n = run.y["n_out"] / 60.0
+                    n = run.y["n_out"] / RAD_S
                     row[f"{label}_vs_law_rpm"] = tracking_error(run.t, n, p, None,
                                                                 phi=run.y["phi_out"])
                     row[f"{label}_vs_series_rpm"] = tracking_error(run.t, n, p, m,
@@ -118,7 +118,7 @@ def mismatch_rows(factors=MISMATCH, m: int = M_HARMONICS, rtol: float = 1e-8) ->
                                    output=["n_out", "phi_out"],
                                    values={**cams[comp], "tau": plant.tau, "T": plant.T})
                     row[f"{label}_vs_law_rpm"] = tracking_error(
-                        run.t, run.y["n_out"] / 60.0, plant, None, phi=run.y["phi_out"])
+                        run.t, run.y["n_out"] / RAD_S, plant, None, phi=run.y["phi_out"])
                 rows.append(row)
     return rows
 

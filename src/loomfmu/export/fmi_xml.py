@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 from loomfmu.declare.model import Model
 from loomfmu.declare.solvers import SOLVER_DESCRIPTIONS, SOLVER_INDEX, SOLVERS
-from loomfmu.declare.units import UNITS
+from loomfmu.declare.units import UNITS, display_factor
 from loomfmu.export.codegen import real_table
 from loomfmu.export.dae import DaeForm
 from loomfmu.export.fmi_structure import Structure, model_structure
@@ -146,6 +146,8 @@ def _real_vars(model: Model) -> list[ModelVar]:
         attrs = {}
         if row.unit:
             attrs["unit"] = row.unit
+        if row.var is not None and row.var.display_unit:
+            attrs["displayUnit"] = row.var.display_unit
         if math.isfinite(row.min):
             attrs["min"] = _num(row.min)
         if math.isfinite(row.max):
@@ -221,10 +223,18 @@ def variable_table(model: Model, dae: DaeForm, *, fmi_version: int = 2,
 
 # ------------------------------------------------------------------ shared elements
 def _units(root: ET.Element, table: list[ModelVar]) -> None:
+    """UnitDefinitions: each unit a variable uses, and under it the display
+    units its variables name, ``<DisplayUnit name factor>`` with
+    value_display = factor * value_unit (offset 0; see
+    loomfmu.declare.units.display_factor for the standards' definition)."""
     ud = ET.SubElement(root, "UnitDefinitions")
     for u in sorted({v.attrs["unit"] for v in table if "unit" in v.attrs}):
         unit = ET.SubElement(ud, "Unit", {"name": u})
         ET.SubElement(unit, "BaseUnit", {k: str(v) for k, v in UNITS[u].items()})
+        for d in sorted({v.attrs["displayUnit"] for v in table
+                         if v.attrs.get("unit") == u and "displayUnit" in v.attrs}):
+            ET.SubElement(unit, "DisplayUnit", {"name": d,
+                                                "factor": _num(display_factor(u, d))})
 
 
 def _enumerations(model: Model) -> dict[str, list[tuple[str, str]]]:

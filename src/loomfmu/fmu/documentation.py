@@ -695,6 +695,16 @@ def _variables(model: Model, md: ET.Element) -> str:
                 start = _fmt(start)
             lo, hi = _fmt(typ.get("min")), _fmt(typ.get("max"))
             rng = f"[{lo or '−∞'}, {hi or '∞'}]" if (lo or hi) else ""
+            shown = typ.get("displayUnit")
+            if shown:  # the same values in the display unit
+                from loomfmu.declare.units import display_factor
+                f = display_factor(unit, shown)
+                if typ.get("start") is not None:
+                    start += f" ({_fmt(f * float(typ.get('start')))} {shown})"
+                if typ.get("min") is not None and typ.get("max") is not None:
+                    rng += (f" ([{_fmt(f * float(typ.get('min')))}, "
+                            f"{_fmt(f * float(typ.get('max')))}] {shown})")
+                unit += f" (shown in {shown})"
             if name in settings or typ.tag == "Enumeration":
                 src = "loomfmu runtime setting"
             elif kinds.get(name) == "parameter":

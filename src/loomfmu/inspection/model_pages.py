@@ -14,6 +14,7 @@ from pathlib import Path
 
 from loomfmu.declare.checks import check_output_options
 from loomfmu.declare.model import Model
+from loomfmu.declare.units import display_factor
 from loomfmu.registry import MODELS, VARIANTS, load_model
 
 
@@ -23,6 +24,19 @@ def _fmt(v) -> str:
     if isinstance(v, float) and math.isinf(v):
         return ""
     return f"{v:.6g}"
+
+
+def _shown(v, x) -> str:
+    """x (a value of variable v) and, for a variable with a display unit,
+    the same value in it: '25.1327 (240 rpm)'."""
+    text = _fmt(x)
+    if text and v.display_unit:
+        text += f" ({_fmt(display_factor(v.unit, v.display_unit) * x)} {v.display_unit})"
+    return text
+
+
+def _unit(v) -> str:
+    return f"{v.unit} (shown in {v.display_unit})" if v.display_unit else v.unit
 
 
 def _cell(s: str) -> str:
@@ -42,13 +56,17 @@ def model_markdown(model: Model) -> str:
             "|---|---|---|---|---|---|"]
     for v in model.of_kind("parameter"):
         rng = f"[{_fmt(v.min)}, {_fmt(v.max)}]"
-        out.append(f"| `{v.name}` | {_fmt(v.start)} | {v.unit} | {rng} | "
+        if v.display_unit:
+            f = display_factor(v.unit, v.display_unit)
+            rng += f" ([{_fmt(f * v.min)}, {_fmt(f * v.max)}] {v.display_unit})"
+        out.append(f"| `{v.name}` | {_shown(v, v.start)} | {_unit(v)} | {rng} | "
                    f"{_cell(v.description)} | {_cell(v.source)} |")
     for kind, title in (("state", "States"), ("input", "Inputs"), ("output", "Outputs")):
         out += ["", f"## {title}", "", "| name | start | unit | description |",
                 "|---|---|---|---|"]
         for v in model.of_kind(kind):
-            out.append(f"| `{v.name}` | {_fmt(v.start)} | {v.unit} | {_cell(v.description)} |")
+            out.append(f"| `{v.name}` | {_shown(v, v.start)} | {_unit(v)} | "
+                       f"{_cell(v.description)} |")
     if model.mode_values:
         out += ["", "## Modes (Integer outputs, re-chosen at events in this priority order)",
                 "", "| name | start | values | description |", "|---|---|---|---|"]

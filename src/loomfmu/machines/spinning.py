@@ -2,7 +2,7 @@
 spindle rotor (seeds 001 and 003).
 
     drive (models/drive.py)  --spindles -> drive-->  spindle (spindle_modal or spindle)
-           n_out [rpm]                                 n_rpm [rpm]
+           n_out [rad/s, shown in rpm]                 Omega [rad/s, shown in rpm]
 
 The drive's speed follows the layer cam's speed law (12 000 -> 15 000 rpm
 over a layer of T_c + T_n = 15 s with the assumed machine values); the
@@ -16,6 +16,8 @@ The spindle starts on its periodic unbalance solution at the drive's start
 speed (loomfmu.spindle.start.periodic_start), so it does not ring.
 """
 from __future__ import annotations
+
+import math
 
 from loomfmu.declare.checks import check_choice, check_number
 from loomfmu.scene.declare import Scene, declare_model
@@ -33,9 +35,9 @@ RECORDED = ("drive.n_out", "drive.r", "spindle.x_top", "spindle.r_top", "spindle
 
 
 def start_speed(cam: str = "compensated") -> float:
-    """The drive's speed at t = 0 (rpm): its state n starts at the steady state
-    of the cam signal at the cam's start angle (models/drive.py)."""
-    return float(declare_model("drive", {"cam": cam}).var("n").start)
+    """The drive's speed at t = 0 (rpm): its state n (rad/s) starts at the
+    steady state of the cam signal at the cam's start angle (models/drive.py)."""
+    return float(declare_model("drive", {"cam": cam}).var("n").start) * 60.0 / (2 * math.pi)
 
 
 #: the master the scene recommends (docs/guides/scene_spinning.md, verdict): the
@@ -59,7 +61,8 @@ def scene(*, cam: str = "compensated", fidelity: str = "spindle",
     by default on the RECOMMENDED master;
     drive_parameters: parameter values of the drive FMU; n_const: a constant
     drive speed (rpm, 1000 ... 40000) instead of the cam's law (the cam
-    switched off, cam_on = 0, and n_min = n_const); spindle_options: build
+    switched off, cam_on = 0, and n_min = n_const converted to rad/s);
+    spindle_options: build
     options of the spindle model (e.g. ``{"n_modes": 8}`` for spindle_modal).
     """
     cam = check_choice("cam", cam, CAMS)
@@ -67,7 +70,7 @@ def scene(*, cam: str = "compensated", fidelity: str = "spindle",
     params = dict(drive_parameters or {})
     if n_const is not None:
         n_const = check_number("n_const", n_const, lo=1000.0, hi=40000.0, unit="rpm")
-        params.update({"cam_on": 0.0, "n_min": n_const})
+        params.update({"cam_on": 0.0, "n_min": n_const * 2 * math.pi / 60.0})
         n0 = n_const
     else:
         n0 = start_speed(cam)

@@ -40,7 +40,7 @@ from loomfmu.declare.checks import check_array, check_choice
 from loomfmu.drive.tracking import M_HARMONICS, cam_values
 from loomfmu.heald.hinge import KINETOSTATIC_PARAMETERS, hinge_load_kinetostatic
 from loomfmu.mechanics.drive_law import law_constants
-from loomfmu.mechanics.drive_params import DriveParams
+from loomfmu.mechanics.drive_params import RAD_S, DriveParams
 from loomfmu.mechanics.heald_presets import MAKERS, preset_names, preset_values
 from loomfmu.mechanics.layer_cam import tracking_error
 from loomfmu.registry import load_model
@@ -145,12 +145,12 @@ def prepare_drive(case: dict, fixed: dict) -> tuple[dict, float]:
 
 def drive_error_law(t, y, case) -> float:
     """max |n - n0| (rpm) after the transient, at equal cam angle."""
-    return tracking_error(t, y["n_out"] / 60.0, _drive_params(case), None, phi=y["phi_out"])
+    return tracking_error(t, y["n_out"] / RAD_S, _drive_params(case), None, phi=y["phi_out"])
 
 
 def drive_error_series(t, y, case) -> float:
     """max |n - n0's m-term series| (rpm): what a truncated cam can reach."""
-    return tracking_error(t, y["n_out"] / 60.0, _drive_params(case), M_HARMONICS,
+    return tracking_error(t, y["n_out"] / RAD_S, _drive_params(case), M_HARMONICS,
                           phi=y["phi_out"])
 
 
@@ -226,7 +226,8 @@ TREND_REVS = 3  # revolutions run; the first is skipped by the figures
 def prepare_trend(case: dict, fixed: dict) -> tuple[dict, float]:
     """Trend study TRENDS[case['trend']] at x = case['x'] (its factor or
     value), applied to the base values in ``fixed`` as loomfmu.spindle.trends
-    does; start on the periodic orbit of (15) at fixed['n_rpm']."""
+    does; start on the periodic orbit of (15) at fixed['n_rpm'] (rpm; the
+    FMU's input Omega is set in rad/s)."""
     i = case["trend"]
     if not isinstance(i, int) or not 0 <= i < len(TRENDS):
         raise ValueError(f"trend = {i!r}; allowed: an integer in [0, {len(TRENDS) - 1}]")
@@ -236,7 +237,7 @@ def prepare_trend(case: dict, fixed: dict) -> tuple[dict, float]:
                          "run-time parameters only")
     n, ecc = fixed["n_rpm"], fixed["ecc"]
     values = periodic_start("spindle", n_rpm=n, e_b=ecc, e_w=ecc, parameters=over)
-    values.update(over, n_rpm=n, e_b=ecc, e_w=ecc)
+    values.update(over, Omega=n * RAD_S / 60.0, e_b=ecc, e_w=ecc)
     return values, TREND_REVS * 60.0 / n
 
 

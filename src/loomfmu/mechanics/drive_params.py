@@ -3,7 +3,8 @@
 The seed gives symbols only, no numbers: every default below is an
 assumption, taken from ``docs/guides/seed_notes/drive_spec.md`` section 4 (with the range
 given there and its reason).  Internal units are SI with the spindle speed in
-rev/s; rpm appear only at the edges (:data:`RPM`).
+rev/s; rpm appear only at the edges (:data:`RPM`), rad/s in the drive FMU
+(:data:`RAD_S`: its speeds are rad/s, shown in rpm).
 """
 from __future__ import annotations
 
@@ -15,18 +16,20 @@ from loomfmu.declare.checks import check_names, is_real
 
 #: rev/s per rpm
 RPM = 1.0 / 60.0
+#: rad/s per rev/s (the drive FMU's speeds are rad/s)
+RAD_S = 2.0 * math.pi
 
 #: the range each field has as a parameter of the drive FMU (models/drive.py
 #: declares its parameters with these bounds): name -> (lo, hi, FMU unit,
 #: FMU units per unit of this class).  tau's upper bound in an FMU is its
 #: ``max_delay`` option, at most 3600 s.
 FMU_RANGES = {
-    "K": (1.0, 1e6, "rpm/V", 60.0),
+    "K": (RAD_S / 60.0, 1e6 * RAD_S / 60.0, "rad/(s.V)", RAD_S),  # 1 ... 1e6 rpm/V
     "T": (1e-6, 100.0, "s", 1.0),
     "tau": (0.0, 3600.0, "s", 1.0),
     "k_g": (1e-3, 1e6, "V/m", 1.0),
     "r_min": (0.0, 1.0, "m", 1.0),
-    "n_min": (1.0, 1e5, "rpm", 60.0),
+    "n_min": (RAD_S / 60.0, 1e5 * RAD_S / 60.0, "rad/s", RAD_S),  # 1 ... 1e5 rpm
 }
 
 

@@ -208,7 +208,7 @@ def _declare_unknowns(m: Model, comp, part: Model, driven: dict, loops: set) -> 
     for v in part.variables:
         new = prefixed(comp.name, v.name)
         start = values.get(v.name, v.start)
-        kw = {"unit": v.unit, "description": v.description}
+        kw = {"unit": v.unit, "description": v.description, "display_unit": v.display_unit}
         if v.kind == "parameter":
             sub[v.name] = m.parameter(new, float(start), source=v.source, min=v.min,
                                       max=v.max, **kw)
@@ -222,7 +222,8 @@ def _declare_unknowns(m: Model, comp, part: Model, driven: dict, loops: set) -> 
             sub[v.name] = m.mode(new, int(start), part.mode_values[v.name],
                                  description=v.description)
         elif v.kind == "input" and (comp.name, v.name) in loops:
-            sub[v.name] = m.algebraic(new, unit=v.unit, description=f"{v.description} "
+            sub[v.name] = m.algebraic(new, unit=v.unit, display_unit=v.display_unit,
+                                      description=f"{v.description} "
                                       f"(coupled: {driven[(comp.name, v.name)]})")
         elif v.kind == "input" and (comp.name, v.name) not in driven:
             sub[v.name] = m.input(new, float(start), min=v.min, max=v.max, **kw)
@@ -239,12 +240,12 @@ def _declare_outputs(m: Model, comp: str, part: Model, final: dict, driven: dict
     for v in part.variables:
         if v.kind == "output":
             m.output(prefixed(comp, v.name), final[(comp, f"output {v.name}")], unit=v.unit,
-                     description=v.description)
+                     display_unit=v.display_unit, description=v.description)
         elif v.kind == "input" and (comp, v.name) in driven and (comp, v.name) not in loops:
             c: Connection = driven[(comp, v.name)]
             src = final[(c.src, f"output {c.src_var}")]
             m.output(prefixed(comp, v.name), c.gain * src + c.bias, unit=v.unit,
-                     description=f"{v.description} (from {c})")
+                     display_unit=v.display_unit, description=f"{v.description} (from {c})")
 
 
 def _copy_behaviour(m: Model, comp: str, part: Model, final: dict, sub: dict,

@@ -191,7 +191,10 @@ class Scene:
     def set(self, component: str, *, parameters=None, start=None) -> None:
         """Set parameter and start values of ``component`` (checked: the
         variable exists, can be set before initialization, the value is a
-        number inside its range, a start is not of an input a connection drives)."""
+        number inside its range, a start is not of an input a connection drives).
+        A Real's value may be text with a unit of the same quantity, e.g.
+        ``{"omega_loom": "240 rpm"}`` (or "240rpm"): it is converted to the
+        variable's unit (rad/s)."""
         comp = self._component(component, "set")
         iface = comp.interface
         for what, values in (("parameters", parameters or {}), ("start", start or {})):
@@ -208,6 +211,8 @@ class Scene:
                 if driven:
                     raise ValueError(f"{component}.{var} (start): driven by connection "
                                      f"{driven[0]}; allowed: a start for an undriven variable")
+                if v.type == "Real" and isinstance(value, str):
+                    value = self._with_unit(comp, var, value, what)
                 if v.type in ("Integer", "Enumeration"):
                     if not isinstance(value, int) or isinstance(value, bool):
                         raise ValueError(f"{component}.{var} = {value!r:.40}; allowed: an "
@@ -219,12 +224,32 @@ class Scene:
                 getattr(comp, what)[var] = value
 
     @staticmethod
+    def _with_unit(comp: Component, var: str, value: str, what: str) -> float:
+        from loomfmu.declare.units import allowed_units, split_quantity
+        parsed = split_quantity(value)
+        if parsed is None:
+            raise ValueError(f"{comp.name}.{var} ({what}) = {value!r:.40}; allowed: a finite "
+                             "number, or text: a number and a unit (e.g. '240 rpm')")
+        try:
+            return comp.interface.in_unit(var, *parsed)
+        except ValueError:
+            unit = comp.interface.variables[var].unit
+            allowed = allowed_units(unit, comp.interface.display.get(unit))
+            raise ValueError(f"{comp.name}.{var} ({what}) = {value!r:.40}: {var} is in "
+                             f"{unit or 'no unit'}; allowed units: "
+                             f"{', '.join(allowed) if allowed else 'none (a plain number)'}"
+                             ) from None
+
+    @staticmethod
     def _check_range(comp: Component, var: str, value: float) -> None:
         lo, hi = comp.interface.variables[var].range
         if not lo <= value <= hi:
-            unit = comp.interface.variables[var].unit
-            raise ValueError(f"{comp.name}.{var} = {value!r} {unit}; allowed: a number in "
-                             f"[{lo:g}, {hi:g}]")
+            v = comp.interface.variables[var]
+            shown = comp.interface.display.get(v.unit, {}).get(v.display_unit)
+            extra = (f" {v.unit} = [{shown[0] * lo + shown[1]:g}, {shown[0] * hi + shown[1]:g}]"
+                     f" {v.display_unit}" if shown else "")
+            raise ValueError(f"{comp.name}.{var} = {comp.interface.show(var, value)}; allowed: "
+                             f"a number in [{lo:g}, {hi:g}]{extra}")
 
     def _component(self, name: str, what: str) -> Component:
         if name not in self.components:

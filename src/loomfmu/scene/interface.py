@@ -50,6 +50,7 @@ class VarInfo:
     description: str = ""
     min: float = -math.inf
     max: float = math.inf
+    display_unit: str = ""  # the unit people read it in (FMI displayUnit), "" none
 
     @property
     def range(self) -> tuple[float, float]:
@@ -78,6 +79,25 @@ class Interface:
     #: outputs whose model description states no dependencies: taken to
     #: depend directly on every input, as FMI 2.0 and 3.0 say
     assumed: tuple[str, ...] = ()
+    #: unit -> {display unit: (factor, offset)}, value_display = factor *
+    #: value + offset (the model description's DisplayUnit elements)
+    display: dict[str, dict[str, tuple[float, float]]] = field(default_factory=dict)
+
+    def in_unit(self, var: str, value: float, given: str) -> float:
+        """``value`` given in unit ``given`` as a value of variable ``var``
+        (in its unit); ValueError naming the allowed units."""
+        from loomfmu.declare.units import to_unit
+        unit = self.variables[var].unit
+        return to_unit(value, given, unit, self.display.get(unit))
+
+    def show(self, var: str, value: float, fmt: str = ".6g") -> str:
+        """'25.1327 rad/s (240 rpm)': ``value`` of ``var`` in its unit and,
+        where it has one, its display unit."""
+        from loomfmu.declare.units import show
+        v = self.variables[var]
+        table = self.display.get(v.unit, {})
+        return show(value, v.unit, v.display_unit if v.display_unit in table else "", table,
+                    fmt)
 
     def unit(self, name: str) -> UnitInfo | None:
         """The unit ``name``: from the model description, else loomfmu's table,
@@ -147,11 +167,16 @@ def interface_from_description(md, ports: dict[str, PortInfo] | None = None, *,
     for v in md.modelVariables:
         unit = v.unit or (v.declaredType.unit if v.declaredType is not None and
                           getattr(v.declaredType, "unit", None) else "") or ""
+        shown = getattr(v, "displayUnit", None) or (
+            getattr(v.declaredType, "displayUnit", None) if v.declaredType is not None
+            else None) or ""
         variables[v.name] = VarInfo(v.name, v.causality, v.variability, v.type, unit,
                                     int(v.valueReference), v.initial, v.description or "",
-                                    _bound(v.min, -math.inf), _bound(v.max, math.inf))
-    units = {}
+                                    _bound(v.min, -math.inf), _bound(v.max, math.inf), shown)
+    units, display = {}, {}
     for u in md.unitDefinitions:
+        display[u.name] = {d.name: (float(d.factor), float(d.offset))
+                           for d in getattr(u, "displayUnits", None) or []}
         b = u.baseUnit
         if b is None:
             continue
@@ -169,7 +194,8 @@ def interface_from_description(md, ports: dict[str, PortInfo] | None = None, *,
         raise ValueError(f"model {md.modelName!r} has no CoSimulation interface; "
                          "allowed: an FMI 2.0 co-simulation FMU")
     return Interface(md.modelName, md.guid, variables, units, feed, dict(ports or {}),
-                     bool(cs.canGetAndSetFMUstate), assumed)
+                     bool(cs.canGetAndSetFMUstate), assumed,
+                     {k: v for k, v in display.items() if v})
 
 
 def _bound(text, default: float) -> float:

@@ -11,7 +11,7 @@ with a decay time 1/(zeta w1) of about 0.3 s, i.e. seconds to die out.
     from loomfmu.spindle.start import periodic_start
     start = periodic_start("spindle_modal", n_rpm=16000.0)
     scene.add("spindle", model="spindle_modal", start=start)    # loomfmu.scene
-    fmpy.simulate_fmu(path, start_values={**start, "n_rpm": 16000.0})
+    fmpy.simulate_fmu(path, start_values={**start, "Omega": 16000.0 * RPM})  # rad/s
 
 For ``spindle_modal`` the periodic solution is that of the reduced
 (Ritz-projected) equations, so it is exact for that FMU too.
@@ -33,7 +33,8 @@ MODELS = {"spindle": (), "spindle_modal": ("n_modes", "basis_rpm", "static_corre
 #: parameters of the unbalance forcing (declared by models/spindle.py's
 #: unbalance_force, not by the rotor)
 PHASES = ("phase_b", "phase_w")
-#: limits of the FMU's inputs n_rpm (rpm) and e_b, e_w (m)
+#: limits of the spin speed (rpm; the FMU's input Omega in rad/s) and of
+#: the FMU's inputs e_b, e_w (m)
 MAX_RPM, MAX_ECC = 40000.0, 1e-3
 
 
@@ -43,7 +44,8 @@ def periodic_start(model: str = "spindle", *, n_rpm: float, e_b: float = 5e-6,
     """Start values {state name: value} on the periodic solution of (15).
 
     model: "spindle" or "spindle_modal".  n_rpm: the constant spin speed
-    (rpm, 0 ... 40000) the FMU will run at (its input ``n_rpm``).  e_b, e_w:
+    (rpm, 0 ... 40000) the FMU will run at (its input ``Omega`` =
+    n_rpm 2 pi / 60 in rad/s, shown in rpm).  e_b, e_w:
     eccentricities of the bobbin and the whorl (m, 0 ... 1e-3; the FMU's
     inputs of those names, default their start values).  parameters: the
     FMU's parameters that differ from their defaults (the rotor's, e.g.
@@ -54,7 +56,7 @@ def periodic_start(model: str = "spindle", *, n_rpm: float, e_b: float = 5e-6,
 
     Returns every state: ``phi`` and the DOF and rates of the full model
     (``n3.x``, ``n3.vx``, ``h0.x``, ...) or the modal coordinates and rates
-    (``eta0``, ``deta0``, ...).  The inputs n_rpm, e_b, e_w are the caller's
+    (``eta0``, ``deta0``, ...).  The inputs Omega, e_b, e_w are the caller's
     to set (to the values given here): in a scene they come from other
     components.
     """
