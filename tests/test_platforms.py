@@ -208,13 +208,16 @@ def _key(run):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", CROSS)
-def test_cross_binaries_give_the_native_numbers_bit_for_bit(built, native_runs, name):
+def test_cross_binaries_give_the_native_numbers(built, native_runs, name):
     """One driver process per platform (wine starts once) runs FMI 2.0 CS
     (dopri5 and rk4) and ME (win64 only: FMI 2.0 has no aarch64 folder) and
-    FMI 3.0 CS (dopri5, rk4) and ME of each FMU; every output at every output time equals the native run's
-    bits: the same operations in the same order, no fused multiply-add
-    (-ffp-contract=off), and the C libraries' sin/cos/exp agree on these
-    arguments."""
+    FMI 3.0 CS (dopri5, rk4) and ME of each FMU. aarch64: every output at
+    every output time equals the native run's bits (the same operations in
+    the same order, no fused multiply-add: -ffp-contract=off, and glibc's
+    sin/cos/exp on both). win64: within 1e-12 of each output's range, since
+    the Windows C library (wine's here) rounds some sin/exp/pow results
+    differently from glibc (benchmarks/platforms.py --libm); one run gave
+    1.3e-16 on heald_frame_rigid, another the same bits."""
     _need(name)
     res, _ = built
     runs = _runs(res, (2, 3) if name == "win64" else (3,))
@@ -223,4 +226,7 @@ def test_cross_binaries_give_the_native_numbers_bit_for_bit(built, native_runs, 
         assert r.ok, (run, r.message)
         assert len(r.time) > 100
         c = compare(native_runs[_key(run)], r)
-        assert c["identical"], (run, c)
+        if name == "aarch64":
+            assert c["identical"], (run, c)
+        else:
+            assert c["max_rel_range"] <= 1e-12, (run, c)

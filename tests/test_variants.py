@@ -20,6 +20,13 @@ def test_a_default_build_keeps_its_name():
         assert m.name == name and m.variant_of == "" and m.registry_name == name
 
 
+def test_options_of_another_registry_entry_take_its_name():
+    m = load_model("backrest", friction="regularized")
+    assert m.name == "backrest_regularized" and m.variant_of == ""
+    m = load_model("backrest", friction="regularized", fronts=2)
+    assert m.name == "backrest_regularized_fronts_2" and m.variant_of == "backrest_regularized"
+
+
 def test_options_equal_to_the_defaults_keep_the_name():
     m = load_model("backrest", friction="events", eps=1e-3, shedding=True, fronts=1)
     assert m.name == "backrest"

@@ -90,9 +90,15 @@ def load_model(name: str, **options) -> Model:
                                 if others else ""))
     mod = importlib.import_module(f"loomfmu.models.{module}")
     model = mod.build(**{**defaults, **options})
-    changed = non_default_options(name, options)
+    # The build names the registry entry whose fixed options it was given
+    # (load_model("backrest", friction="regularized") is backrest_regularized):
+    # those options are in that name already.
+    base = model.name if model.name in MODELS else name
+    fixed = MODELS[base][1]
+    changed = {k: v for k, v in non_default_options(name, options).items()
+               if not (k in fixed and _same(v, fixed[k]))}
     if changed:
-        model.variant_of, model.name = name, variant_name(name, changed)
+        model.variant_of, model.name = base, variant_name(base, changed)
     return model
 
 
