@@ -222,6 +222,15 @@ def _rename_first_output(data: bytes) -> bytes:
     return b",".join([cells[0], b"no_such_output", *cells[2:]]) + b"\n" + rest
 
 
+def _keep_rows(data: bytes, n: int) -> bytes:
+    return ("\n".join(data.decode().splitlines()[:n + 1]) + "\n").encode()
+
+
+def _drop_last_column(data: bytes) -> bytes:
+    return ("\n".join(",".join(ln.split(",")[:-1]) for ln in data.decode().splitlines())
+            + "\n").encode()
+
+
 @pytest.mark.slow
 def test_check_passes_with_exit_0(built):
     res = run_check(built[("loom_shaft", 3, "cs")])
@@ -249,9 +258,16 @@ def test_check_passes_with_exit_0(built):
     (lambda n, d: _rename_first_output(d) if _csv_member(n) else d, 2,
      "not a variable of the FMU"),
     (lambda n, d: _scale_column(d, 1.1) if _csv_member(n) else d, 1, "OUTSIDE"),
+    (lambda n, d: _keep_rows(d, 2) if _csv_member(n) else d, 2, "communication points"),
+    (lambda n, d: _keep_rows(d, 49) if _csv_member(n) else d, 2, "communication points"),
+    (lambda n, d: _drop_last_column(d) if _csv_member(n) else d, 2, "has no column for the output"),
+    (lambda n, d: b"<fmiModelDescription" if n == "modelDescription.xml" else d, 2,
+     "modelDescription.xml cannot be read"),
+    (lambda n, d: b"<foo/>" if n == "modelDescription.xml" else d, 2, "not an FMU"),
 ], ids=["csv-absent", "manifest-absent", "csv-binary", "csv-corrupt", "csv-nan",
         "manifest-name", "manifest-role", "tolerance-negative", "tolerance-absent",
-        "csv-unknown-output", "reference-mismatch"])
+        "csv-unknown-output", "reference-mismatch", "csv-two-rows", "csv-cut-short",
+        "csv-output-missing", "md-not-xml", "md-not-fmi"])
 def test_a_damaged_reference_is_a_clear_error(built, tmp_path, edit, code, needle):
     fmu = damaged(built[("loom_shaft", 3, "cs")], tmp_path / "loom_shaft_fmi3_cs.fmu", edit)
     res = run_check(fmu)
@@ -272,6 +288,12 @@ def test_the_fmpy_only_checker_also_fails_a_mismatch(built, tmp_path):
     with zipfile.ZipFile(fmu) as z:
         first = z.read(f"{rr.LS_DIR}/loom_shaft_ref.csv").decode().split("\n")[0].split(",")[1]
     assert rc == 1 and rows[0]["ok"] is False and rows[0]["worst_output"] == first
+
+
+def test_check_of_a_directory_says_so(tmp_path):
+    res = run_check(tmp_path)
+    assert res.returncode == 2 and "a directory, not an FMU file" in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1
 
 
 def test_check_usage_errors_exit_2_in_one_line(tmp_path):

@@ -472,6 +472,8 @@ def read_reference(fmu: Path | str) -> tuple[dict[str, float], np.ndarray, dict]
     """(tolerance by interface, times, outputs by name) of the reference inside
     ``fmu``; :class:`ReferenceResultError` says what is missing or wrong."""
     path = Path(fmu)
+    if path.is_dir():
+        raise ReferenceResultError(f"{path}: a directory, not an FMU file")
     if not path.is_file():
         raise ReferenceResultError(f"{path}: no such file")
     if not zipfile.is_zipfile(path):
@@ -614,23 +616,53 @@ def check_fmu(fmu: Path | str, interface: str | None = None) -> list[CheckResult
     from loomfmu.verification import fmpy_logger
     from loomfmu.verification.verify import quiet_callbacks
     tolerance, t_ref, cols = read_reference(fmu)
-    md = fmpy.read_model_description(str(fmu), validate=False)
-    have = [k for k, a in (("cs", "coSimulation"), ("me", "modelExchange"))
-            if getattr(md, a, None) is not None]
+    name = Path(fmu).name
+    try:
+        md = fmpy.read_model_description(str(fmu), validate=False)
+        have = [k for k, a in (("cs", "coSimulation"), ("me", "modelExchange"))
+                if getattr(md, a, None) is not None]
+        variables = {v.name: v for v in md.modelVariables}
+    except Exception as e:  # noqa: BLE001 (lxml and FMPy raise several types)
+        raise ReferenceResultError(f"{name}: not an FMU (modelDescription.xml cannot be read: "
+                                   f"{' '.join(str(e).split())[:200]})") from None
+    if not have:
+        raise ReferenceResultError(f"{name}: not an FMU (its modelDescription.xml declares "
+                                   "neither co-simulation nor model exchange)")
     if interface is not None:
         if interface not in have:
-            raise ReferenceResultError(f"interface = {interface!r}: {Path(fmu).name} has "
-                                       f"{', '.join(have)}")
+            raise ReferenceResultError(f"--interface {interface}: {name} has no "
+                                       f"{'co-simulation' if interface == 'cs' else 'model exchange'}"
+                                       f"; allowed: {', '.join(have)}")
         have = [interface]
-    variables = {v.name for v in md.modelVariables}
     missing = [n for n in cols if n not in variables]
     if missing:
-        raise ReferenceResultError(f"{Path(fmu).name}: the reference's column {missing[0]!r} is "
+        raise ReferenceResultError(f"{name}: the reference's column {missing[0]!r} is "
                                    "not a variable of the FMU")
+    outputs = [n for n, v in variables.items() if v.causality == "output"
+               and v.type in ("Real", "Float64", "Float32")]
+    unchecked = [n for n in outputs if n not in cols]
+    if unchecked:
+        raise ReferenceResultError(f"{name}: the reference result has no column for the "
+                                   f"output {unchecked[0]!r} (the reference holds every Real "
+                                   "output)")
     exp = md.defaultExperiment
     if exp is None or exp.stepSize is None:
-        raise ReferenceResultError(f"{Path(fmu).name}: no DefaultExperiment with a stepSize")
+        raise ReferenceResultError(f"{name}: no DefaultExperiment with a stepSize")
     step = float(exp.stepSize)
+    start = float(exp.startTime or 0.0)
+    stop = float(exp.stopTime) if exp.stopTime is not None else None
+    if not (math.isfinite(step) and step > 0) or (stop is not None and not (
+            math.isfinite(stop) and stop > start)):
+        raise ReferenceResultError(f"{name}: the DefaultExperiment (start {start:g}, stop "
+                                   f"{stop}, step {step:g}) is not a run")
+    if stop is not None:
+        grid = experiment_times(start, stop, step)
+        if len(t_ref) != len(grid) or not np.allclose(t_ref, grid, rtol=0,
+                                                      atol=1e-9 * max(1.0, abs(stop))):
+            raise ReferenceResultError(
+                f"{name}: the reference result holds {len(t_ref)} rows from t = "
+                f"{t_ref[0]:g} to {t_ref[-1]:g} s; the DefaultExperiment's communication "
+                f"points are {len(grid)} from {grid[0]:g} to {grid[-1]:g} s")
     results = []
     for k in have:
         if k not in tolerance:
