@@ -236,3 +236,24 @@ def test_a_composed_scene_keeps_the_display_units():
     m = compose(spinning.scene(fidelity="spindle_modal"))
     shown = {v.name for v in m.variables if v.display_unit == "rpm"}
     assert {"drive.n", "drive.n_out", "drive.n_min", "spindle.Omega"} <= shown, shown
+
+
+def test_a_bare_number_in_a_scene_is_in_the_variables_unit_and_a_range_error_says_what_was_given():
+    """'25.13' in a scene is a value in rad/s (it was refused as a wrong
+    unit); --set omega_0=-5rpm out of range echoes what was given and its
+    value in the variable's unit."""
+    import subprocess
+    import sys
+
+    from loomfmu.scene import Scene
+    s = Scene("x", stop_time=0.1, step=0.01)
+    s.add("sh", model="loom_shaft")
+    s.set("sh", parameters={"omega_0": "25.1327412287"})
+    assert s.components["sh"].parameters["omega_0"] == 25.1327412287
+    res = subprocess.run([sys.executable, "-m", "loomfmu", "simulate", "loom_shaft",
+                          "--set", "omega_0=-5rpm", "--stop", "0.01"],
+                         capture_output=True, text=True, timeout=300)
+    last = res.stderr.strip().splitlines()[-1]
+    assert res.returncode == 2 and "--set omega_0=-5rpm = -0.5235987" in last, res.stderr
+    assert "rad/s" in last and "rpm" in last
+

@@ -396,6 +396,7 @@ def check_start_values(md, start: dict) -> dict:
                              f"{md.modelName}{_suggest(name, settable)}; see the FMU's "
                              "documentation/index.html for the list")
         var = variables[name]
+        given = value
         value = _with_unit(md, name, var, value)
         if var.type == "Enumeration" and isinstance(value, str):
             items = [item.name for item in var.declaredType.items]
@@ -425,7 +426,9 @@ def check_start_values(md, start: dict) -> dict:
                 f, offset = table[shown]
                 span += f" {unit} = [{f * lo + offset:g}, {f * hi + offset:g}] {shown}"
                 unit = ""
-            raise UsageError(f"--set {name}={value!r}: allowed: {span}"
+            said = (f"{given} = {value!r} {_unit(var)}" if isinstance(given, str)
+                    and given != value else f"{value!r}")
+            raise UsageError(f"--set {name}={said}: allowed: {span}"
                              + (f" {unit}" if unit else ""))
         out[name] = int(value) if var.type in ("Integer", "Enumeration") else float(value)
     return out

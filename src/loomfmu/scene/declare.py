@@ -230,6 +230,8 @@ class Scene:
         if parsed is None:
             raise ValueError(f"{comp.name}.{var} ({what}) = {value!r:.40}; allowed: a finite "
                              "number, or text: a number and a unit (e.g. '240 rpm')")
+        if not parsed[1]:  # a number without a unit: in the variable's unit
+            return parsed[0]
         try:
             return comp.interface.in_unit(var, *parsed)
         except ValueError:
