@@ -251,7 +251,7 @@ def cmd_build(args) -> int:
         args.jobs = os.cpu_count() or 1
     elif args.jobs < 1:
         raise UsageError(f"--jobs {args.jobs}: allowed: an integer >= 1")
-    names = args.models or sorted(MODELS)
+    names = list(dict.fromkeys(args.models)) or sorted(MODELS)  # each model once
     for name in names:
         check_model(name)
     if args.platforms is not None:
