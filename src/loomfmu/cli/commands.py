@@ -208,9 +208,6 @@ def _build_all(names: list[str], models: dict, args, bar: Progress) -> dict[str,
     already compiles its C files on every core; the scipy reference, the FMU
     runs and the documentation of one model run on one)."""
     jobs = min(args.jobs, len(names))
-    for name in names:
-        for key in args.option_values:
-            declare_check_option(name, key)
     if jobs <= 1:
         rows = {}
         for name in names:
@@ -258,6 +255,9 @@ def cmd_build(args) -> int:
         from loomfmu.fmu.platforms import parse
         parse(args.platforms, args.fmi_version, arg="--platforms")  # before any build
     args.option_values = parse_assignments(args.option, "--option")
+    for name in names:  # every option known to every model, before any build
+        for key in args.option_values:
+            declare_check_option(name, key)
     # Declared here when built here; each worker process declares its own.
     models = ({name: declare(name, args.option_values) for name in names}
               if min(args.jobs, len(names)) <= 1 else {})
