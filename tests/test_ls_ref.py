@@ -108,20 +108,21 @@ def test_the_key_is_the_declaration_not_the_fmi_variant():
     assert rr.reference_key(a) != rr.reference_key(load_model("heald_frame_rigid"))
 
 
-def test_the_cache_serves_the_same_result_and_a_damaged_entry_is_recomputed(tmp_path,
-                                                                            monkeypatch):
+def test_the_csv_comes_from_the_reference_cache_shared_with_the_verification(tmp_path,
+                                                                           monkeypatch):
     monkeypatch.setenv("LOOMFMU_BUILD_CACHE", str(tmp_path / "objects"))
     assert rr.reference_cache_dir() == tmp_path / "references"
     monkeypatch.setenv("LOOMFMU_BUILD_CACHE", str(tmp_path / "cache"))
     assert rr.reference_cache_dir() == tmp_path / "cache-references"
     model = load_model("heald_frame_rigid")
     first = rr.reference_result(model)
-    again = rr.reference_result(model)
+    again = rr.reference_result(load_model("heald_frame_rigid"))
     assert not first.cached and again.cached and again.csv == first.csv
-    entry = rr._cache_file(rr.reference_key(model))
-    entry.write_text("{ damaged")
-    third = rr.reference_result(model)
-    assert not third.cached and third.csv == first.csv
+    # the verification's reference (its default tolerances, the FMU's grid) is that one
+    from loomfmu.verification.reference import reference
+    t, _ = rr.parse_csv(first.csv, "csv")
+    ref = reference(model, t_eval=t, rtol=1e-11, atol=1e-13, method=model.reference_method)
+    assert ref.cached and (rr.REF_RTOL, rr.REF_ATOL) == (1e-11, 1e-13)
     monkeypatch.setenv("LOOMFMU_BUILD_CACHE", "off")
     assert not rr.reference_result(model).cached
 

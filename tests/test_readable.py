@@ -27,6 +27,15 @@ from loomfmu import MODELS, load_model
 from loomfmu.inspection import readable
 from loomfmu.inspection.readable.listing import _lift
 
+
+@functools.lru_cache(maxsize=None)
+def shared_model(name: str):
+    """One declaration of ``name`` for the tests of this file that only read it:
+    the SymPy forms of its quantities (tens of seconds for the spindles) are
+    kept per Model object, so they are computed once per process."""
+    return load_model(name)
+
+
 RTOL = 1e-9
 N_POINTS = 4
 MAX_TRIES = 12
@@ -144,7 +153,7 @@ def _compare(model, *, ops=None, lst=None) -> tuple[int, int, list[str]]:
 @pytest.mark.parametrize("name", sorted(MODELS))
 @pytest.mark.slow  # SymPy on every model: seconds to a minute each
 def test_printed_form_evaluates_as_casadi(name):
-    model = load_model(name)
+    model = shared_model(name)
     t0 = time.process_time()  # CPU time: other jobs on the machine do not count
     rows, least, bad = _compare(model)
     assert not bad, f"{name}: {len(bad)} mismatches, first: {bad[:3]}"
@@ -250,7 +259,7 @@ def _compare_quantities(model, written) -> tuple[int, int, list[str]]:
 def test_quantities_evaluate_as_casadi(name):
     """Every named quantity of every model, as the report writes it (with the
     earlier quantities' symbols) and as loomfmu.inspect's .sympy gives it."""
-    model = load_model(name)
+    model = shared_model(name)
     if not model.quantities:
         pytest.skip(f"{name} declares no named quantities (Model.quantity) yet")
     t0 = time.process_time()
@@ -465,7 +474,7 @@ class _Tags(HTMLParser):
 @pytest.mark.parametrize("name", ["backrest", "drive", "heald_frame_rigid"])
 @pytest.mark.slow  # SymPy on every model: seconds to a minute each
 def test_inspect_report_in_every_format(name, tmp_path):
-    model = load_model(name)
+    model = shared_model(name)
     title, sections = inspect_report.document(model)
     page = inspect_report.render_html(title, sections)
     tags = _Tags()

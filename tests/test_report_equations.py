@@ -6,6 +6,7 @@ laws' derivatives as formulas, and the figures of the frames and the mesh.
 """
 from __future__ import annotations
 
+import functools
 import math
 import re
 from pathlib import Path
@@ -19,6 +20,15 @@ from loomfmu import MODELS, load_model
 from loomfmu.inspection import readable
 from loomfmu.inspection import report as inspect_report
 from loomfmu.inspection.readable.named import named_nodes
+
+
+@functools.lru_cache(maxsize=None)
+def shared_model(name: str):
+    """One declaration of ``name`` for the tests of this file that only read it:
+    the SymPy forms of its quantities (tens of seconds for the spindles) are
+    kept per Model object, so they are computed once per process."""
+    return load_model(name)
+
 
 SEEDS = Path(__file__).resolve().parents[2] / "shared" / "seeds"  # beside the repository
 
@@ -77,7 +87,7 @@ def test_no_shared_subexpression_stands_for_a_named_quantity(name):
     its length and diameter (two elements below the bolster by default, the
     symmetric entries of one element); there the equations must at least use
     element 1's matrices by name."""
-    model = load_model(name)
+    model = shared_model(name)
     if not model.quantities:
         pytest.skip(f"{name} keeps no derivation")
     lst = readable.listing(model)
@@ -101,7 +111,7 @@ def test_no_shared_subexpression_stands_for_a_named_quantity(name):
 def test_backrest_equations_are_written_in_its_quantities():
     """The backrest's equations need no xi: (7) reads with M_1, the friction
     laws with the normal forces N_1, N_2 and the friction radii."""
-    lst = readable.listing(load_model("backrest"))
+    lst = readable.listing(shared_model("backrest"))
     assert not lst.shared
     names = {s.name for s, _ in lst.named}
     assert {"M_1", "N_1", "N_2", "r_1f", "r_2f", "r_O2[0,0]"} <= names, names
@@ -115,7 +125,7 @@ def test_backrest_equations_are_written_in_its_quantities():
 def test_labels_are_unique_and_apart_from_the_seeds_numbers(name):
     """The report's labels are E1..En (equations) and v1..vm (validity),
     each once; the seeds use plain numbers and none of these labels."""
-    model = load_model(name)
+    model = shared_model(name)
     _, sections = inspect_report.document(model)
     tags = []
 
@@ -166,7 +176,7 @@ def test_motion_law_derivatives_are_formulas_equal_to_ad():
 
 @pytest.mark.slow  # the listing opens T with the derivation's forms: seconds
 def test_heald_frame_outputs_and_equations_use_the_motion_law_and_stiffness():
-    model = load_model("heald_frame")
+    model = shared_model("heald_frame")
     lst = readable.listing(model)
     outs = {y.name: e for y, e in lst.outputs}
     dH = next(s for s, _ in lst.named if s.name == "dH_dphi")
@@ -205,7 +215,7 @@ def test_spindle_mesh_figure_has_the_models_nodes(options):
 @pytest.mark.slow  # a whole derivation report and the FMU page: seconds
 def test_frame_and_mesh_are_drawn_in_the_report_and_on_the_page(name, marks):
     from loomfmu.fmu.documentation import html_for
-    model = load_model(name)
+    model = shared_model(name)
     for page in (inspect_report.report(model, "html"), html_for(model)):
         svg = page[page.index("<figure><svg"):]
         svg = svg[:svg.index("</svg>")]

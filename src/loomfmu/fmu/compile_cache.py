@@ -11,9 +11,8 @@ no line markers, so neither the temporary folder nor the file's name enters):
 a changed header, macro or flag is a different key, and an object is reused
 only where gcc would read exactly the same text.
 
-Where the cache lives: ``$LOOMFMU_BUILD_CACHE`` if set (``off``, ``0`` or
-an empty value disables it; ``~`` is expanded), else ``$XDG_CACHE_HOME/loomfmu/objects`` or
-``~/.cache/loomfmu/objects``. Entries are written atomically (several
+Where the cache lives: :func:`loomfmu.export.caches.cache_dir`
+(``$LOOMFMU_BUILD_CACHE``, else ``~/.cache/loomfmu/objects``). Entries are written atomically (several
 processes may build at once) and the oldest are deleted past
 :data:`MAX_CACHE_BYTES`. A cache that cannot be written is skipped: the build
 compiles everything, as without a cache; a cache that can be read but not
@@ -35,9 +34,10 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
+from loomfmu.export.caches import cache_dir
+
 #: The cache is pruned to this size, oldest entries (by use) first.
 MAX_CACHE_BYTES = 512 * 2**20
-_OFF = {"off", "0", "no", "false", "none"}
 
 
 class BuildError(RuntimeError):
@@ -49,17 +49,6 @@ class CompileStats:
     """What one build compiled and what it reused."""
     compiled: int = 0
     reused: int = 0
-
-
-def cache_dir() -> Path | None:
-    """The object cache folder, or None when ``LOOMFMU_BUILD_CACHE=off``."""
-    env = os.environ.get("LOOMFMU_BUILD_CACHE")
-    if env is not None:
-        if env.strip().lower() in _OFF or not env.strip():
-            return None
-        return Path(env).expanduser()
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "loomfmu" / "objects"
 
 
 def run(cmd: list[str], cwd: Path) -> subprocess.CompletedProcess:

@@ -34,11 +34,11 @@ default experiment run as its DefaultExperiment says (FMPy with the
 interface, and the DefaultExperiment's stepSize as output interval), at most
 that number.
 
-The reference run costs seconds to minutes per model (backrest_regularized,
-integrated by Radau, and the full spindle are the heavy ones); its result is cached on disk beside the compile cache
-(:func:`reference_cache_dir`, off with ``LOOMFMU_BUILD_CACHE=off``),
-keyed by a hash of the declaration's equations and variables, the default
-experiment, the reference settings and the reference's code, so that the
+The reference run costs seconds to a minute per model (backrest_regularized,
+integrated by Radau, and the full spindle are the heavy ones); it is the
+one the build's verification uses (same times, same tolerances), kept in
+the reference cache (:mod:`loomfmu.verification.reference_cache`, off with
+``LOOMFMU_BUILD_CACHE=off``), so that a build and its verification and the
 four FMI variants of one model compute it once.
 
 :func:`check_fmu` does what a user of the FMU can do with FMPy alone: run
@@ -47,15 +47,8 @@ the default experiment and compare it with the CSV inside.
 from __future__ import annotations
 
 import csv
-import functools
-import hashlib
-import inspect
 import io
-import json
 import math
-import os
-import tempfile
-import time
 import xml.etree.ElementTree as ET
 import zipfile
 from dataclasses import dataclass, field
@@ -64,7 +57,9 @@ from pathlib import Path
 import numpy as np
 
 from loomfmu.declare.model import Model
-from loomfmu.fmu.compile_cache import cache_dir
+from loomfmu.export.caches import reference_cache_dir  # noqa: F401  (where the references live)
+from loomfmu.verification import reference_cache
+from loomfmu.verification.times import experiment_times
 
 #: The layered standard's name, its folder under extra/ and its fixed description.
 LS_NAME = "org.fmi-standard.fmi-ls-ref"
@@ -85,9 +80,11 @@ EXPERIMENT_TYPE = "application/x-ma-hs-experiments"
 ROLES = {"result": "result", "experiment": "experiment/smoke-test", "report": "report"}
 #: Type of the manifest's annotation carrying the check's tolerance.
 ANNOTATION_TYPE = "org.loomfmu.reference-check"
-#: The scipy reference's tolerances for the CSV.
-REF_RTOL = 1e-10
-REF_ATOL = 1e-12
+#: The scipy reference's tolerances for the CSV: those of the build's
+#: verification (:func:`loomfmu.verification.verify.verify`), so that one
+#: reference run serves both.
+REF_RTOL = 1e-11
+REF_ATOL = 1e-13
 #: Largest deviation of any output relative to its range that the check
 #: accepts, by interface: co-simulation (the embedded solver at the
 #: DefaultExperiment's tolerance) and model exchange (the importer's solver).
@@ -117,120 +114,28 @@ class ReferenceResult:
 
 
 def reference_key(model: Model) -> str:
-    """SHA-256 (hex) of what the reference CSV is made of: the declaration's
-    DAE form, variables, validity conditions, modes, default experiment, the
-    reference's method and tolerances, and the text of the code that solves
-    it; the same for every FMI variant of one declaration."""
-    from loomfmu.export.dae import dae_form
-    dae = dae_form(model)
-    parts = [f"{k}={v}" for k, v in sorted(vars(dae).items()) if k != "model"]
-    parts += [f"{v.name}:{v.kind}:{v.start}:{v.unit}:{getattr(v, 'min', '')}:"
-              f"{getattr(v, 'max', '')}" for v in model.variables]
-    parts += [f"{c.name}:{c.expr}:{c.message}" for c in model.validity]
-    parts += [json.dumps(model.mode_values, sort_keys=True, default=repr),
-              json.dumps(model.event_modes, sort_keys=True, default=repr),
-              repr((model.name, model.stop_time, model.step_size, model.reference_method,
-                    REF_RTOL, REF_ATOL))]
-    parts.append(_code_fingerprint())
-    return hashlib.sha256("\n".join(parts).encode()).hexdigest()
-
-
-@functools.lru_cache(maxsize=1)
-def _code_fingerprint() -> str:
-    """The code that makes the CSV (the reference's and the DAE form's modules,
-    the functions here that choose the times and write the CSV) and the
-    numerical packages' versions, read once per process: a file edited while a
-    process runs does not change the keys that process computes."""
-    import casadi
-    import scipy
-
-    from loomfmu.export import dae as dae_module
-    from loomfmu.verification import reference as ref_module
-    parts = [hashlib.sha256(Path(f).read_bytes()).hexdigest()
-             for f in (ref_module.__file__, dae_module.__file__)]
-    parts += [inspect.getsource(f) for f in (reference_result, experiment_times, result_csv)]
-    parts.append(f"numpy {np.__version__} scipy {scipy.__version__} casadi "
-                 f"{casadi.__version__}")
-    return hashlib.sha256("\n".join(parts).encode()).hexdigest()
-
-
-def reference_cache_dir() -> Path | None:
-    """Where reference results are cached, beside the compile cache (not inside
-    it: that folder holds objects only): ``~/.cache/loomfmu/references`` next to
-    the default ``.../objects``, else ``<$LOOMFMU_BUILD_CACHE>-references``;
-    None when the compile cache is off."""
-    base = cache_dir()
-    if base is None:
-        return None
-    return base.parent / "references" if base.name == "objects" else base.with_name(
-        base.name + "-references")
-
-
-def _cache_file(key: str) -> Path | None:
-    base = reference_cache_dir()
-    return None if base is None else base / f"{key}.json"
+    """SHA-256 (hex) of the declaration the reference CSV is made of (its DAE
+    form, variables, validity conditions, modes and default experiment): the
+    same for every FMI variant of one declaration."""
+    return reference_cache.model_key(model)
 
 
 def reference_result(model: Model, *, use_cache: bool = True) -> ReferenceResult:
     """The CSV of ``model``'s default experiment by the scipy reference, from
-    the cache when an entry for the same key exists (else computed and stored)."""
-    key = reference_key(model)
-    entry = _cache_file(key) if use_cache else None
-    if entry is not None and entry.is_file():
-        try:
-            data = json.loads(entry.read_text())
-            return ReferenceResult(data["csv"], data["names"], data["wall_seconds"], True,
-                                   data["method"], data["rtol"], data["atol"],
-                                   data["rhs_calls"], key)
-        except (OSError, ValueError, KeyError, TypeError):
-            pass  # a damaged entry: compute again and overwrite it
+    the reference cache when the same reference was computed before (the
+    build's verification asks for the same one: same times, same tolerances)."""
     from loomfmu.verification.reference import reference
-    t0 = time.perf_counter()
     ref = reference(model, t_eval=experiment_times(0.0, model.stop_time, model.step_size),
-                    rtol=REF_RTOL, atol=REF_ATOL, method=model.reference_method)
-    wall = time.perf_counter() - t0
+                    rtol=REF_RTOL, atol=REF_ATOL, method=model.reference_method,
+                    cache=use_cache)
     if ref.violation is not None:
         raise RuntimeError(f"reference of {model.name}: the default experiment stops at "
                            f"t = {ref.violation[2]:g} s ({ref.violation[0]}: "
                            f"{ref.violation[1]}); no reference result can be written")
     names = [v.name for v in model.of_kind("output")]
     text = result_csv(ref.t, {n: ref.y[n] for n in names})
-    result = ReferenceResult(text, names, wall, False, model.reference_method, REF_RTOL,
-                             REF_ATOL, ref.n_rhs, key)
-    if entry is not None:
-        _store(entry, {"csv": text, "names": names, "wall_seconds": wall,
-                       "method": model.reference_method, "rtol": REF_RTOL, "atol": REF_ATOL,
-                       "rhs_calls": ref.n_rhs, "model": model.name})
-    return result
-
-
-def _store(entry: Path, data: dict) -> None:
-    """Write the cache entry atomically; a cache that cannot be written is skipped."""
-    try:
-        entry.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=entry.parent, suffix=".tmp")
-        with os.fdopen(fd, "w") as f:
-            json.dump(data, f)
-        os.replace(tmp, entry)
-    except OSError:
-        pass
-
-
-def experiment_times(start: float, stop: float, step: float) -> np.ndarray:
-    """The communication points of the experiment as FMPy makes them with
-    ``output_interval=step``: start + k step while before the stop time (and
-    not within rounding of it), then the stop time."""
-    t = [start]
-    k = 1
-    while True:
-        tk = start + k * step
-        if tk > stop or math.isclose(tk, stop):
-            break
-        t.append(tk)
-        k += 1
-    if not math.isclose(t[-1], stop):
-        t.append(stop)
-    return np.array(t)
+    return ReferenceResult(text, names, ref.wall_seconds, ref.cached, model.reference_method,
+                           REF_RTOL, REF_ATOL, ref.n_rhs, reference_key(model))
 
 
 def result_csv(t, columns: dict[str, np.ndarray]) -> str:

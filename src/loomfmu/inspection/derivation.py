@@ -75,7 +75,7 @@ def _quantity_blocks(model, q, sym, shown) -> list:
     n1, n2 = q.expr.shape
     if (n1, n2) == (1, 1):
         return blocks + [Equations([(sympy.Eq(sym, shown, evaluate=False), "")])]
-    if max(n1, n2) <= SMALL and len(str(shown)) <= HUGE_MATRIX:
+    if max(n1, n2) <= SMALL and not _printed_longer_than(shown, HUGE_MATRIX):
         if _fits(shown):
             return blocks + [Equations([(Def(sym, shown), "")])]
         lines = [(sympy.Eq(readable.entry_symbol(sym, i, j, (n1, n2)), shown[i, j],
@@ -86,6 +86,21 @@ def _quantity_blocks(model, q, sym, shown) -> list:
     if n2 == 1 and (vals := _values(model, q)) is not None:
         return blocks + _vector_table(q, vals[:, 0])
     return blocks + [_picture(model, q)]
+
+
+def _printed_longer_than(m, limit: int) -> bool:
+    """Whether SymPy's plain print of matrix ``m`` is longer than ``limit``
+    characters. Every occurrence of a symbol in an entry's tree prints its
+    (non-empty) name, so more than ``limit`` of them decide it without
+    printing (a huge entry takes seconds to print); otherwise it is printed."""
+    seen = 0
+    for entry in m:
+        for node in sympy.preorder_traversal(entry):
+            if node.is_Symbol:
+                seen += 1
+                if seen > limit:
+                    return True
+    return len(str(m)) > limit
 
 
 def _vector_table(q, vals: np.ndarray) -> list:

@@ -40,13 +40,17 @@ from scipy.integrate import solve_ivp
 
 from loomfmu.declare.checks import (
     check_array,
+    check_bool,
     check_choice,
     check_mapping,
     check_number,
     check_optional_number,
 )
 from loomfmu.declare.model import Model
+from loomfmu.export import dae as _dae_module
 from loomfmu.export.dae import DaeForm, dae_form
+from loomfmu.verification import reference_cache
+from loomfmu.verification.times import T_ROUND, grid_rows
 
 #: after a located event, integrate this long (relative to max(1, |t|)) in the
 #: old mode with no event watched, so that the mode is chosen on the root's new
@@ -61,8 +65,18 @@ RTOL_MIN = 100 * np.finfo(float).eps
 MAX_HORIZONS = 1e4
 #: most output times of one reference
 MAX_OUTPUTS = 10**7
-#: output times up to this much (relative to max(1, t_end)) past t_end are taken as t_end
-T_ROUND = 1e-12
+
+
+def on_times(ref: Reference, t: np.ndarray) -> Reference | None:
+    """``ref`` at the times ``t`` if each is one of ``ref.t`` (:func:`grid_rows`)
+    and the reference ran to its end, else None. The values are those of the
+    same integration (scipy's steps do not depend on the output times), taken
+    row by row."""
+    k = grid_rows(ref.t, t) if ref.violation is None else None
+    if k is None:
+        return None
+    return Reference(ref.t[k], {n: y[k] for n, y in ref.y.items()}, ref.wall_seconds,
+                     ref.n_rhs, ref.n_segments, ref.switches, None, ref.cached)
 
 
 def check_model(model) -> Model:
@@ -88,6 +102,9 @@ class Reference:
     #: (name, message, time, value) of the validity condition that stopped the
     #: integration (Model.require), or None; ``t`` and ``y`` end before it
     violation: tuple[str, str, float, float] | None = None
+    #: taken from the on-disk cache (:mod:`.reference_cache`); ``wall_seconds``
+    #: is then the time of the run that computed it
+    cached: bool = False
 
 
 def _values(model: Model, kind: str, overrides: dict[str, float]) -> np.ndarray:
@@ -226,7 +243,7 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
               atol: float = 1e-12, method: str = "DOP853",
               values: dict[str, float] | None = None,
               input_steps: list[tuple[float, dict[str, float]]] | None = None,
-              input_functions: dict | None = None) -> Reference:
+              input_functions: dict | None = None, cache: bool = True) -> Reference:
     """Integrate ``model`` with scipy from t = 0 to ``t_end``.
 
     t_end: final time (> 0, at most MAX_HORIZONS x the model's stop time;
@@ -240,6 +257,9 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
         from t_k on the inputs named hold the new values.
     input_functions: {input: f} with f(t) -> float, a smooth function of time
         (e.g. a ramp), for inputs not in input_steps: the input is f(t).
+    cache: take the result from the on-disk cache where the same reference was
+        computed before, and keep it there (:mod:`.reference_cache`; never for
+        input_functions).
     Every argument is checked: ValueError names the argument and what is allowed.
     A validity condition (Model.require) that fails stops the integration:
     the result ends at the last output time before it and its ``violation``
@@ -294,6 +314,15 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
     t_eval = np.minimum(t_eval, t_end)
     if len(t_eval) > MAX_OUTPUTS:
         raise ValueError(f"t_eval: {len(t_eval)} times; allowed: at most {MAX_OUTPUTS}")
+    check_bool("cache", cache)
+    key = None
+    if cache and not functions:
+        key = reference_cache.call_key(model, (__file__, _dae_module.__file__), t_end=t_end,
+                                       t_eval=t_eval, rtol=rtol, atol=atol, method=method,
+                                       values=values, steps=steps)
+        hit = reference_cache.load(key)
+        if hit is not None:
+            return Reference(**hit)
 
     dae = dae_form(model)
     modes = model.of_kind("mode")
@@ -406,7 +435,10 @@ def reference(model: Model, *, t_end: float | None = None, t_eval=None, rtol: fl
         ys.append(d.outputs(t, xi))
     ys = np.array(ys).reshape(len(t_eval), len(names))
     out.update({name: ys[:, i] for i, name in enumerate(names)})
-    return Reference(t_eval, out, wall, d.n_rhs, segments, switches, violation)
+    result = Reference(t_eval, out, wall, d.n_rhs, segments, switches, violation)
+    if key is not None:
+        reference_cache.store(key, result)
+    return result
 
 
 def _check_input_functions(model: Model, input_functions, steps) -> dict:

@@ -30,7 +30,15 @@ from loomfmu.declare.checks import (
 from loomfmu.declare.model import Model
 from loomfmu.declare.solvers import SOLVERS
 from loomfmu.verification import fmpy_logger
-from loomfmu.verification.reference import MAX_OUTPUTS, RTOL_MIN, Reference, check_model, reference
+from loomfmu.verification.reference import (
+    MAX_OUTPUTS,
+    RTOL_MIN,
+    Reference,
+    check_model,
+    on_times,
+    reference,
+)
+from loomfmu.verification.times import experiment_times, grid_rows
 
 #: The row label of a model-exchange run: FMPy's own solver integrates, once.
 ME_LABEL = "CVode (FMPy, model exchange)"
@@ -158,6 +166,20 @@ def simulate(fmu: Path | str, *, solver: str = "dopri5", rtol: float = 1e-6,
     return FmuRun(np.asarray(res["time"]), {n: np.asarray(res[n]) for n in names}, wall, log)
 
 
+def _default_grid_reference(model, t: np.ndarray, rtol: float, atol: float):
+    """The reference at ``t`` taken from the one on the default experiment's
+    grid (the FMI-LS-REF result's, and in the reference cache once a build
+    computed it), where the run covers the default experiment on a subset of
+    that grid (FMPy widens the output interval past 1000 points); else None."""
+    if not len(t) or t[-1] != model.stop_time or t[0] != 0.0:
+        return None
+    grid = experiment_times(0.0, model.stop_time, model.step_size)
+    if grid_rows(grid, t) is None:
+        return None
+    return on_times(reference(model, t_eval=grid, rtol=rtol, atol=atol,
+                              method=model.reference_method), t)
+
+
 def _output_points(run: FmuRun) -> FmuRun:
     """``run`` at its communication points only: FMPy's model exchange also
     records each event time twice (before and after), where a comparison
@@ -235,7 +257,9 @@ def verify(fmu: Path | str, model: Model, *, solvers=None, model_exchange: bool 
     "errors" if FMPy finished the run anyway).
     on_stage: called with a short text before each run (progress display).
 
-    Returns {"reference_wall_seconds", "reference_rhs_calls", "solvers":
+    Returns {"reference_wall_seconds", "reference_rhs_calls", "reference_cached"
+    (the reference came from the on-disk cache; its wall seconds are then
+    those of the run that computed it), "solvers":
     {label: {"interface": "cs"|"me", "wall_seconds", "log", "errors":
     {output: {"max_abs", "max_rel_range"}}}}}; label: the solver's name in
     co-simulation, ME_LABEL for model exchange.  rtol, atol as for
@@ -287,7 +311,7 @@ def verify(fmu: Path | str, model: Model, *, solvers=None, model_exchange: bool 
         runs[ME_LABEL] = _output_points(runs[ME_LABEL])
     out = {s: {"interface": "me" if s == ME_LABEL else "cs", "wall_seconds": run.wall_seconds,
                "log": run.log[-5:]} for s, run in runs.items()}
-    ref_wall = ref_calls = None
+    ref_wall = ref_calls = ref_cached = None
     if runs:
         refs: list[Reference] = []  # one per grid (FMPy's model exchange adds event times)
         for s, run in runs.items():
@@ -295,12 +319,13 @@ def verify(fmu: Path | str, model: Model, *, solvers=None, model_exchange: bool 
                         and np.allclose(r.t, run.t, rtol=0, atol=1e-9)), None)
             if ref is None:
                 stage(f"scipy reference ({model.reference_method}, rtol {ref_rtol:g})")
-                ref = reference(model, t_end=run.t[-1], t_eval=run.t, rtol=ref_rtol,
-                                atol=ref_atol, method=model.reference_method)
+                ref = _default_grid_reference(model, run.t, ref_rtol, ref_atol) or reference(
+                    model, t_end=run.t[-1], t_eval=run.t, rtol=ref_rtol, atol=ref_atol,
+                    method=model.reference_method)
                 refs.append(ref)
             out[s]["errors"] = compare(run, ref, names)
-        ref_wall, ref_calls = refs[0].wall_seconds, refs[0].n_rhs
+        ref_wall, ref_calls, ref_cached = refs[0].wall_seconds, refs[0].n_rhs, refs[0].cached
     for s, res in failed.items():
         out[s] = {**out.get(s, {}), **res}
     return {"reference_wall_seconds": ref_wall, "reference_rhs_calls": ref_calls,
-            "solvers": out}
+            "reference_cached": ref_cached, "solvers": out}

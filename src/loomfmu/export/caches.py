@@ -1,0 +1,36 @@
+"""Where loomfmu keeps what it can compute again: the folders of its on-disk caches.
+
+Both follow ``$LOOMFMU_BUILD_CACHE``: if set, it names the object cache
+(``off``, ``0``, ``no``, ``false``, ``none`` or an empty value turns every
+cache off; ``~`` is expanded); else the objects go to
+``$XDG_CACHE_HOME/loomfmu/objects`` or ``~/.cache/loomfmu/objects``. The
+scipy references sit beside the objects, not inside (that folder holds
+objects only and is pruned by size): ``.../loomfmu/references`` next to the
+default, else ``<$LOOMFMU_BUILD_CACHE>-references``.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+_OFF = {"off", "0", "no", "false", "none"}
+
+
+def cache_dir() -> Path | None:
+    """The object cache folder, or None when ``LOOMFMU_BUILD_CACHE=off``."""
+    env = os.environ.get("LOOMFMU_BUILD_CACHE")
+    if env is not None:
+        if env.strip().lower() in _OFF or not env.strip():
+            return None
+        return Path(env).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "loomfmu" / "objects"
+
+
+def reference_cache_dir() -> Path | None:
+    """Where scipy references are cached, or None when the caches are off."""
+    base = cache_dir()
+    if base is None:
+        return None
+    return base.parent / "references" if base.name == "objects" else base.with_name(
+        base.name + "-references")
