@@ -247,7 +247,7 @@ def report_text(model: Model, ref: ReferenceResult, exp: ET.Element,
         "|y_FMU - y_ref| divided by the output's range in the CSV (its magnitude where the "
         "range is zero). The FMU is checked to at most: " + tol + ". The embedded solver's "
         "and the importer's error at the DefaultExperiment's tolerance make most of it; "
-        "the reference's own error (against a run at rtol 1e-11) is at most 1e-8 of the "
+        "the reference's own error (against a run at rtol 1e-12) is at most 1.1e-9 of the "
         "range for loomfmu's models.",
         "",
         "How to check: loomfmu check FMU (prints each output's deviation; exit 0 within "
