@@ -401,6 +401,8 @@ def declaration_source(model: Model, dae: DaeForm, guid: str) -> str:
     out.append(_c_array("double", "delay_max", [repr(v.max_delay) for v in model.delays]))
     out.append(_c_array("int", "x_computed", ["1" if v.name in model.initials else "0"
                                               for v in model.of_kind("state")]))
+    out.append(_c_array("double", "x_nominal", [_c_double(1.0 if v.nominal is None else v.nominal)
+                                                for v in model.of_kind("state")]))
     out.append(_c_array("char *const", "constraint_messages",
                         [_c_str(f"{c.name}: {c.message}") for c in model.constraints]))
     out.append(_c_array("char *const", "delay_names", [_c_str(v.name) for v in model.delays]))
@@ -416,7 +418,7 @@ def declaration_source(model: Model, dae: DaeForm, guid: str) -> str:
     event_names, event_mode, event_time_only, clock_state,
     mode_names, mode_start, mode_value_offset, mode_values,
     delay_names, delay_max,
-    constraint_messages, x_computed,
+    constraint_messages, x_computed, x_nominal,
     solver_names,
     validity_names, validity_messages,
     {{{fns}}}

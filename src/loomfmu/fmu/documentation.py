@@ -765,6 +765,22 @@ def _integration(model: Model, md: ET.Element) -> tuple[str, str]:
     return "Solvers and tolerances", _solver(md)
 
 
+
+def _nominals_text(model, f) -> str:
+    """What GetNominalsOfContinuousStates gives, for the importer's page."""
+    states = model.of_kind("state")
+    given = [v for v in states if v.nominal is not None]
+    if not given:
+        return (f"<strong>Nominals:</strong> {f('GetNominalsOfContinuousStates')} gives 1.0 "
+                "for every state: an importer that scales its absolute tolerance by the "
+                "nominals (FMPy's CVode: atol = rtol × nominal) resolves states much smaller "
+                "than 1 coarsely; give it an absolute tolerance of its own if it allows one.")
+    return (f"<strong>Nominals:</strong> {f('GetNominalsOfContinuousStates')} gives each "
+            "state's <code>nominal</code> of the model description (declared for "
+            f"{len(given)} of the {len(states)} states, 1.0 for the others): an importer that "
+            "scales its absolute tolerance by the nominals (FMPy's CVode: atol = rtol × "
+            "nominal) resolves each state on its own scale.")
+
 def _model_exchange(model: Model, md: ET.Element, *, both: bool) -> str:
     """What a model-exchange importer must do (docs/guides/runtime.md, Model exchange)."""
     f = lambda name: f"<code>{_e(_fn(md, name))}</code>"  # noqa: E731
@@ -785,10 +801,7 @@ def _model_exchange(model: Model, md: ET.Element, *, both: bool) -> str:
           "indicator changed sign since the last event, so an importer without root "
           "finding still learns of the switch (at its step's resolution)."
         + ("" if model.events else " This model declares no event indicators."),
-        f"<strong>Nominals:</strong> {f('GetNominalsOfContinuousStates')} gives 1.0 for every "
-        "state: an importer that scales its absolute tolerance by the nominals (FMPy's CVode: "
-        "atol = rtol × nominal) resolves states much smaller than 1 coarsely; give it an "
-        "absolute tolerance of its own if it allows one.",
+        _nominals_text(model, f),
         f"Equations that cannot be solved at the importer's point give {f('Discard')} with "
         "the time in the log (retry with a shorter step); calls out of order, wrong array "
         f"sizes, non-finite states or time give {f('Error')} with a log line.",
@@ -986,7 +999,7 @@ def _runs_text(ver: dict, tol) -> str:
                    f"tolerance), atol {tol('atol')}")
     if me:
         out.append(f"FMPy model exchange, once: FMPy's CVode integrates at rtol {tol('rtol')} "
-                   "(absolute tolerance rtol × the nominal 1.0 of each state); the embedded "
+                   "(absolute tolerance rtol × each state's nominal); the embedded "
                    "solver and its settings are not used")
     return "; ".join(out)
 

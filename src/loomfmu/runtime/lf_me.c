@@ -175,7 +175,7 @@ LfStatus lf_me_nominals(LfInstance *c, const char *fn, double *x_nominal, size_t
     size_t i;
     LfStatus st = check_array(c, fn, x_nominal, "x_nominal", nx, LF_NX, "nx");
     if (st != LF_OK) return st;
-    for (i = 0; i < nx; i++) x_nominal[i] = 1.0;
+    for (i = 0; i < nx; i++) x_nominal[i] = lf_model.x_nominal[i];
     return LF_OK;
 }
 

@@ -114,6 +114,7 @@ typedef struct {
     const double *delay_max;         /* longest delay the history is built for */
     const char *const *constraint_messages;
     const int *x_computed;           /* state's start computed (initial="approx") */
+    const double *x_nominal;         /* state's nominal (the model description's; 1 if none) */
     const char *const *solver_names; /* must match lf_methods[] */
     const char *const *validity_names;    /* Model.require: name, message */
     const char *const *validity_messages;
