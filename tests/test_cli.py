@@ -103,13 +103,28 @@ def test_list_names_every_model_option_and_fidelity_level():
     (["bench", "speed", "--repeats", "0"], "--repeats"),
     (["rotor", "nope"], "invalid choice"),
     (["nope"], "invalid choice"),
+    (["build", "--jobs", "1e3"], "--jobs"),
+    (["build", "--fmi-version"], "--fmi-version"),
+    (["scene", "run"], "scene"),
+    (["sweep", "nope"], "invalid choice"),
+    (["inspect", "backrest", "--format", "pdf"], "--format"),
+    (["heald", "nope"], "invalid choice"),
 ])
 def test_usage_errors_say_what_is_allowed_in_one_line_and_exit_2(args, needle):
     res = run(*args)
     assert res.returncode == 2, (res.returncode, res.stdout, res.stderr)
     assert "Traceback" not in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1, res.stderr
     last = res.stderr.strip().splitlines()[-1]
     assert needle in last, res.stderr
+
+
+def test_a_bad_platforms_variable_is_one_line_before_any_build(tmp_path):
+    res = run("build", "loom_shaft", "--out-dir", tmp_path, env={"LOOMFMU_PLATFORMS": "amd64"})
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    assert res.stderr.strip().splitlines() == [res.stderr.strip()], res.stderr
+    assert "LOOMFMU_PLATFORMS: unknown platform 'amd64'" in res.stderr
+    assert not list(tmp_path.iterdir())
 
 
 def test_top_level_help_lists_every_subcommand_of_each_analysis():

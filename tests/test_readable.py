@@ -540,7 +540,8 @@ def test_inspect_usage_errors_exit_2(argv, capsys):
     with pytest.raises(SystemExit) as exc:
         inspect_report.main(argv)
     assert exc.value.code == 2
-    assert "usage: loomfmu inspect" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert err.startswith("loomfmu inspect: error: ") and len(err.strip().splitlines()) == 1, err
 
 
 def test_inspect_report_rejects_unknown_format():

@@ -11,7 +11,7 @@ from pathlib import Path
 from loomfmu.bench import classic, failures, limit, report
 from loomfmu.bench.scenes import BENCH, load_scene_model
 from loomfmu.bench.sweep import Plan, prepare, work_precision
-from loomfmu.declare.checks import check_output_options
+from loomfmu.declare.checks import OneLineParser, check_output_options
 from loomfmu.progress import Progress
 
 #: most local dask workers (as loomfmu.sweep.run.MAX_WORKERS; not imported
@@ -126,7 +126,7 @@ def _command(sub, name: str, text: str) -> argparse.ArgumentParser:
 
 def _parser(prog: str) -> tuple[argparse.ArgumentParser, dict]:
     """The parser and its subparsers by command."""
-    ap = argparse.ArgumentParser(prog=prog,
+    ap = OneLineParser(prog=prog,
                                  description="loomfmu benchmarks (never timed tests)")
     sub = ap.add_subparsers(dest="command", required=True)
     c = _command(sub, "charts", "work-precision and failure charts of every bench scene "

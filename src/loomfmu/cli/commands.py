@@ -251,9 +251,11 @@ def cmd_build(args) -> int:
     names = list(dict.fromkeys(args.models)) or sorted(MODELS)  # each model once
     for name in names:
         check_model(name)
-    if args.platforms is not None:
-        from loomfmu.fmu.platforms import parse
-        parse(args.platforms, args.fmi_version, arg="--platforms")  # before any build
+    from loomfmu.fmu.platforms import ENV, parse
+    if args.platforms is not None:  # before any build
+        parse(args.platforms, args.fmi_version, arg="--platforms")
+    elif os.environ.get(ENV, "").strip():
+        parse(os.environ[ENV].strip(), args.fmi_version, arg=ENV)
     args.option_values = parse_assignments(args.option, "--option")
     for name in names:  # every option known to every model, before any build
         for key in args.option_values:

@@ -32,6 +32,7 @@ from loomfmu.cli.commands import (
     cmd_simulate,
     cmd_verify,
 )
+from loomfmu.declare.checks import OneLineParser
 from loomfmu.declare.solvers import SOLVERS
 from loomfmu.fmu.builder import BuildError
 from loomfmu.registry import MODELS
@@ -52,7 +53,7 @@ ANALYSES = {
 
 
 def _parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(
+    ap = OneLineParser(
         prog="loomfmu", description="Textile-machine mechanisms as CasADi DAEs, exported "
                                     "as self-contained FMI 2.0/3.0 co-simulation and model-exchange FMUs.",
         epilog="Run 'loomfmu COMMAND --help' for a command's options.")

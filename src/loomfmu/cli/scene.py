@@ -12,22 +12,17 @@ import sys
 import warnings
 from pathlib import Path
 
-from loomfmu.declare.checks import check_output_options
+from loomfmu.declare.checks import OneLineParser, check_output_options
 from loomfmu.declare.solvers import SOLVERS
 from loomfmu.machines.fidelity import add_parser as add_fidelity_parser
 from loomfmu.machines.library import SCENES, load_scene
 from loomfmu.scene.master import MASTERS
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):  # one line, exit 2
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
-
 def _parser(prog: str) -> argparse.ArgumentParser:
-    ap = _Parser(prog=prog, description="Co-simulation scenes: FMUs connected in Python, "
+    ap = OneLineParser(prog=prog, description="Co-simulation scenes: FMUs connected in Python, "
                  "run on loomfmu's master or exported as SSP.")
-    sub = ap.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
+    sub = ap.add_subparsers(dest="cmd", required=True, parser_class=OneLineParser)
     sub.add_parser("list", help="the scenes, their components and connections")
     r = sub.add_parser("run", help="run a scene on our master; print the final values")
     r.add_argument("scene", help=f"one of {', '.join(sorted(SCENES))}")

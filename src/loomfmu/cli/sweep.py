@@ -20,7 +20,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from loomfmu.declare.checks import check_number, check_writable
+from loomfmu.declare.checks import OneLineParser, check_number, check_writable
 from loomfmu.declare.solvers import SOLVERS
 
 
@@ -52,7 +52,7 @@ def _command(sub, name: str, text: str) -> argparse.ArgumentParser:
 
 
 def _parser(prog: str) -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog=prog, description="Parameter studies on dask.distributed "
+    ap = OneLineParser(prog=prog, description="Parameter studies on dask.distributed "
                                  "(an embedded LocalCluster, or --scheduler).")
     sub = ap.add_subparsers(dest="cmd", required=True)
     d = _command(sub, "design-map", "heald frame: b1, d1 vs max |x2| over loom widths and "

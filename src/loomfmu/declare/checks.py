@@ -12,6 +12,7 @@ strings are not numbers, NaN and +-inf are outside every range.
 """
 from __future__ import annotations
 
+import argparse
 import difflib
 import math
 import numbers
@@ -289,3 +290,13 @@ def check_output_options(args, *, files: Iterable[str] = (), folders: Iterable[s
                 checked.append(p if folder else p.parent)
     for p in checked if make else ():
         p.mkdir(parents=True, exist_ok=True)
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse's parser with a usage error in one line (its message and where
+    the help is) and exit status 2, as every loomfmu command line answers bad
+    input; ``--help`` prints the whole usage as before. Subparsers made by
+    ``add_subparsers`` are of the same class."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")

@@ -2,16 +2,15 @@
 and loomfmu.drive.tracking."""
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
-from loomfmu.declare.checks import check_output_options
+from loomfmu.declare.checks import OneLineParser, check_output_options
 from loomfmu.drive import report
 
 
 def main(argv=None, prog: str = "loomfmu drive") -> int:
-    ap = argparse.ArgumentParser(prog=prog, description="Spindle-drive analyses.")
+    ap = OneLineParser(prog=prog, description="Spindle-drive analyses.")
     sub = ap.add_subparsers(dest="cmd", required=True)
     t = sub.add_parser("table", help="law constants, Fourier coefficients, cam -> docs/guides/drive_law.md")
     t.add_argument("--out", type=Path, default=Path("docs/guides/drive_law.md"),

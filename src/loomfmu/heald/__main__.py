@@ -2,18 +2,17 @@
 and loomfmu.heald.tension_input."""
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import tempfile
 from pathlib import Path
 
-from loomfmu.declare.checks import check_number, check_output_options
+from loomfmu.declare.checks import OneLineParser, check_number, check_output_options
 from loomfmu.heald import claims as cl
 
 
 def main(argv=None, prog: str = "loomfmu heald") -> int:
-    ap = argparse.ArgumentParser(prog=prog, description="Heald-frame analyses.")
+    ap = OneLineParser(prog=prog, description="Heald-frame analyses.")
     sub = ap.add_subparsers(dest="cmd", required=True)
     c = sub.add_parser("claims", help="check the seeds' claims -> docs/guides/heald_claims.md")
     c.add_argument("--out", type=Path, default=Path("docs/guides/heald_claims.md"),

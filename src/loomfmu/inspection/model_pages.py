@@ -8,11 +8,10 @@ typed, so the docs cannot drift from the FMU.
 """
 from __future__ import annotations
 
-import argparse
 import math
 from pathlib import Path
 
-from loomfmu.declare.checks import check_output_options
+from loomfmu.declare.checks import OneLineParser, check_output_options
 from loomfmu.declare.model import Model
 from loomfmu.declare.units import display_factor
 from loomfmu.registry import MODELS, VARIANTS, load_model
@@ -142,7 +141,7 @@ def _fidelity_section(name: str) -> list[str]:
 
 
 def main(argv=None, prog: str = "loomfmu docs") -> int:
-    ap = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
+    ap = OneLineParser(prog=prog, description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("docs/reference/models"),
                     help="output folder (default: %(default)s)")
     args = ap.parse_args(argv)

@@ -14,7 +14,6 @@ current browser), ``md`` (LaTeX between ``$$`` for GitHub and Jupyter),
 """
 from __future__ import annotations
 
-import argparse
 import re
 import sys
 import tempfile
@@ -23,7 +22,7 @@ from pathlib import Path
 import casadi as ca
 import sympy
 
-from loomfmu.declare.checks import check_writable
+from loomfmu.declare.checks import OneLineParser, check_writable
 from loomfmu.export.codegen import generate_sources
 from loomfmu.export.dae import DaeForm, dae_form
 from loomfmu.inspection import readable
@@ -380,7 +379,7 @@ def write_reports(names, formats, out_dir: Path) -> list[Path]:
 
 
 def main(argv=None, prog: str = "loomfmu inspect") -> int:
-    ap = argparse.ArgumentParser(prog=prog, description="A model's derivation and equations "
+    ap = OneLineParser(prog=prog, description="A model's derivation and equations "
                                  "as a machine designer reads them: HTML with MathML, "
                                  "Markdown with LaTeX, or LaTeX.")
     ap.add_argument("model", metavar="MODEL", nargs="?", choices=sorted(MODELS),

@@ -2,11 +2,10 @@
 (calibrate, trends, charts, all, critical)."""
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
-from loomfmu.declare.checks import check_number, check_output_options
+from loomfmu.declare.checks import OneLineParser, check_number, check_output_options
 from loomfmu.progress import Progress
 from loomfmu.spindle.study import DOCS, WORK_RPM, Spindle, write_calibration
 from loomfmu.spindle.trends import STUDIES, write_charts, write_trends
@@ -51,7 +50,7 @@ def _critical(args) -> int:
 
 
 def main(argv=None, prog: str = "loomfmu rotor") -> int:
-    ap = argparse.ArgumentParser(prog=prog, description="Spindle studies (seed 003): "
+    ap = OneLineParser(prog=prog, description="Spindle studies (seed 003): "
                                  "calibration to the seed's natural frequencies, amplitude "
                                  "against speed, section V's parameter trends, charts.")
     ap.add_argument("command", choices=["calibrate", "trends", "charts", "all", "critical"],
