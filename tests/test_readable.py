@@ -322,7 +322,7 @@ def test_tampered_quantity_form_is_detected():
 def test_tampered_op_is_detected():
     """Mapping one op wrongly (sin as cos) must make the comparison fail."""
     tampered = {**readable.OPS, ca.OP_SIN: sympy.cos}
-    _, _, bad = _compare(load_model("backrest"), ops=tampered)
+    _, _, bad = _compare(shared_model("backrest"), ops=tampered)
     assert bad, "a wrong sin mapping went unnoticed"
     tampered = {**readable.OPS, ca.OP_SUB: lambda a, b: a + b}
     _, _, bad = _compare(load_model("heald_frame_rigid"), ops=tampered)
@@ -338,7 +338,7 @@ def test_tampered_listing_is_detected():
     lst.shared[0] = (sym, definition * (1 + sympy.Rational(1, 10**6)))
     _, _, bad = _compare(model, lst=lst)
     assert bad, "a wrong shared definition went unnoticed"
-    model = load_model("backrest")
+    model = shared_model("backrest")
     lst = readable.listing(model)
     k = next(k for k, (s, _) in enumerate(lst.named) if s.name == "S_1")
     sym, definition = lst.named[k]
@@ -349,7 +349,7 @@ def test_tampered_listing_is_detected():
 
 def test_untampered_compare_path_agrees():
     """The same comparison without the listing passes with the true table."""
-    _, least, bad = _compare(load_model("backrest"), ops=dict(readable.OPS))
+    _, least, bad = _compare(shared_model("backrest"), ops=dict(readable.OPS))
     assert not bad and least >= N_POINTS
 
 
@@ -772,7 +772,7 @@ def test_printed_quantities_are_simplified_where_sympy_shortens_them():
     """T = m_c (w1^2 r1^2 sin^2 + w1^2 r1^2 cos^2) / 2 + ... prints as
     m_c r1^2 w1^2 / 2 + ...; a form that simplifying would lengthen (the
     spring moment written with the spring force) keeps its words."""
-    model = load_model("backrest")
+    model = shared_model("backrest")
     forms = {q.name: (sym, form) for q, sym, form in readable.quantities_written(model)}
     T = forms["T"][1]
     J_1, J_c, m_c, r1, w1, w2 = (readable.Var(n) for n in ("J_1", "J_c", "m_c", "r1",
@@ -787,7 +787,7 @@ def test_printed_quantities_are_simplified_where_sympy_shortens_them():
 def test_equations_are_numbered_apart_from_the_seeds_numbers():
     """The seeds number their equations (1), (2), ...; the report's own
     equations are (E1), (E2), ... so that "(7)" always means the seed's."""
-    model = load_model("backrest")
+    model = shared_model("backrest")
     _, sections = inspect_report.document(model)
     eqs = next(s for s in sections if s.title == "Equations")
     tags = [tag for b in eqs.blocks if isinstance(b, inspect_report.Equations)
@@ -798,3 +798,56 @@ def test_equations_are_numbered_apart_from_the_seeds_numbers():
     assert "nonlinear in w: E" in text, text
     lagrange = next(q for q in model.quantities if q.name == "lagrange")
     assert "equations E3 and E4" in lagrange.description
+
+
+# The report as a designer reads it: labels and figures (here, beside the
+# round trips, so that one process writes each model's quantities once).
+SEEDS = Path(__file__).resolve().parents[2] / "shared" / "seeds"  # beside the repository
+
+
+@pytest.mark.parametrize("name", sorted(MODELS))
+@pytest.mark.slow  # a whole report per model
+def test_labels_are_unique_and_apart_from_the_seeds_numbers(name):
+    """The report's labels are E1..En (equations) and v1..vm (validity),
+    each once; the seeds use plain numbers and none of these labels."""
+    model = shared_model(name)
+    _, sections = inspect_report.document(model)
+    tags = []
+
+    def walk(blocks):
+        for b in blocks:
+            if isinstance(b, inspect_report.Section):
+                walk(b.blocks)
+            elif isinstance(b, inspect_report.Equations):
+                tags.extend(tag for _, tag in b.lines if tag)
+
+    for s in sections:
+        walk(s.blocks)
+    assert len(tags) == len(set(tags)), tags
+    eqs = [t for t in tags if t.startswith(inspect_report.EQUATION_TAG)]
+    n_rows = sum(ca.SX(e).numel() for e in model.equations)
+    assert eqs == [f"E{k}" for k in range(1, n_rows + 1)]
+    assert all(re.fullmatch(r"(E|v)[1-9]\d*", t) for t in tags), tags
+    seeds = " ".join(p.read_text(encoding="utf-8") for p in sorted(SEEDS.glob("*.txt")))
+    if seeds:
+        for t in set(tags):
+            assert f"({t})" not in seeds, f"label ({t}) is used by a seed"
+
+
+@pytest.mark.parametrize("name, marks", [
+    ("heald_frame", ("x<tspan", "y<tspan", "h = H(", "l<tspan", "h<tspan", "f<tspan")),
+    ("heald_frame_planar", ("y<tspan", "h = H(", "l<tspan", "f<tspan")),
+    ("spindle", ('class="node"', "bolster", "footstep", "whorl", "bobbin", "L_s")),
+    ("spindle_modal", ('class="node"', "bolster", "footstep", "whorl", "bobbin")),
+])
+@pytest.mark.slow  # a whole derivation report and the FMU page: seconds
+def test_frame_and_mesh_are_drawn_in_the_report_and_on_the_page(name, marks):
+    from loomfmu.fmu.documentation import html_for
+    model = shared_model(name)
+    for page in (inspect_report.report(model, "html"), html_for(model)):
+        svg = page[page.index("<figure><svg"):]
+        svg = svg[:svg.index("</svg>")]
+        for mark in marks:
+            assert mark in svg, (name, mark)
+        assert model.figures[0].caption.split(" (")[0] in page
+    assert "x<tspan" not in load_model("heald_frame_planar").figures[0].svg
