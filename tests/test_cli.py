@@ -76,6 +76,8 @@ def test_list_names_every_model_option_and_fidelity_level():
     (["build", "heald_frame", "--option", "no_such=1"], "allowed: end_dwell"),
     (["build", "heald_frame", "--option", "end_dwell=sideways"], "end_dwell"),
     (["build", "heald_frame", "--option", "end_dwell"], "NAME=VALUE"),
+    (["build", "heald_frame", "--option", "warp_tension=bogus"],
+     "--option warp_tension=bogus: warp_tension = 'bogus'; allowed: 'geometry', 'input'"),
     (["build", "--rtol", "nan"], "--rtol"),
     (["build", "--rtol", "2"], "--rtol"),
     (["build", "--max-error", "-1"], "--max-error"),

@@ -72,7 +72,13 @@ def declare(name: str, options: dict):
     check_model(name)
     for key in options:
         declare_check_option(name, key)
-    return load_model(name, **options)
+    try:
+        return load_model(name, **options)
+    except ValueError as e:  # a value the model's build() refuses: say which --option
+        if not options:
+            raise
+        given = " ".join(f"{k}={v}" for k, v in options.items())
+        raise UsageError(f"--option {given}: {e}") from None
 
 
 def check_range(flag: str, value: float, lo: float, hi: float | None = None) -> None:

@@ -1,7 +1,7 @@
 """The scipy reference's results kept on disk, so that one reference serves
 every caller that asks for the same one.
 
-A reference of the heavier models takes a minute (backrest_regularized by
+A reference of the heavier models takes a minute or more (backrest_regularized by
 Radau at rtol 1e-11) and is asked for by the build's verification, by the
 FMI-LS-REF result inside each FMI variant of the model, by ``loomfmu
 verify`` and ``loomfmu check`` runs and by the tests: each computed it
