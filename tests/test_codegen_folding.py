@@ -89,7 +89,11 @@ def _worst_difference(unfolded, folded, point, k) -> tuple[float, str]:
     for fa, fb in zip(unfolded, folded):
         if fa.name().endswith("_pre"):
             continue
-        ra, rb = fa.call(point + [np.zeros(0)]), fb.call(point + [k])
+        pt = list(point)
+        extra = fa.size1_in(2) - len(pt[2])  # a torn model's tres, tpost read [w; h]
+        if extra > 0:
+            pt[2] = np.concatenate([pt[2], np.linspace(0.3, 1.7, extra)])
+        ra, rb = fa.call(pt + [np.zeros(0)]), fb.call(pt + [k])
         for i, (a, b) in enumerate(zip(ra, rb)):
             a, b = np.array(a, dtype=float), np.array(b, dtype=float)
             fin = np.isfinite(a)

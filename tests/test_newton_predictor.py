@@ -1,14 +1,18 @@
-"""Newton's memory for algebraic loops (src/loomfmu/runtime/lf_newton_mem.h):
-inside a step, a solve of the unknowns w starts from the first-order
-predictor and takes simplified Newton iterations with the kept dF/dw.
+"""Algebraic loops in the runtime (src/loomfmu/runtime/lf_newton.c): the torn
+form (Newton on a few unknowns, the others in closed form) and, for loops
+solved on every unknown, Newton's memory (lf_newton_mem.h): inside a step, a
+solve of the unknowns w starts from the first-order predictor and takes
+simplified Newton iterations with the kept dF/dw.
 
 The backrest models' verification runs, driven by the C benchmark driver
-(loomfmu.bench.limit) compiled twice from the same FMU sources, with the
-memory and without it (-DLF_NEWTON_MEMORY=0: Newton from the last solve, as
-before), both counting their Newton work (-DLF_NEWTON_STATS): the memory
-cuts the residual evaluations and the factorizations per solve, and the
-results stay those of Newton to far below the integration tolerance (the
-friction modes switch at the same events).  A reset instance and a restored
+(loomfmu.bench.limit) compiled three times from the same FMU sources, all
+counting their Newton work (-DLF_NEWTON_STATS): as shipped (torn), and
+solved on every unknown (-DLF_TEAR=0) with the memory and without it
+(-DLF_NEWTON_MEMORY=0: Newton from the last solve).  The memory cuts the
+residual evaluations and the factorizations per solve; the torn form solves
+a smaller loop in fewer iterations; the results of all three stay those of
+Newton to far below the integration tolerance (the friction modes switch at
+the same events).  A reset instance and a restored
 state run as a fresh one (the memory is no part of the FMU state: each step
 starts without it; tests/test_fmu_state.py checks restored states bit for
 bit)."""
@@ -43,8 +47,10 @@ def drivers(request, tmp_path_factory):
     model = load_model(request.param)
     fmu = build_fmu(model, out_dir=work, validate=False).path
     return (model, fmu,
-            _driver(fmu, work / "memory", "-DLF_NEWTON_STATS"),
-            _driver(fmu, work / "plain", "-DLF_NEWTON_STATS", "-DLF_NEWTON_MEMORY=0"))
+            _driver(fmu, work / "memory", "-DLF_NEWTON_STATS", "-DLF_TEAR=0"),
+            _driver(fmu, work / "plain", "-DLF_NEWTON_STATS", "-DLF_TEAR=0",
+                    "-DLF_NEWTON_MEMORY=0"),
+            _driver(fmu, work / "torn", "-DLF_NEWTON_STATS"))
 
 
 def _run(exe, model, solver):
@@ -61,7 +67,7 @@ def _run(exe, model, solver):
 
 @pytest.mark.parametrize("solver", SOLVERS)
 def test_memory_cuts_newton_work_and_keeps_the_results(drivers, solver):
-    model, _, memory, plain = drivers
+    model, _, memory, plain, _ = drivers
     got, n = _run(memory, model, solver)
     ref, n0 = _run(plain, model, solver)
     # without the memory every solve is Newton with a new dF/dw each iteration
@@ -82,6 +88,22 @@ def test_memory_cuts_newton_work_and_keeps_the_results(drivers, solver):
         assert got["y_end"][name] == pytest.approx(y, rel=1e-8, abs=1e-9), name
 
 
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_the_torn_loop_takes_fewer_iterations_and_keeps_the_results(drivers, solver):
+    model, _, _, plain, torn = drivers
+    got, n = _run(torn, model, solver)
+    ref, n0 = _run(plain, model, solver)
+    # the torn Newton counts a solve as "full" and each of its iterations
+    assert n["simplified"] == 0 and n["fallbacks"] == 0
+    assert n["full"] == pytest.approx(n0["full"], rel=0.02)  # the same solves
+    it, it0 = n["full_it"] / n["full"], n0["full_it"] / n0["full"]
+    assert it < 0.9 * it0 and it < 2.2
+    assert got["steps"] == pytest.approx(ref["steps"], rel=0.01)
+    assert got["events"] == ref["events"] and got["newton_failures"] == 0
+    for name, y in ref["y_end"].items():
+        assert got["y_end"][name] == pytest.approx(y, rel=1e-8, abs=1e-9), name
+
+
 def _run_fmpy(s, n, comm, outputs):
     ys, t = [], 0.0
     for _ in range(n):
@@ -96,7 +118,7 @@ OUTPUTS = ["phi1_out", "omega2_out", "M1f_out", "M2f_out", "N1"]
 
 @pytest.mark.parametrize("solver", [1, 2])
 def test_reset_instance_runs_as_a_fresh_one(drivers, slave_factory, solver):
-    model, fmu, _, _ = drivers
+    model, fmu, _, _, _ = drivers
     n, comm = 150, model.step_size
     fresh = slave_factory(fmu, "fresh")
     fresh.start(solver=solver)

@@ -93,7 +93,8 @@ def model_guid(model: Model, dae: DaeForm) -> str:
 
 #: The generated functions in the order of the runtime's LfFunctionId.
 FUNCTIONS = ("wsol", "wjac", "res", "rjac", "out", "evt", "valid", "reinit", "init",
-             "hist", "tau", "cons", "djac", "yder", "vld", "pre", "dirw", "diry")
+             "hist", "tau", "cons", "djac", "yder", "vld", "pre", "dirw", "diry",
+             "tpre", "tres", "tpost")
 
 #: Models with delays only: one more generated function, after FUNCTIONS,
 #: with hist's outputs (g, g_dot) and out's (y) together (model_decl.h:
@@ -140,6 +141,12 @@ def casadi_functions(dae: DaeForm, *, fold: bool = True) -> list[ca.Function]:
     dy/du), partials at fixed w; the runtime chains them with wjac/rjac and
     djac.
 
+    Torn implicit models (:mod:`loomfmu.export.tearing`, ``dae.tearing``):
+    tpre -> [w[pre]; h], the unknowns before Newton in closed form and the
+    hoisted subexpressions h; tres -> (the torn unknowns' residual, its
+    Jacobian in them), reading w[pre], w[torn] and h from its w argument
+    [w; h]; tpost -> w[post] from the same.  Empty for the others.
+
     Every output is densified, so that the generated C writes all of its
     entries (structural zeros included: e.g. dg/dt of a delayed input).
     """
@@ -164,7 +171,14 @@ def casadi_functions(dae: DaeForm, *, fold: bool = True) -> list[ca.Function]:
     # structural nonzeros (a structural zero entry is never written, and the
     # entries after it land in its place), while the runtime reads every
     # output as a dense column-major array.
-    fns = [ca.Function(f"{name}_{f}", [*dae.args, ud, dd, k],
+    # a torn model's tres and tpost read the hoisted subexpressions h after
+    # w in their w argument ([w; h], written by tpre: export.tearing)
+    tr = dae.tearing
+    wh = ca.vertcat(dae.w, tr.h) if tr is not None and tr.h.numel() else dae.w
+    args = {f: [*dae.args, ud, dd, k] for f in FUNCTIONS}
+    for f in ("tres", "tpost"):
+        args[f][2] = wh
+    fns = [ca.Function(f"{name}_{f}", args[f],
                        [ca.densify(e) for e in outs[f][0]], list(ARGUMENTS), outs[f][1])
            for f in FUNCTIONS]
     if dae.model.delays:
@@ -203,7 +217,12 @@ def _function_outputs(dae: DaeForm, ud: ca.SX, dd: ca.SX) -> dict:
         rjac = [ca.SX.zeros(nw, nw), ca.SX.zeros(nw, nx), ca.SX.zeros(nw)]
     zloc = dae.w[nx:, 0]
     yz = ca.vertcat(dae.y, zloc)
+    tr = dae.tearing
+    empty = ca.SX(0, 1)
     return {
+        "tpre": ([ca.vertcat(tr.pre_expr, tr.h_expr) if tr else empty], ["w_pre_h"]),
+        "tres": ([tr.res, tr.jac] if tr else [empty, ca.SX(0, 0)], ["F_torn", "dF_dw_torn"]),
+        "tpost": ([tr.post_expr if tr else empty], ["w_post"]),
         "wsol": ([wsol], ["w_sol"]), "wjac": (wjac, ["dw_dx", "dw_dt"]),
         "res": ([F], ["F"]), "rjac": (rjac, ["dF_dw", "dF_dx", "dF_dt"]),
         "out": ([yz], ["y"]), "evt": ([dae.e], ["e"]),
@@ -354,6 +373,16 @@ def declaration_header(model: Model, dae: DaeForm, n_k: int = 0) -> str:
         f"#define LF_NW {dae.w.numel()}",
         f"#define LF_NQ {len(model.of_kind('mode'))}",
         f"#define LF_IMPLICIT {1 if dae.implicit else 0}",
+        # the torn form of an implicit model (export.tearing): Newton on
+        # LF_NT_TORN unknowns, LF_NT_PRE before it and LF_NT_POST after it
+        # in closed form
+        f"#define LF_TORN {int(dae.tearing is not None)}",
+        f"#define LF_NT_PRE {len(dae.tearing.pre) if dae.tearing else 0}",
+        f"#define LF_NT_TORN {len(dae.tearing.torn) if dae.tearing else 0}",
+        f"#define LF_NT_POST {len(dae.tearing.post) if dae.tearing else 0}",
+        # hoisted subexpressions: written by tpre after w[pre], read by tres
+        # and tpost after w
+        f"#define LF_NT_HOIST {dae.tearing.h.numel() if dae.tearing else 0}",
         f"#define LF_ND {len(model.delays)}",
         f"#define LF_NC {len(model.constraints)}",
         f"#define LF_NV {len(model.validity)}",
@@ -409,6 +438,10 @@ def declaration_source(model: Model, dae: DaeForm, guid: str) -> str:
     out.append(_c_array("char *const", "validity_names", [_c_str(v.name) for v in model.validity]))
     out.append(_c_array("char *const", "validity_messages",
                         [_c_str(v.message) for v in model.validity]))
+    tr = dae.tearing
+    for part in ("pre", "torn", "post"):
+        out.append(_c_array("int", f"tear_{part}", [str(j) for j in getattr(tr, part)]
+                            if tr else []))
     fns = ", ".join(f"{{{name}_{f}, {name}_{f}_work}}" for f in FUNCTIONS)
     out.append(f"""const LfModel lf_model = {{
     {_c_str(name)},
@@ -421,6 +454,7 @@ def declaration_source(model: Model, dae: DaeForm, guid: str) -> str:
     constraint_messages, x_computed, x_nominal,
     solver_names,
     validity_names, validity_messages,
+    tear_pre, tear_torn, tear_post,
     {{{fns}}}
 }};
 """)

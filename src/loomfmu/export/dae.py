@@ -13,10 +13,12 @@ reference, so both integrate the very same expressions.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import casadi as ca
 
 from loomfmu.declare.model import Model
+from loomfmu.export.tearing import Tearing, tear
 
 
 @dataclass
@@ -108,6 +110,13 @@ class DaeForm:
     @property
     def implicit(self) -> bool:
         return self.wsol is None
+
+    @cached_property
+    def tearing(self) -> Tearing | None:
+        """The block-triangular split of an implicit model's equations
+        (:func:`loomfmu.export.tearing.tear`); None for explicit models and
+        where it gains nothing."""
+        return tear(self.F, self.w, self.q) if self.implicit else None
 
     def function(self, name: str, outs: list[ca.SX], out_names: list[str]) -> ca.Function:
         return ca.Function(name, self.args, outs, ["t", "x", "w", "u", "p", "q", "d"],

@@ -7,7 +7,9 @@
  *
  * w = [der(x); z] are the unknowns of the model's equations F = 0: given in
  * closed form by `wsol` (LF_IMPLICIT == 0) or found by Newton on `res` with
- * the exact dF/dw from `rjac` (LF_IMPLICIT == 1).  q are the discrete modes.
+ * the exact dF/dw from `rjac` (LF_IMPLICIT == 1); a torn implicit model
+ * (LF_TORN == 1) also has `tpre`, `tres`, `tpost`: Newton on a few of the
+ * unknowns, the others in closed form.  q are the discrete modes.
  */
 #ifndef LF_MODEL_H
 #define LF_MODEL_H
@@ -55,7 +57,10 @@ enum {
     LF_FN_PRE = 15,   /* -> k, the parameter-only subexpressions (from p) */
     LF_FN_DIRW = 16,  /* -> dw/du (explicit) or dF/du (implicit), dg/du, dy/dd */
     LF_FN_DIRY = 17,  /* -> dy/dx, dy/dw, dy/du (y: outputs and algebraic locals) */
-    LF_N_FN = 18
+    LF_FN_TPRE = 18,  /* -> w[tear_pre] in closed form        (torn models) */
+    LF_FN_TRES = 19,  /* -> residual of w[tear_torn], its Jacobian in them */
+    LF_FN_TPOST = 20, /* -> w[tear_post] from w[tear_pre], w[tear_torn] */
+    LF_N_FN = 21
 };
 
 /* Models with delays: one more function, LF_HISTOUT_FN (model_decl.c), of
@@ -118,6 +123,12 @@ typedef struct {
     const char *const *solver_names; /* must match lf_methods[] */
     const char *const *validity_names;    /* Model.require: name, message */
     const char *const *validity_messages;
+    /* torn models (LF_TORN, loomfmu.export.tearing): indices into w of the
+     * unknowns before Newton (LF_NT_PRE), Newton's (LF_NT_TORN) and after
+     * it (LF_NT_POST) */
+    const int *tear_pre;
+    const int *tear_torn;
+    const int *tear_post;
     LfFunction fn[LF_N_FN];
 } LfModel;
 

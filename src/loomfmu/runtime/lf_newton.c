@@ -50,8 +50,16 @@ static void __attribute__((destructor)) st_print(void) {
 #define LF_NEWTON_MEMORY 1
 #endif
 
-/* Newton's memory (lf_newton_mem.h) is kept and used while a step runs */
-static inline int nm_on(const LfInstance *c) { return LF_NEWTON_MEMORY && LF_IMPLICIT && c->unsaved.wc_on; }
+/* -DLF_TEAR=0: a torn model solved by Newton on every unknown, as an
+ * untorn one (tests compare the two) */
+#ifndef LF_TEAR
+#define LF_TEAR 1
+#endif
+#define LF_USE_TEAR (LF_TORN && LF_TEAR)
+
+/* Newton's memory (lf_newton_mem.h) is kept and used while a step runs
+ * (not by a torn model's Newton, whose loop is a few unknowns) */
+static inline int nm_on(const LfInstance *c) { return LF_NEWTON_MEMORY && LF_IMPLICIT && !LF_USE_TEAR && c->unsaved.wc_on; }
 
 /* keep the factorization in c->unsaved.jac_ww, c->unsaved.piv and dF/dx, dF/dt in
  * c->unsaved.jac_wx, c->unsaved.jac_wt (just evaluated together) for this generation */
@@ -256,6 +264,64 @@ static int simplified(LfInstance *c, double t, const double *x, double *w) {
     return 0;
 }
 
+/* A torn model (lf_model.h: LF_TORN): w[tear_pre] and the hoisted
+ * subexpressions h in closed form, Newton with the exact Jacobian on the
+ * LF_NT_TORN torn unknowns only (their residual reads [w; h] and gives the
+ * other unknowns of the loop in closed form inside), then w[tear_post] in
+ * closed form.  w holds the start of the torn unknowns.  The stopping test is Newton's
+ * (newton()) on the torn unknowns.  1: solved; 0: not (a closed form or
+ * the residual not finite, a singular Jacobian, no convergence: the
+ * caller runs Newton on every unknown, which says what failed); < 0: a
+ * generated function failed. */
+static int torn_solve(LfInstance *c, double t, const double *x, double *w) {
+    enum { NP = LF_NT_PRE + LF_NT_HOIST, NT = LF_DIM(LF_NT_TORN) };
+    /* wh = [w; h]: the argument w of tres and tpost */
+    double wh[LF_NW + LF_NT_HOIST], part[LF_DIM(NP > LF_NT_POST ? NP : LF_NT_POST)];
+    double F[NT], J[NT * NT], w0[NT], prev = INFINITY, q_prev = INFINITY;
+    size_t piv[NT];
+    int it, i;
+    memcpy(wh, w, sizeof(double) * LF_NW);
+    if (NP > 0) {
+        if (lf_eval_fn1(c, LF_FN_TPRE, t, x, w, part) != LF_OK) return -1;
+        if (lf_first_nonfinite(part, NP) >= 0) return 0;
+        for (i = 0; i < LF_NT_PRE; i++) wh[lf_model.tear_pre[i]] = part[i];
+        for (i = 0; i < LF_NT_HOIST; i++) wh[LF_NW + i] = part[LF_NT_PRE + i];
+    }
+    for (i = 0; i < LF_NT_TORN; i++) w0[i] = wh[lf_model.tear_torn[i]];
+    for (it = 0; LF_NT_TORN > 0; it++) {
+        double size = 0.0, q = 0.0, theta;
+        if (it == LF_NEWTON_MAX_ITER) return 0;
+        STAT(st_full_it++);
+        if (lf_eval_fn(c, LF_FN_TRES, t, x, wh, F, J, NULL) != LF_OK) return -1;
+        if (lf_first_nonfinite(F, LF_NT_TORN) >= 0 || lf_lu_factor(J, LF_NT_TORN, piv) != 0)
+            return 0;
+        lf_lu_solve(J, LF_NT_TORN, piv, F);
+        for (i = 0; i < LF_NT_TORN; i++) {
+            double *wi = &wh[lf_model.tear_torn[i]], scale = fmax(fabs(*wi), fabs(w0[i]));
+            double d = fabs(F[i]);
+            *wi -= F[i];
+            q = fmax(q, d / (LF_NEWTON_ATOL + LF_NEWTON_RTOL * scale));
+            size = fmax(size, d / (LF_NEWTON_ATOL + scale));
+        }
+        /* converged: Newton's test (q <= 1), its stagnation at rounding, or
+         * (contracting at the rate theta <= 1/4) the error after this step,
+         * about theta / (1 - theta) times the step, within the tolerance */
+        theta = q / q_prev;
+        if (q <= 1.0 || (size < 1e-8 && size >= 0.5 * prev) ||
+            (it > 0 && theta <= 0.25 && theta * q <= 1.0 - theta))
+            break;
+        prev = size;
+        q_prev = q;
+    }
+    if (LF_NT_POST > 0) {
+        if (lf_eval_fn1(c, LF_FN_TPOST, t, x, wh, part) != LF_OK) return -1;
+        if (lf_first_nonfinite(part, LF_NT_POST) >= 0) return 0;
+        for (i = 0; i < LF_NT_POST; i++) wh[lf_model.tear_post[i]] = part[i];
+    }
+    memcpy(w, wh, sizeof(double) * LF_NW);
+    return lf_first_nonfinite(w, LF_NW) < 0;
+}
+
 /* The unknowns w = [der(x); z] at (t, x) (inline in lf_rhs, the solvers'
  * hot path: forced where the compiler can be told, since its size (Newton
  * for implicit models, two callers) made gcc keep it a call). */
@@ -273,7 +339,19 @@ static inline LF_ALWAYS_INLINE LfStatus solve_w(LfInstance *c, double t, const d
         return LF_OK;
     }
     if (LF_WK_USED && c->unsaved.wc_on && lf_wk_take(c, t, x, w)) return LF_OK;
-    if (LF_IMPLICIT) {
+    if (LF_USE_TEAR) {
+        int done;
+        STAT(st_full++);
+        memcpy(w, c->val.w_cur, sizeof(double) * LF_NW);
+        done = torn_solve(c, t, x, w);
+        if (done < 0) return LF_ERROR;
+        if (!done) {
+            STAT(st_fallback++);
+            memcpy(w, c->val.w_cur, sizeof(double) * LF_NW);
+            st = newton(c, t, x, w);
+            if (st != LF_OK) return st;
+        }
+    } else if (LF_IMPLICIT) {
         int done = 0;
         if (nm_on(c) && c->unsaved.nm.lu_gen == c->unsaved.wc_gen && c->unsaved.nm.b_gen == c->unsaved.wc_gen) {
             nm_predict(c, t, x, w);
