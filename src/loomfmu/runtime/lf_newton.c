@@ -264,6 +264,44 @@ static int simplified(LfInstance *c, double t, const double *x, double *w) {
     return 0;
 }
 
+/* b := a^-1 b for the torn unknowns' Jacobian a (LF_NT_TORN square,
+ * column-major, overwritten): Gaussian elimination with partial pivoting,
+ * its size a constant the compiler unrolls (a loop is a few unknowns, and
+ * lf_lu_factor's general loops cost more than the arithmetic here).
+ * Nonzero where a pivot is zero or not finite. */
+static inline int torn_linear_solve(double *a, double *b) {
+    enum { N = LF_DIM(LF_NT_TORN) };
+    int i, j, k;
+    for (k = 0; k < LF_NT_TORN; k++) {
+        int p = k;
+        double piv, tmp;
+        for (i = k + 1; i < LF_NT_TORN; i++)
+            if (fabs(a[i + k * N]) > fabs(a[p + k * N])) p = i;
+        piv = a[p + k * N];
+        if (!(fabs(piv) > 0.0) || !isfinite(piv)) return 1;
+        if (p != k) {
+            for (j = k; j < LF_NT_TORN; j++) {
+                tmp = a[k + j * N];
+                a[k + j * N] = a[p + j * N];
+                a[p + j * N] = tmp;
+            }
+            tmp = b[k];
+            b[k] = b[p];
+            b[p] = tmp;
+        }
+        for (i = k + 1; i < LF_NT_TORN; i++) {
+            double l = a[i + k * N] / piv;
+            for (j = k + 1; j < LF_NT_TORN; j++) a[i + j * N] -= l * a[k + j * N];
+            b[i] -= l * b[k];
+        }
+    }
+    for (k = LF_NT_TORN - 1; k >= 0; k--) {
+        for (j = k + 1; j < LF_NT_TORN; j++) b[k] -= a[k + j * N] * b[j];
+        b[k] /= a[k + k * N];
+    }
+    return 0;
+}
+
 /* A torn model (lf_model.h: LF_TORN): w[tear_pre] and the hoisted
  * subexpressions h in closed form, Newton with the exact Jacobian on the
  * LF_NT_TORN torn unknowns only (their residual reads [w; h] and gives the
@@ -278,7 +316,6 @@ static int torn_solve(LfInstance *c, double t, const double *x, double *w) {
     /* wh = [w; h]: the argument w of tres and tpost */
     double wh[LF_NW + LF_NT_HOIST], part[LF_DIM(NP > LF_NT_POST ? NP : LF_NT_POST)];
     double F[NT], J[NT * NT], w0[NT], prev = INFINITY, q_prev = INFINITY;
-    size_t piv[NT];
     int it, i;
     memcpy(wh, w, sizeof(double) * LF_NW);
     if (NP > 0) {
@@ -293,9 +330,7 @@ static int torn_solve(LfInstance *c, double t, const double *x, double *w) {
         if (it == LF_NEWTON_MAX_ITER) return 0;
         STAT(st_full_it++);
         if (lf_eval_fn(c, LF_FN_TRES, t, x, wh, F, J, NULL) != LF_OK) return -1;
-        if (lf_first_nonfinite(F, LF_NT_TORN) >= 0 || lf_lu_factor(J, LF_NT_TORN, piv) != 0)
-            return 0;
-        lf_lu_solve(J, LF_NT_TORN, piv, F);
+        if (lf_first_nonfinite(F, LF_NT_TORN) >= 0 || torn_linear_solve(J, F) != 0) return 0;
         for (i = 0; i < LF_NT_TORN; i++) {
             double *wi = &wh[lf_model.tear_torn[i]], scale = fmax(fabs(*wi), fabs(w0[i]));
             double d = fabs(F[i]);
