@@ -52,7 +52,10 @@ import argparse
 import json
 import math
 import os
+import re
+import shutil
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -317,36 +320,78 @@ def build_times(scene) -> dict:
             "component_fmus": len(set(fmus.values())), "components": len(fmus)}
 
 
+#: the C driver's Newton counters (-DLF_NEWTON_STATS, lf_newton.c)
+NEWTON_STATS = re.compile(r"newton_stats: solves (\d+) hits (\d+) full (\d+) full_it (\d+)")
+
+
 def loom_split(scene, path, stop: float, solver: str, rtol: float, repeats: int) -> dict:
-    """The composed loom at 1 ms output interval: CPU seconds through FMPy
-    (run_monolithic) against the same run in C (the driver of loomfmu bench
-    limit: the FMU's own work), and in that the method's evaluations
-    (limit_seconds); the real-time factor."""
+    """The composed loom at 1 ms output interval, where the CPU time goes:
+    run_monolithic (FMPy's instance, its ctypes functions called directly,
+    every recorded output read after each step), FMPy's own simulate_fmu
+    on the same extracted FMU, and the same run by the C driver of loomfmu
+    bench limit (the FMU's own work), in that the right-hand sides and the
+    outputs at their best time per call, and the Newton counters of the
+    torn loop; the real-time factors."""
+    import fmpy
+
     from loomfmu.bench import limit as L
+    from loomfmu.declare.solvers import SOLVERS as EMBEDDED
     step = 1e-3
+    atol = rtol * 1e-3
+    n = round(stop / step)
     walls = []
 
-    def once():
+    def once(stop=stop):
         w0 = time.perf_counter()
-        r = run_monolithic(scene, step=step, stop=stop, solver=solver, rtol=rtol,
-                           atol=rtol * 1e-3, fmu=path)
+        r = run_monolithic(scene, step=step, stop=stop, solver=solver, rtol=rtol, atol=atol,
+                           fmu=path)
         walls.append(time.perf_counter() - w0)
         return r
 
-    _, fmpy_cpu = timed(once, repeats)
+    _, ours_cpu = timed(once, repeats)
+    ours_wall = statistics.median(walls)
+    _, fixed_cpu = timed(lambda: once(10 * step), repeats)   # 10 steps: the fixed part
+    names = [f"{c}.{v}" for c, v in scene.recorded_variables()]
+    md = fmpy.read_model_description(str(path))
+    unzipdir = fmpy.extract(str(path))
+    try:
+        _, fmpy_cpu = timed(lambda: fmpy.simulate_fmu(
+            unzipdir, model_description=md, stop_time=stop, output_interval=step,
+            relative_tolerance=rtol, output=names,
+            start_values={"solver": EMBEDDED.index(solver) + 1, "solver_rtol": rtol,
+                          "solver_atol": atol}), repeats)
+    finally:
+        shutil.rmtree(unzipdir, ignore_errors=True)
     with tempfile.TemporaryDirectory() as work:
         exe = L.compile_driver(Path(path), Path(work))
-        c = L.run_driver(exe, stop=stop, step=step, solver=solver, rtol=rtol,
-                         atol=rtol * 1e-3, repeats=repeats, best_of=5)
-    evals = L.limit_seconds(c)
-    n = round(stop / step)
-    return {"solver": solver, "rtol": rtol, "atol": rtol * 1e-3, "step": step, "stop": stop,
-            "doSteps": n, "fmpy_cpu_s": fmpy_cpu, "fmpy_wall_s": statistics.median(walls),
-            "c_cpu_s": c["cpu_s"], "c_wall_s": c["wall_s"], "evaluations_s": evals,
-            "solver_steps": c["steps"], "rhs_calls": c["rhs"], "jac_calls": c["jac"],
-            "fmpy_per_doStep_us": (fmpy_cpu - c["cpu_s"]) / n * 1e6,
-            "real_time_factor_cpu": stop / fmpy_cpu,
-            "real_time_factor_wall": stop / statistics.median(walls)}
+        c = L.run_driver(exe, stop=stop, step=step, solver=solver, rtol=rtol, atol=atol,
+                         repeats=repeats, best_of=5)
+        stats_dir = Path(work) / "stats"
+        stats_dir.mkdir()
+        flags = L.STRICT_FLAGS
+        try:
+            L.STRICT_FLAGS = (*flags, "-DLF_NEWTON_STATS")
+            exe_stats = L.compile_driver(Path(path), stats_dir)
+        finally:
+            L.STRICT_FLAGS = flags
+        proc = subprocess.run([str(exe_stats), repr(stop), repr(step), repr(rtol), repr(atol),
+                               solver, "1", "1"], capture_output=True, text=True, check=True)
+    m = NEWTON_STATS.search(proc.stderr)
+    newton = dict(zip(("solves", "hits", "newton_solves", "newton_iterations"),
+                      map(int, m.groups()))) if m else {}
+    rhs_s, out_s = c["rhs"] * c["rhs_s"], n * c["out_s"]
+    return {"solver": solver, "rtol": rtol, "atol": atol, "step": step, "stop": stop,
+            "doSteps": n, "ours_cpu_s": ours_cpu, "ours_wall_s": ours_wall,
+            "ours_fixed_cpu_s": fixed_cpu, "fmpy_simulate_cpu_s": fmpy_cpu,
+            "c_cpu_s": c["cpu_s"], "c_wall_s": c["wall_s"],
+            "evaluations_s": L.limit_seconds(c), "rhs_total_s": rhs_s, "outputs_total_s": out_s,
+            "solver_steps": c["steps"], "rhs_calls": c["rhs"], "events": c["events"],
+            "newton": newton,
+            "python_per_doStep_us": (ours_cpu - fixed_cpu - c["cpu_s"]) / n * 1e6,
+            "fmpy_simulate_per_doStep_us": (fmpy_cpu - c["cpu_s"]) / n * 1e6,
+            "real_time_factor_cpu": stop / ours_cpu, "real_time_factor_wall": stop / ours_wall,
+            "real_time_factor_fmpy_simulate": stop / fmpy_cpu,
+            "real_time_factor_c": stop / c["cpu_s"]}
 
 
 def err(p: dict, key: str) -> float:
@@ -525,16 +570,7 @@ def summary(doc: dict) -> str:
                          f"{b['components_wall_s']:.1f} | {b['components_cpu_s']:.1f} |")
     split = doc.get("loom_split")
     if split:
-        lines += ["", f"Loom, composed FMU at {split['step'] * 1e3:g} ms output interval "
-                  f"over {split['stop']:g} s ({split['solver']}, rtol {split['rtol']:g}; "
-                  f"{split['solver_steps']} solver steps): "
-                  f"through FMPy {split['fmpy_cpu_s']:.3f} CPU s, of which the FMU's own work "
-                  f"(the same run by the C driver of loomfmu bench limit) {split['c_cpu_s']:.3f}"
-                  f" s, and in that the method's evaluations {split['evaluations_s']:.3f} s; "
-                  f"FMPy's side {split['fmpy_per_doStep_us']:.1f} µs per doStep "
-                  f"({split['doSteps']} doSteps); real-time factor "
-                  f"{split['real_time_factor_wall']:.0f} (wall), "
-                  f"{split['real_time_factor_cpu']:.0f} (CPU)."]
+        lines += ["", loom_split_text(split)]
     for name, s in doc["scenes"].items():
         smooth = name in SWITCHING
         lines += ["", f"## {name}", "", "| run | CPU s / simulated s | error | worst output | "
@@ -553,6 +589,31 @@ def summary(doc: dict) -> str:
                     f"failed: {msg}"]
             lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+def loom_split_text(split: dict) -> str:
+    nw = split.get("newton") or {}
+    newton = (f" Newton on the torn loop: {nw['newton_solves']} solves, "
+              f"{nw['newton_iterations'] / nw['newton_solves']:.2f} iterations each "
+              f"({nw['hits']} more answered by the solve cache)."
+              if nw.get("newton_solves") else "")
+    return (f"Loom, composed FMU at {split['step'] * 1e3:g} ms output interval over "
+            f"{split['stop']:g} s ({split['solver']}, rtol {split['rtol']:g}; "
+            f"{split['solver_steps']} solver steps, {split['rhs_calls']} right-hand sides, "
+            f"{split['events']} events): run_monolithic {split['ours_cpu_s']:.3f} CPU s "
+            f"(real-time factor {split['real_time_factor_cpu']:.0f}; wall "
+            f"{split['real_time_factor_wall']:.0f}), of which "
+            f"{split['ours_fixed_cpu_s']:.3f} s once per run (reading and extracting the FMU, "
+            f"instantiating), the FMU's own work {split['c_cpu_s']:.3f} s (the same run by the "
+            f"C driver of loomfmu bench limit: real-time factor "
+            f"{split['real_time_factor_c']:.0f}; right-hand sides "
+            f"{split['rhs_total_s']:.3f} s, outputs {split['outputs_total_s']:.3f} s, the rest "
+            "events, validity and step control), and Python "
+            f"{split['python_per_doStep_us']:.1f} µs per doStep. FMPy's own simulate_fmu "
+            f"on the extracted FMU: {split['fmpy_simulate_cpu_s']:.3f} CPU s (real-time factor "
+            f"{split['real_time_factor_fmpy_simulate']:.0f}; "
+            f"{split['fmpy_simulate_per_doStep_us']:.1f} µs per doStep besides the FMU's "
+            f"work).{newton}")
 
 
 def study(name: str, args, fmu_dir: Path) -> dict:
@@ -646,8 +707,9 @@ def headline(doc: dict) -> None:
     split = doc.get("loom_split")
     if split:
         print(f"composed loom at 1 ms output interval: real-time factor "
-              f"{split['real_time_factor_wall']:.0f} (wall), {split['real_time_factor_cpu']:.0f}"
-              " (CPU)")
+              f"{split['real_time_factor_cpu']:.0f} (CPU, run_monolithic), "
+              f"{split['real_time_factor_fmpy_simulate']:.0f} (FMPy's simulate_fmu), "
+              f"{split['real_time_factor_c']:.0f} (the FMU alone, C driver)")
 
 
 if __name__ == "__main__":

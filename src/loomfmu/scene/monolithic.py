@@ -5,6 +5,7 @@ once into a folder and run through FMPy, returning the same
 DAE's)."""
 from __future__ import annotations
 
+import math
 import tempfile
 from pathlib import Path
 
@@ -54,7 +55,6 @@ def run_monolithic(scene: Scene, *, step: float | None = None, stop: float | Non
     (default a temporary one); fmu: the path of a composed FMU built before
     (:func:`composed_fmu`), to skip the build.  A run the FMU refuses
     raises RuntimeError with its last log lines."""
-    from loomfmu.verification.fmpy_logger import simulate
     if not isinstance(scene, Scene):
         raise ValueError(f"scene = {scene!r:.60}; allowed: a loomfmu.scene.Scene")
     stop = check_number("stop", scene.stop_time if stop is None else stop, lo=0.0,
@@ -70,40 +70,75 @@ def run_monolithic(scene: Scene, *, step: float | None = None, stop: float | Non
                          "file of the scene")
     refs = scene.recorded_variables()
     names = [f"{c}.{v}" for c, v in refs]
-    if fmu is not None:
-        _check_fmu(Path(fmu), scene, names)
-    lines: list[str] = []
-
-    def logger(component, instance, status, category, message):
-        lines.append(f"[{category.decode(errors='replace')}] "
-                     f"{message.decode(errors='replace')}")
-
+    md = _check_fmu(Path(fmu), scene, names) if fmu is not None else None
+    # (an FMU built here is read by the instance)
     with tempfile.TemporaryDirectory() as tmp:
         if fmu is None:
             fmu, _ = composed_fmu(scene, fmu_dir if fmu_dir is not None else tmp)
-        try:
-            res = simulate(str(fmu), logger=logger, stop_time=stop, output_interval=step,
-                           relative_tolerance=rtol, output=names,
-                           start_values={"solver": SOLVERS.index(solver) + 1,
-                                         "solver_rtol": rtol, "solver_atol": atol})
-        except Exception as exc:  # noqa: BLE001 (FMPy's FMICallException and others)
-            said = "; ".join(lines[-3:]) or "no log line"
-            raise RuntimeError(f"scene {scene.name} composed: {exc} (log: {said})") from None
-    data = np.zeros(len(res), dtype=[("time", "f8")] + [(n, "f8") for n in names])
-    data["time"] = res["time"]
-    for n in names:
-        data[n] = res[n]
-    n = len(res) - 1
+        data, lines = _run_cs(Path(fmu), scene.name, names, md, stop=stop, step=step,
+                              solver=solver, rtol=rtol, atol=atol)
+    n = len(data) - 1
     return Result(data, MONOLITHIC, n, 0, np.diff(data["time"]), {scene.name: lines},
                   atol=atol)
 
 
-def _check_fmu(path: Path, scene: Scene, names: list[str]) -> None:
-    """ValueError naming ``fmu`` unless it is an FMU with every variable the
-    scene records (the composed FMU of this scene)."""
-    from fmpy import read_model_description
+def _run_cs(path: Path, name: str, names: list[str], md, *, stop: float, step: float,
+            solver: str, rtol: float, atol: float) -> tuple[np.ndarray, list[str]]:
+    """The composed FMU's co-simulation interface stepped from 0 to ``stop`` at
+    ``step`` (the last step shortened to end at ``stop``), ``names`` read after
+    each step: the loop calls FMPy's ctypes functions directly with arrays made
+    once, as the co-simulation master does (loomfmu.scene.system), not FMPy's
+    simulate_fmu, whose own work per step (its recorder, a new ctypes array per
+    read) costs more than the loom's doStep.  md: the FMU's model description
+    if read before (else read here).  Returns (the record, the FMU's
+    log lines); a step or read the FMU refuses raises RuntimeError with its
+    last log lines."""
+    from fmpy.fmi2 import fmi2True
+
+    from loomfmu.scene.system import FMI2_WARNING, Instance, Values
+    n = max(1, math.ceil(stop / step * (1 - 1e-12)))
+    times = np.minimum(np.arange(n + 1) * step, stop)
+    times[-1] = stop
+    data = np.zeros(n + 1, dtype=[("time", "f8")] + [(v, "f8") for v in names])
+    data["time"] = times
+    inst = None
     try:
-        have = {v.name for v in read_model_description(str(path)).modelVariables}
+        inst = Instance(name, path, md)
+        inst.set({"solver": SOLVERS.index(solver) + 1, "solver_rtol": rtol,
+                  "solver_atol": atol})
+        inst.fmu.setupExperiment(tolerance=rtol, startTime=0.0, stopTime=stop)
+        inst.fmu.enterInitializationMode()
+        inst.fmu.exitInitializationMode()
+        values = Values(inst, [inst.vr[v] for v in names])
+        row = np.frombuffer(values.val, dtype=np.float64)
+        rows = np.empty((n + 1, len(names)))
+        do_step, comp = inst.f_do_step, inst.component
+        for i in range(n + 1):
+            if i and do_step(comp, times[i - 1], times[i] - times[i - 1], fmi2True) \
+                    > FMI2_WARNING:
+                raise RuntimeError(f"fmi2DoStep from t = {times[i - 1]:.17g} s failed")
+            if not values.get():
+                raise RuntimeError(f"fmi2GetReal at t = {times[i]:.17g} s failed")
+            rows[i] = row
+    except Exception as exc:  # noqa: BLE001 (FMPy's FMICallException and others)
+        lines = inst.log if inst is not None else []
+        said = "; ".join(lines[-3:]) or "no log line"
+        raise RuntimeError(f"scene {name} composed: {exc} (log: {said})") from None
+    finally:
+        if inst is not None:
+            inst.close()
+    for k, v in enumerate(names):
+        data[v] = rows[:, k]
+    return data, list(inst.log)
+
+
+def _check_fmu(path: Path, scene: Scene, names: list[str]):
+    """ValueError naming ``fmu`` unless it is an FMU with every variable the
+    scene records (the composed FMU of this scene); its model description."""
+    from fmpy import read_model_description
+    try:  # names only: the schema check (validate) costs more than the loom's run
+        md = read_model_description(str(path), validate=False)
+        have = {v.name for v in md.modelVariables}
     except Exception:  # noqa: BLE001 (FMPy raises bare Exceptions for a damaged file)
         have = None
     missing = None if have is None else [n for n in names if n not in have]
@@ -112,3 +147,8 @@ def _check_fmu(path: Path, scene: Scene, names: list[str]) -> None:
                f"it has no {', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}")
         raise ValueError(f"fmu = {str(path)!r:.80}: {why}; allowed: the composed FMU of scene "
                          f"{scene.name!r} (loomfmu.scene.monolithic.composed_fmu)")
+    if md.coSimulation is None:
+        raise ValueError(f"fmu = {str(path)!r:.80}: it has no co-simulation interface; allowed: "
+                         f"the composed FMU of scene {scene.name!r} built with interface 'cs' "
+                         "or 'both'")
+    return md

@@ -100,6 +100,10 @@ class Values:
         return inst.f_set(inst.component, self.vr, self.n, self.val) <= FMI2_WARNING
 
 
+def _needed_at_run_time(name: str) -> bool:
+    return not name.startswith(("sources/", "documentation/", "extra/"))
+
+
 def _raise(exc: Exception):
     raise exc
 
@@ -107,10 +111,12 @@ def _raise(exc: Exception):
 class Instance:
     """One FMU instance."""
 
-    def __init__(self, name: str, path: Path):
+    def __init__(self, name: str, path: Path, md=None):
         self.name = name
-        self.md = read_model_description(str(path))
-        self.dir = extract(str(path))
+        self.md = md if md is not None else read_model_description(str(path))
+        # what an instance needs: not the sources, the documentation or the
+        # reference results (a composed FMU's sources are most of its files)
+        self.dir = extract(str(path), include=_needed_at_run_time)
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
         self.type = {v.name: v.type for v in self.md.modelVariables}
         self.log: list[str] = []
