@@ -218,3 +218,33 @@ def test_dynamic_imports_are_seen(tmp_path):
     probe.write_text("import importlib\nM = 'x'\nimportlib.import_module(M)\n")
     with pytest.raises(AssertionError, match="computed name"):
         imports("loomfmu.scene.probe", probe, known)
+
+
+def _may_import(doc: str) -> str | None:
+    """The text of a package docstring's "May import:" paragraph; None where
+    it says a rule ("every layer ...") instead of a list."""
+    m = re.search(r"May import:(.*?)(?:\n\s*\n|$)", doc, flags=re.S)
+    if m is None or "every layer" in m.group(1) or "all below" in m.group(1):
+        return None
+    return m.group(1)
+
+
+def test_each_package_lists_what_it_imports():
+    """A package whose docstring lists what it may import lists every loomfmu
+    package its modules do import (the test above checks the order; this one
+    that the docstring a maintainer reads is true)."""
+    g = graph()
+    bad = []
+    for init in sorted(SRC.glob("*/__init__.py")) + [MODELS / "__init__.py"]:
+        pkg = f"loomfmu.{init.parent.name}"
+        listed = _may_import(ast.get_docstring(ast.parse(init.read_text())) or "")
+        if listed is None:
+            continue
+        used = {t.split(".")[1] for mod, targets in g.items()
+                if mod == pkg or mod.startswith(pkg + ".") for t in targets
+                if t.count(".") >= 1 and not t.startswith(pkg)}
+        missing = sorted(u for u in used if not re.search(rf"\b{u}\b", listed))
+        if missing:
+            bad.append(f"{init.relative_to(ROOT)}: imports {', '.join(missing)} but its "
+                       "docstring's 'May import:' does not name them")
+    assert not bad, "\n".join(bad)

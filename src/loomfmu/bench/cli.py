@@ -198,6 +198,11 @@ def main(argv=None, prog: str = "loomfmu bench") -> int:
     check_output_options(args, **outputs, make=False)
     if args.command in ("speed", "friction") and args.repeats < 1:
         subs[args.command].error(f"--repeats {args.repeats}: allowed >= 1")
+    if args.command == "speed":
+        from loomfmu.registry import MODELS
+        if args.model not in MODELS:
+            subs["speed"].error(f"--model {args.model}: not a model; allowed: "
+                                f"{', '.join(MODELS)}")
     if not charts_:
         check_output_options(args, **outputs)
     if args.command == "friction":

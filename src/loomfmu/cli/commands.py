@@ -84,8 +84,8 @@ def declare(name: str, options: dict):
 def check_range(flag: str, value: float, lo: float, hi: float | None = None) -> None:
     ok = math.isfinite(value) and value > lo and (hi is None or value < hi)
     if not ok:
-        span = f"({lo:g}, {hi:g})" if hi is not None else f"> {lo:g}"
-        raise UsageError(f"{flag} {value!r}: allowed {span}")
+        span = f"in ({lo:g}, {hi:g})" if hi is not None else f"> {lo:g}"
+        raise UsageError(f"{flag} {value!r}: allowed: a finite number {span}")
 
 
 # ---------------------------------------------------------------- list
@@ -270,6 +270,10 @@ def cmd_build(args) -> int:
     models = ({name: declare(name, args.option_values) for name in names}
               if min(args.jobs, len(names)) <= 1 else {})
     out_dir: Path = args.out_dir
+    from loomfmu.fmu.platforms import select
+    chosen, _ = select(args.platforms, args.fmi_version)
+    print(f"loomfmu build: binaries for {', '.join(chosen)} (--platforms or ${ENV} choose; "
+          "each cross compiler adds about the native compiling)", file=sys.stderr)
     with Progress(total=len(names), desc="build") as bar:
         reports = _build_all(names, models, args, bar)
     report_path = out_dir / "report.json"
@@ -307,8 +311,8 @@ def _description_of(target: str, options: dict):
     """The model description of an .fmu file, or of a model generated without
     compiling (so that names and values are checked before a build)."""
     import fmpy
-    if target.endswith(".fmu"):
-        md = _fmu_description(Path(target))
+    if target.endswith(".fmu") or os.sep in target or Path(target).is_file():
+        md = _fmu_description(Path(target))  # a file: an FMU or nothing
         if options:
             raise UsageError("--option applies to a MODEL, not to a built FMU")
         return md, None

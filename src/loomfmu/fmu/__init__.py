@@ -8,6 +8,7 @@ the compile cache (:mod:`.compile_cache`), the FMU's own documentation
 page (:mod:`.documentation`) and the reference result it carries under
 FMI-LS-REF, with its check (:mod:`.reference_results`).
 
-May import: :mod:`loomfmu.declare`, :mod:`loomfmu.registry`,
+May import: :mod:`loomfmu.declare`, :mod:`loomfmu.models` (a model module's
+docstring, for the page), :mod:`loomfmu.registry`, :mod:`loomfmu.fidelity`,
 :mod:`loomfmu.export`, :mod:`loomfmu.verification`, :mod:`loomfmu.inspection`.
 """

@@ -4,7 +4,7 @@ exported as an SSP file for other engines; or composed at the equation level
 into one model and one FMU (compose, run_monolithic).  See
 docs/guides/scenes.md and docs/guides/composed.md.
 
-May import: declare, registry, export, verification, fmu.  A generic
+May import: declare, progress, registry, export, verification, fmu.  A generic
 layer: it never imports a mechanism's content; the seeds' scenes live in
 :mod:`loomfmu.machines`.
 """

@@ -15,7 +15,7 @@ and resetting one instance between cases; rows go to a CSV keyed by a case
 hash, so a rerun resumes. run_serial is the plain loop it is checked
 against. The seeds' studies: loomfmu.machines.studies.
 
-May import: declare, registry, export, verification, fmu.  A generic
+May import: declare, progress, registry, export, verification, fmu.  A generic
 layer: it never imports a mechanism's content.
 """
 from loomfmu.sweep.figures import REDUCTIONS, Derived, Figure, parse_figure
