@@ -386,9 +386,9 @@ def _fast_oscillator() -> Model:
 def test_a_slow_delay_beside_a_fast_part_keeps_its_history_within_capacity(tmp_path):
     """Composed with a 3 kHz oscillator the solver steps every few
     microseconds, far more steps within the 0.5 s delay than the history
-    holds (65 536 samples): the samples of the slow delayed signal that its
-    neighbours reproduce are thinned, the run completes and the lag equals
-    the slow part's own reference."""
+    holds (65 536 samples): the history samples the slow delayed signal as
+    densely as its error estimate needs, not at every step, the run
+    completes and the lag equals the slow part's own reference."""
     s = Scene("slow_fast", stop_time=0.8, step=0.01)
     s.add("d", model=_slow_delayed())
     s.add("f", model=_fast_oscillator())
@@ -396,6 +396,27 @@ def test_a_slow_delay_beside_a_fast_part_keeps_its_history_within_capacity(tmp_p
     run = simulate(fmu, rtol=1e-9, atol=1e-12, output=["d.y", "f.q_out"])
     alone = reference(_slow_delayed(), t_end=0.8, t_eval=run.t, rtol=1e-11, atol=1e-13)
     assert np.max(np.abs(run.y["d.y"] - alone.y["y"])) < 1e-7
+    # the history samples the slow signal, not every step of the fast part:
+    # the same run by the C driver with the skipping on and off
+    import json
+    import subprocess
+
+    from loomfmu.bench import limit as L
+    got = {}
+    for name, flags in (("skip", ()), ("every", ("-DLF_HIST_SKIPPING=0",))):
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(L, "STRICT_FLAGS", (*L.STRICT_FLAGS, "-DLF_HIST_STATS", *flags))
+            (tmp_path / name).mkdir()
+            exe = L.compile_driver(fmu, tmp_path / name)
+        proc = subprocess.run([str(exe), "0.8", "0.01", "1e-9", "1e-12", "dopri5", "1", "1"],
+                              capture_output=True, text=True, check=True)
+        sampled, skipped = map(int, re.search(r"hist_stats: sampled (\d+) skipped (\d+)",
+                                              proc.stderr).groups())
+        got[name] = (json.loads(proc.stdout), sampled, skipped)
+    (skip, sampled, skipped), (every, sampled0, skipped0) = got["skip"], got["every"]
+    assert skipped0 == 0 and skip["steps"] == every["steps"]
+    assert skipped > 20 * sampled   # 3 kHz steps against a 2 rad/s signal
+    assert skip["y_end"]["d.y"] == pytest.approx(every["y_end"]["d.y"], rel=1e-8, abs=1e-12)
 
 
 def test_the_composed_scene_is_inspected_like_a_model(tmp_path, capsys):

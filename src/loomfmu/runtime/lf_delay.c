@@ -183,6 +183,23 @@ LfStatus lf_hist_push(LfInstance *c, double t, const double *x, int jump) {
 
 #define LF_HIST_MAX_DEPTH 12
 
+/* -DLF_HIST_SKIPPING=0: a sample at every accepted step (tests compare) */
+#ifndef LF_HIST_SKIPPING
+#define LF_HIST_SKIPPING 1
+#endif
+
+/* -DLF_HIST_STATS: the accepted steps whose end was sampled or skipped,
+ * printed to stderr at exit (tests/test_compose.py; one instance at a time) */
+#ifdef LF_HIST_STATS
+static long hs_sampled, hs_skipped;
+static void __attribute__((destructor)) hs_print(void) {
+    fprintf(stderr, "hist_stats: sampled %ld skipped %ld\n", hs_sampled, hs_skipped);
+}
+#define HSTAT(x) ((void)(x))
+#else
+#define HSTAT(x) ((void)0)
+#endif
+
 /* g and dg/dt at (t, x), for the history (g[0 .. LF_ND - 1] the values,
  * g[LF_ND ...] their time derivatives): the unknowns w (dg/dt needs x') and
  * the generated history function.  One per accepted step is the least a
@@ -404,19 +421,132 @@ static int stored_start(const LfInstance *c, double t_old, double *ga) {
     return 1;
 }
 
-LfStatus lf_hist_step(LfInstance *c) {
-    double ga[LF_DIM(2 * LF_ND)], gb[LF_DIM(2 * LF_ND)];
+/* Sampling the history at every accepted step is more than a slow delayed
+ * signal needs where the steps are set by a fast part of the model (a
+ * drive composed with a rotor: 5 us steps against a 0.5 s delay of a cam
+ * signal that samples a millisecond apart resolve).  A step's end is not
+ * sampled when, for every delay > 0,
+ *  - the step is shorter than tau / LF_HIST_SKIP_MIN_STEPS (models whose
+ *    steps are as long as their history needs never skip: the drive alone
+ *    keeps every sample, bit for bit as before; so does x' = -x(t - tau)
+ *    down to rtol 1e-13 (tests/test_delay_convergence.py), whose solution's
+ *    derivatives jump at multiples of tau, unseen by the samples before),
+ *  - the interval from the last sample stays shorter than the spacing the
+ *    last intervals' error estimate allows (the quintic estimate of
+ *    estimate_fine, which scales as h^4, at LF_HIST_SKIP_SAFETY of the
+ *    tolerance; at most LF_HIST_SKIP_GROWTH times the last interval and
+ *    LF_HIST_SKIP_MAX_SPACING tau) and than tau minus LF_HIST_SKIP_ROOM
+ *    steps of the current size (the equations never read past the last
+ *    sample: t - tau before its time),
+ * and the history's last three samples are ordinary (no jump).  The
+ * decision uses the samples held only, so a restored FMU state continues
+ * bit for bit.  The sample after skipped ones is appended at the step's end
+ * (the interval's error is the one the estimate allowed; there is no dense
+ * output before the step's start to refine it). */
+#define LF_HIST_SKIP_MIN_STEPS 1e4
+#define LF_HIST_SKIP_MAX_SPACING (1.0 / 64)
+#define LF_HIST_SKIP_SAFETY 0.25
+#define LF_HIST_SKIP_GROWTH 2.0
+#define LF_HIST_SKIP_ROOM 16.0
+
+/* The interval from the last sample of delay k its last two intervals'
+ * estimate allows (0: none, e.g. fewer than three samples or a jump). */
+static double allowed_spacing(const LfInstance *c, int k) {
+    long n = c->dl.hist_count[k];
+    double t0, t1, t2, h, hp, thp, q, dq, r0, r1, m0, m1, e, g1, g2, d1, d2, tol, ratio;
+    if (n < 3) return 0.0;
+    t0 = LF_HT(c, k, n - 3);
+    t1 = LF_HT(c, k, n - 2);
+    t2 = LF_HT(c, k, n - 1);
+    h = t2 - t1;
+    hp = t1 - t0;
+    if (!(h > 0) || !(hp > 0) || hp > LF_HIST_EST_RATIO * h || LF_HIST_EST_RATIO * hp < h)
+        return 0.0;
+    g1 = LF_HG(c, k, n - 2);
+    g2 = LF_HG(c, k, n - 1);
+    d1 = LF_HD(c, k, n - 2);
+    d2 = LF_HD(c, k, n - 1);
+    thp = -hp / h;
+    q = thp * thp * (thp - 1) * (thp - 1);
+    dq = 2 * thp * (thp - 1) * (2 * thp - 1);
+    r0 = LF_HG(c, k, n - 3) - hermite(g1, d1, g2, d2, h, thp);
+    r1 = h * LF_HD(c, k, n - 3) -
+         ((6 * thp * thp - 6 * thp) * (g1 - g2) +
+          h * ((3 * thp * thp - 4 * thp + 1) * d1 + (3 * thp * thp - 2 * thp) * d2));
+    m0 = r0 / q;
+    m1 = (r1 - dq * m0) / q;
+    /* the larger of the estimates at the quarter points */
+    e = 0.03515625 * fmax(fabs(m0 + m1 * (0.25 - thp)), fabs(m0 + m1 * (0.75 - thp)));
+    tol = LF_HIST_SKIP_SAFETY * LF_HIST_QUARTER_SCALE *
+          (c->solver.opt.atol + c->solver.opt.rtol * fabs(g2));
+    if (!isfinite(e)) return 0.0;
+    ratio = e > 0 ? sqrt(sqrt(tol / e)) : LF_HIST_SKIP_GROWTH;
+    return h * fmin(ratio, LF_HIST_SKIP_GROWTH);
+}
+
+/* May the history skip the sample at the end of the step just accepted? */
+static int may_skip(const LfInstance *c) {
+    const LfSolver *s = &c->solver;
+    int k, any = 0;
+    for (k = 0; k < LF_ND; k++) {
+        long n = c->dl.hist_count[k];
+        double since;
+        if (c->dl.tau[k] == 0) continue;
+        if (n < 3 || s->t - s->t_old > c->dl.tau[k] / LF_HIST_SKIP_MIN_STEPS) return 0;
+        since = s->t - LF_HT(c, k, n - 1);
+        if (!(since > 0) ||
+            since + LF_HIST_SKIP_ROOM * (s->t - s->t_old) > c->dl.tau[k] ||
+            !(since < allowed_spacing(c, k)) ||
+            !(since < LF_HIST_SKIP_MAX_SPACING * c->dl.tau[k]))
+            return 0;
+        any = 1;
+    }
+    return any;
+}
+
+/* The last sample of every delay > 0, when all are at one time (the history
+ * sampled there); else returns 0. */
+static int last_samples(const LfInstance *c, double *t_last, double *ga) {
+    int k, first = 1;
+    for (k = 0; k < LF_ND; k++) {
+        long n = c->dl.hist_count[k];
+        ga[k] = 0.0;
+        ga[LF_ND + k] = 0.0;
+        if (c->dl.tau[k] == 0) continue;
+        if (n == 0 || (!first && LF_HT(c, k, n - 1) != *t_last)) return 0;
+        *t_last = LF_HT(c, k, n - 1);
+        first = 0;
+        ga[k] = LF_HG(c, k, n - 1);
+        ga[LF_ND + k] = LF_HD(c, k, n - 1);
+    }
+    return !first;
+}
+
+LfStatus lf_hist_step(LfInstance *c, int skippable) {
+    double ga[LF_DIM(2 * LF_ND)], gb[LF_DIM(2 * LF_ND)], t_last = 0.0;
     LfSolver *s = &c->solver;
     int k = 0;
     LfStatus st;
     while (k < LF_ND && c->dl.tau[k] == 0) k++;
     if (k == LF_ND) return LF_OK; /* only zero delays: no history is kept */
-    if (c->dl.delay_interp == LF_DELAY_LINEAR || !(s->t > s->t_old) ||
-        !stored_start(c, s->t_old, ga))
+    if (c->dl.delay_interp == LF_DELAY_LINEAR || !(s->t > s->t_old))
         return lf_hist_push(c, s->t, s->x, 0);
+    if (skippable && LF_HIST_SKIPPING && may_skip(c)) {
+        HSTAT(hs_skipped++);
+        return LF_OK;
+    }
+    HSTAT(hs_sampled++);
+    if (stored_start(c, s->t_old, ga)) {
+        st = lf_hist_sample_end(c, s->t, s->x, gb);
+        if (st != LF_OK) return st;
+        return hist_refine(c, s->t_old, ga, s->t, gb, 0);
+    }
+    if (!last_samples(c, &t_last, ga) || !(t_last < s->t_old))
+        return lf_hist_push(c, s->t, s->x, 0);
+    /* after skipped samples (see LF_HIST_SKIP_MIN_STEPS) */
     st = lf_hist_sample_end(c, s->t, s->x, gb);
     if (st != LF_OK) return st;
-    return hist_refine(c, s->t_old, ga, s->t, gb, 0);
+    return hist_append(c, s->t, gb, 0);
 }
 
 /* Delays from the parameters; each must fit the history the FMU holds. */

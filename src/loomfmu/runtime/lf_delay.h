@@ -7,7 +7,7 @@
 
 double lf_next_breakpoint(LfInstance *c, double t, double t_end, int *is_bp);
 LfStatus lf_hist_push(LfInstance *c, double t, const double *x, int jump);
-LfStatus lf_hist_step(LfInstance *c);
+LfStatus lf_hist_step(LfInstance *c, int skippable);
 /* g and dg/dt of the delayed expressions at (t, x): one history sample */
 LfStatus lf_hist_sample(LfInstance *c, double t, const double *x, double *g);
 LfStatus lf_hist_sample_end(LfInstance *c, double t, const double *x, double *g);

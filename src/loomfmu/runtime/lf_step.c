@@ -172,7 +172,7 @@ static long solver_work(const LfSolver *s) { return s->n_steps + s->n_rejected; 
  * trajectory is the one without early return. */
 static LfStatus run_pending_event(LfInstance *c, int *changed) {
     LfStatus st = lf_apply_pending_event(c, changed);
-    if (st == LF_OK && LF_ND > 0) st = lf_hist_step(c);
+    if (st == LF_OK && LF_ND > 0) st = lf_hist_step(c, 0);
     return st;
 }
 
@@ -327,7 +327,7 @@ static LfStatus step_loop(LfInstance *c, double t0, double h) {
         }
         if (LF_ND > 0) {
             int at_bp = is_bp && s->t == t_bound;
-            st = lf_hist_step(c);
+            st = lf_hist_step(c, !at_bp);
             if (st != LF_OK) return fail_step(c, st, "history update failed");
             if (at_bp) lf_solver_reset(s, s->t, s->x); /* a delayed value jumps here */
         }
