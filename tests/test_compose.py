@@ -414,6 +414,7 @@ def test_a_slow_delay_beside_a_fast_part_keeps_its_history_within_capacity(tmp_p
                                               proc.stderr).groups())
         got[name] = (json.loads(proc.stdout), sampled, skipped)
     (skip, sampled, skipped), (every, sampled0, skipped0) = got["skip"], got["every"]
+    assert sampled0 >= 0.99 * every["steps"]   # off: every accepted step sampled
     assert skipped0 == 0 and skip["steps"] == every["steps"]
     assert skipped > 20 * sampled   # 3 kHz steps against a 2 rad/s signal
     assert skip["y_end"]["d.y"] == pytest.approx(every["y_end"]["d.y"], rel=1e-8, abs=1e-12)
