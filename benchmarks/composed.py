@@ -665,7 +665,8 @@ def main(argv=None) -> int:
         return 0
     w0, c0 = time.perf_counter(), os.times()
     doc = {"version": metadata.version("loomfmu"),
-           "command": " ".join(["python benchmarks/composed.py"] + sys.argv[1:]),
+           # (where the FMUs are kept, --fmu-dir, changes no result)
+           "command": " ".join(["python benchmarks/composed.py"] + _without_fmu_dir(sys.argv[1:])),
            "scenes": {}}
     with tempfile.TemporaryDirectory() as tmp:
         fmu_dir = args.fmu_dir or Path(tmp)
@@ -690,6 +691,18 @@ def main(argv=None) -> int:
     print(text)
     headline(doc)
     return 0
+
+
+def _without_fmu_dir(args: list[str]) -> list[str]:
+    out, skip = [], False
+    for a in args:
+        if skip:
+            skip = False
+        elif a == "--fmu-dir":
+            skip = True
+        elif not a.startswith("--fmu-dir="):
+            out.append(a)
+    return out
 
 
 def headline(doc: dict) -> None:
