@@ -205,8 +205,10 @@ def test_backrest_switch_times_agree_in_me(fmus):
 
 def test_drive_refuses_a_step_longer_than_the_history(fmus):
     """Without completed steps the history ends at the start: a derivative
-    at t > tau would need an extrapolated delayed value, and is refused with
-    fmi2Discard and a log saying what the importer must do."""
+    at t - tau up to tau / 2 past it takes the history's Taylor line there
+    (one warning per instance: FMPy's CVode steps that far past its output
+    points); further out it is refused with fmi2Discard and a log saying
+    what the importer must do."""
     s = Instance(fmus["drive"].path)
     try:
         s.start()
@@ -214,13 +216,19 @@ def test_drive_refuses_a_step_longer_than_the_history(fmus):
         tau = 0.5
         s.fmu.setTime(0.9 * tau)
         s.derivatives()  # t - tau < 0: the history before the start
-        s.fmu.setTime(1.5 * tau)
+        s.fmu.setTime(1.4 * tau)
+        s.derivatives()  # t - tau = 0.4 tau past the history's end: extrapolated
+        s.fmu.setTime(1.45 * tau)
+        s.derivatives()
+        warned = [m for m in s.messages(1) if "extrapolated" in m]
+        assert len(warned) == 1 and "said once per instance" in warned[0]
+        s.fmu.setTime(1.6 * tau)
         with pytest.raises(FMICallException) as e:
             s.derivatives()
         assert e.value.status == DISCARD
         msg = s.messages(DISCARD)[-1]
         assert "history ends at t = 0" in msg and "completed integrator step" in msg
-        assert "tau = 0.5" in msg
+        assert "tau = 0.5" in msg and "more than tau / 2 before" in msg
         vr_out = s.vr["u_delayed"]
         with pytest.raises(FMICallException):  # outputs need the delayed value too
             s.fmu.getReal([vr_out])
@@ -234,12 +242,14 @@ def test_drive_refuses_a_step_longer_than_the_history(fmus):
 def test_fmpy_with_output_points_further_apart_than_tau_is_refused(fmus):
     """FMPy's CVode completes a step only at output points: 1 s apart, more
     than tau = 0.5 s, the run fails (CVode gives up after the discards)
-    instead of returning extrapolated values, and the log says why."""
+    where it would need values extrapolated further than tau / 2, and the
+    log says why."""
     log = []
     with pytest.raises(Exception):  # noqa: B017 (FMPy raises a bare Exception on Error)
         _simulate(fmus["drive"].path, "ModelExchange", 3.0, 1.0, 1e-7,
                   logger=lambda env, i, st, c, m: log.append((st, m.decode())))
-    assert any(st == DISCARD and "history ends at t = 0 " in m for st, m in log)
+    assert any(st == DISCARD and "history ends at t = " in m and "more than tau / 2" in m
+               for st, m in log)
 
 
 def test_drive_history_from_completed_steps(fmus):

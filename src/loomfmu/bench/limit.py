@@ -241,11 +241,10 @@ outputs equal FMPy's bit for bit (`tests/test_bench_limit.py`).
   right-hand side only (not the outputs, event indicators or event location).
 * **RHS µs, Jac µs**: CPU time of one call of the right-hand side the solver
   integrates (`lf_ode_of(c).rhs`: the generated `wsol`, or for implicit
-  models `res` with Newton on the exact dF/dw, here converging in one
-  iteration from the solution: a residual, dF/dw, its LU and a solve; inside
-  a step the runtime's solves start from a predictor and iterate with a
-  kept dF/dw instead, `lf_newton_mem.h`, about two residuals and no
-  factorization a call on the backrest) and of its Jacobian (`.jac`), at the run's
+  models the torn form, `tpre`, Newton on the torn unknowns with `tres` and
+  `tpost`, here converging in one iteration from the solution; models whose
+  loop is not torn, `res` with Newton on the exact dF/dw, from a predictor
+  inside a step, `lf_newton_mem.h`) and of its Jacobian (`.jac`), at the run's
   last accepted point, in a tight loop: the best of the batches. For a model
   with delays the right-hand side includes the lookup of the delayed values
   in the history (at t − τ, cubic Hermite), which every call needs.

@@ -224,6 +224,8 @@ typedef struct {
     double wk_x[LF_DIM(LF_NX)];
     /* -- algebraic loops: Newton's memory (lf_newton_mem.h) -- */
     LfNewtonMem nm;
+    /* model exchange: a delayed value was extrapolated (said once, lf_me.c) */
+    int me_extrapolated;
 } LfUnsaved;
 
 typedef struct {

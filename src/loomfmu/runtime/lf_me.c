@@ -90,6 +90,15 @@ static double hist_first_time(const LfInstance *c, int k) {
     return c->dl.hist[((size_t)k * LF_HIST_CAP + (size_t)c->dl.hist_start[k]) * 3];
 }
 
+/* Model exchange with delays: the delayed value at t - tau after the last
+ * completed step comes from the history's Taylor line there (lf_eval.c),
+ * for at most LF_ME_EXTRAPOLATE tau, with one warning per instance; further
+ * out the evaluation is refused.  FMPy's CVode steps in CV_NORMAL mode to
+ * each output point, completing a step only there, and its internal steps
+ * run past it: up to (stop - start) / 50, 0.6 s over the drive's 30 s, longer
+ * than its tau = 0.5 s by 0.1 s. */
+#define LF_ME_EXTRAPOLATE 0.5
+
 LfStatus lf_me_delays_known(LfInstance *c, const char *fn) {
     int k;
     for (k = 0; k < LF_ND; k++) {
@@ -98,14 +107,23 @@ LfStatus lf_me_delays_known(LfInstance *c, const char *fn) {
         s = c->run.t - c->dl.tau[k];
         first = hist_first_time(c, k);
         last = hist_last_time(c, k);
-        if (s > last + eps) {
+        if (s > last + LF_ME_EXTRAPOLATE * c->dl.tau[k] + eps) {
             lf_log(c, LF_DISCARD, LF_LOG_DISCARD,
                    "t = %.17g: %s: delay %s needs its value at t - tau = %.17g, but the history "
-                   "ends at t = %.17g (the last completed integrator step); model exchange "
-                   "with delays needs a completed integrator step after every accepted step "
-                   "and steps no longer than tau = %g s; nothing extrapolated", c->run.t, fn,
-                   lf_model.delay_names[k], s, last, c->dl.tau[k]);
+                   "ends at t = %.17g (the last completed integrator step), more than tau / %g "
+                   "before; model exchange with delays needs a completed integrator step "
+                   "after every accepted step and steps no longer than tau = %g s", c->run.t,
+                   fn, lf_model.delay_names[k], s, last, 1.0 / LF_ME_EXTRAPOLATE,
+                   c->dl.tau[k]);
             return LF_DISCARD;
+        }
+        if (s > last + eps && !c->unsaved.me_extrapolated) {
+            c->unsaved.me_extrapolated = 1;
+            lf_log(c, LF_WARNING, LF_LOG_WARNING,
+                   "t = %.17g: %s: delay %s extrapolated from the last completed integrator "
+                   "step (t = %.17g) to t - tau = %.17g: the importer's solver steps past "
+                   "tau = %g s between completed steps (said once per instance)", c->run.t,
+                   fn, lf_model.delay_names[k], last, s, c->dl.tau[k]);
         }
         /* before the start the history is constant; after it, only what is kept */
         if (s < first - eps && first > c->run.t_start) {
