@@ -257,6 +257,10 @@ def test_the_command_line_builds_the_scene_and_runs_it_either_way(tmp_path, caps
     assert main(["run", "two_mass", "--coupling", "monolithic", "--master", "jacobi"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--master: options of the co-simulation master" in err
+    for bad in (["--rtol", "1e-5"], ["--rtol", "nan"]):   # the adaptive master's, not the FMU's
+        assert main(["run", "two_mass", "--coupling", "monolithic", *bad]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "--rtol: options of the co-simulation master" in err
 
 
 def _square_plus_one() -> Model:
@@ -463,6 +467,25 @@ def test_a_refused_composed_run_raises_with_the_fmus_log(tmp_path):
     with pytest.raises(RuntimeError, match=r"scene no_solution composed: .*log: .*Newton did "
                                            r"not converge"):
         run_monolithic(s, fmu_dir=tmp_path)
+
+
+@pytest.mark.slow
+def test_a_composed_fmu_built_before_runs_the_scene_as_declared_now(tmp_path):
+    """fmu= skips the build; the scene's parameter and start values are set
+    on the instance, so a changed value is not silently the old default."""
+    from loomfmu.machines.two_mass import scene
+    from loomfmu.scene.monolithic import composed_fmu, run_monolithic
+    path, _ = composed_fmu(scene(stop_time=0.5), tmp_path / "default")
+    s = scene(stop_time=0.5)
+    s.set("force", parameters={"m1": 5.0})
+    reused = run_monolithic(s, stop=0.5, step=0.1, fmu=path)
+    built = run_monolithic(s, stop=0.5, step=0.1, fmu_dir=tmp_path / "heavy")
+    np.testing.assert_allclose(reused["force.x1_out"], built["force.x1_out"], rtol=1e-12,
+                               atol=1e-15)
+    default = run_monolithic(scene(stop_time=0.5), stop=0.5, step=0.1, fmu=path)
+    assert np.max(np.abs(default["force.x1_out"] - built["force.x1_out"])) > 1e-3
+    with pytest.raises(ValueError, match=r"fmu_dir = 5; allowed: a directory"):
+        run_monolithic(s, fmu_dir=5)
 
 
 @pytest.mark.slow

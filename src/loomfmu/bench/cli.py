@@ -11,7 +11,7 @@ from pathlib import Path
 from loomfmu.bench import classic, failures, limit, report
 from loomfmu.bench.scenes import BENCH, load_scene_model
 from loomfmu.bench.sweep import Plan, prepare, work_precision
-from loomfmu.declare.checks import OneLineParser, check_output_options
+from loomfmu.declare.checks import OneLineParser, check_output_options, path_arg
 from loomfmu.progress import Progress
 
 #: most local dask workers (as loomfmu.sweep.run.MAX_WORKERS; not imported
@@ -147,10 +147,10 @@ def _parser(prog: str) -> tuple[argparse.ArgumentParser, dict]:
     c.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="--dask: address of a running dask scheduler (tcp://host:8786) "
                         "instead of a local cluster (default: none, a local cluster)")
-    c.add_argument("--readme", type=Path, default=None,
+    c.add_argument("--readme", type=path_arg, default=None,
                    help="page whose marked bench section to rewrite (default: docs/guides/speed.md "
                         "when --out is docs/results/bench, full runs only)")
-    c.add_argument("--out", type=Path, default=Path("docs/results/bench"),
+    c.add_argument("--out", type=path_arg, default=Path("docs/results/bench"),
                    help="output folder (default %(default)s)")
     s = _command(sub, "speed", "time at a target error of one model's FMU against scipy "
                  "-> docs/results/speed.json")
@@ -160,13 +160,13 @@ def _parser(prog: str) -> tuple[argparse.ArgumentParser, dict]:
     s.add_argument("--scales", type=float, nargs="+", default=[1.0, 10.0],
                    help="scene lengths as multiples of the model's default experiment "
                         "(default 1 10)")
-    s.add_argument("--out", type=Path, default=Path("docs/results/speed.json"),
+    s.add_argument("--out", type=path_arg, default=Path("docs/results/speed.json"),
                    help="the JSON file (default %(default)s)")
     f = _command(sub, "friction", "backrest: regularized against event-driven friction, "
                  "error and cost as eps shrinks -> docs/results/friction.json")
     f.add_argument("--repeats", type=int, default=5,
                    help="timed runs per point, the median kept (>= 1; default 5)")
-    f.add_argument("--out", type=Path, default=Path("docs/results/friction.json"),
+    f.add_argument("--out", type=path_arg, default=Path("docs/results/friction.json"),
                    help="the JSON file (default %(default)s)")
     lim = _command(sub, "limit", "each model's verification run at C level against its "
                    "method's limit, FMPy beside it -> docs/results/limit.json, limit.md")
@@ -181,9 +181,9 @@ def _parser(prog: str) -> tuple[argparse.ArgumentParser, dict]:
                           "(1 ... 64; default 5)")
     lim.add_argument("--fmpy-repeats", type=int, default=5,
                      help="FMPy runs per row, the median kept (0: none; 0 ... 64; default 5)")
-    lim.add_argument("--out", type=Path, default=None,
+    lim.add_argument("--out", type=path_arg, default=None,
                      help="the JSON file (default docs/results/limit.json)")
-    lim.add_argument("--page", type=Path, default=None,
+    lim.add_argument("--page", type=path_arg, default=None,
                      help="the markdown page to write (default docs/guides/limit.md when --out "
                           "is not given, else none)")
     return ap, {"charts": c, "speed": s, "friction": f, "limit": lim}

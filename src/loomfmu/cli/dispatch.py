@@ -32,7 +32,7 @@ from loomfmu.cli.commands import (
     cmd_simulate,
     cmd_verify,
 )
-from loomfmu.declare.checks import OneLineParser
+from loomfmu.declare.checks import OneLineParser, path_arg
 from loomfmu.declare.solvers import SOLVERS
 from loomfmu.fmu.builder import BuildError
 from loomfmu.registry import MODELS
@@ -94,7 +94,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--jobs", type=int, default=None, metavar="N",
                    help="build N models at once, each in its own process (>= 1; "
                         "default: the number of CPUs)")
-    p.add_argument("--out-dir", type=Path, default=Path("dist"), help="default: dist")
+    p.add_argument("--out-dir", type=path_arg, default=Path("dist"), help="default: dist")
     p.add_argument("--rtol", type=float, default=1e-6,
                    help="solver tolerance for the verification runs (0 < rtol < 1; "
                         "default 1e-6)")
@@ -121,15 +121,15 @@ def _parser() -> argparse.ArgumentParser:
                    help="importer tolerance (0 < rtol < 1; default 1e-6)")
     p.add_argument("--output", action="append", default=None, metavar="NAME",
                    help="variable to record (repeatable; default: every output)")
-    p.add_argument("--csv", type=Path, default=None, help="write the results as CSV")
-    p.add_argument("--plot", type=Path, default=None, help="write a PNG chart")
+    p.add_argument("--csv", type=path_arg, default=None, help="write the results as CSV")
+    p.add_argument("--plot", type=path_arg, default=None, help="write a PNG chart")
 
     p = sub.add_parser("verify", help="compare an FMU with its scipy reference",
                        description="Run FMU with every embedded solver (or --solver) in "
                                    "co-simulation, or once with FMPy's CVode if it is model "
                                    "exchange only, and compare its outputs with a tight scipy "
                                    "reference of the same declaration.")
-    p.add_argument("fmu", type=Path, metavar="FMU")
+    p.add_argument("fmu", type=path_arg, metavar="FMU")
     p.add_argument("--model", default=None,
                    help="model name (default: the FMU's modelName)")
     _option_arg(p)
@@ -155,7 +155,7 @@ def _parser() -> argparse.ArgumentParser:
                                    "against the tolerance the FMU states. Exit 0 within it, "
                                    "1 outside it or if the run fails, 2 if FMU is missing, "
                                    "not an FMU or has no usable reference.")
-    p.add_argument("fmu", type=Path, metavar="FMU")
+    p.add_argument("fmu", type=path_arg, metavar="FMU")
     p.add_argument("--interface", choices=["cs", "me"], default=None,
                    help="only this interface (default: every one the FMU has)")
 

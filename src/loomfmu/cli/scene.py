@@ -12,7 +12,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from loomfmu.declare.checks import OneLineParser, check_output_options
+from loomfmu.declare.checks import OneLineParser, check_output_options, path_arg
 from loomfmu.declare.solvers import SOLVERS
 from loomfmu.machines.fidelity import add_parser as add_fidelity_parser
 from loomfmu.machines.library import SCENES, load_scene
@@ -57,8 +57,8 @@ def _parser(prog: str) -> argparse.ArgumentParser:
     r.add_argument("--solver-rtol", type=float, default=1e-6,
                    help="--coupling monolithic: the solver's relative tolerance (default "
                         "1e-6)")
-    r.add_argument("--csv", type=Path, default=None, help="write the results as CSV")
-    r.add_argument("--fmu-dir", type=Path, default=None,
+    r.add_argument("--csv", type=path_arg, default=None, help="write the results as CSV")
+    r.add_argument("--fmu-dir", type=path_arg, default=None,
                    help="folder to build the FMUs into and reuse (default: a temporary one)")
     b = sub.add_parser("build", help="compose the scene into one model and build its FMU")
     b.add_argument("scene", help=f"one of {', '.join(sorted(SCENES))}")
@@ -66,20 +66,20 @@ def _parser(prog: str) -> argparse.ArgumentParser:
                    help="FMI version (default 2)")
     b.add_argument("--interface", choices=("cs", "me", "both"), default="cs",
                    help="co-simulation (default), model exchange or both")
-    b.add_argument("--out-dir", type=Path, default=Path("dist"),
+    b.add_argument("--out-dir", type=path_arg, default=Path("dist"),
                    help="folder of the FMU (default: dist)")
     i = sub.add_parser("inspect", help="the scene composed into one model: its derivation "
                        "and equations as loomfmu inspect writes a model's")
     i.add_argument("scene", help=f"one of {', '.join(sorted(SCENES))}")
     i.add_argument("--format", choices=("html", "md", "tex"), default="html",
                    help="html (MathML, default), md (Markdown with LaTeX) or tex")
-    i.add_argument("--out", type=Path, default=None,
+    i.add_argument("--out", type=path_arg, default=None,
                    help="file to write (default: SCENE.FORMAT; '-' prints it)")
     e = sub.add_parser("export", help="write the scene as an SSP file")
     e.add_argument("scene", help=f"one of {', '.join(sorted(SCENES))}")
-    e.add_argument("--out", type=Path, default=None,
+    e.add_argument("--out", type=path_arg, default=None,
                    help="the .ssp file (default: ./<scene>.ssp)")
-    e.add_argument("--fmu-dir", type=Path, default=None,
+    e.add_argument("--fmu-dir", type=path_arg, default=None,
                    help="folder to build the FMUs into and reuse (default: a temporary one)")
     add_fidelity_parser(sub)
     return ap
@@ -136,7 +136,7 @@ def _run_monolithic(args, prog: str, s) -> int:
     from loomfmu.scene.monolithic import run_monolithic
     given = [f"--{o.replace('_', '-')}" for o, default in (
         ("master", None), ("adaptive", False), ("extrapolation", None), ("order", None),
-        ("output_derivatives", False)) if getattr(args, o) != default]
+        ("output_derivatives", False), ("rtol", 1e-3)) if getattr(args, o) != default]
     if given:
         raise ValueError(f"{', '.join(given)}: options of the co-simulation master; allowed "
                          "with --coupling monolithic: --step, --stop, --solver, "

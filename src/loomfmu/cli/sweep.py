@@ -20,7 +20,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from loomfmu.declare.checks import OneLineParser, check_number, check_writable
+from loomfmu.declare.checks import OneLineParser, check_number, check_writable, path_arg
 from loomfmu.declare.solvers import SOLVERS
 
 
@@ -35,14 +35,14 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="how long to wait for --scheduler to answer (0 < . <= 600; "
                         "default 10): no answer, a closed port or another service there "
                         "is an error (exit 2)")
-    p.add_argument("--out-dir", type=Path, default=Path("docs/results/sweep"),
+    p.add_argument("--out-dir", type=path_arg, default=Path("docs/results/sweep"),
                    help="tables and charts (default: %(default)s)")
     p.add_argument("--fresh", action="store_true",
                    help="start over instead of resuming from OUT_DIR/<study>.csv")
     p.add_argument("--batch", type=int, default=1,
                    help="cases per dask task (default 1; more for short cases, to spread "
                         "dask's few ms per task)")
-    p.add_argument("--fmu", type=Path, default=None,
+    p.add_argument("--fmu", type=path_arg, default=None,
                    help="a built .fmu of the study's model (default: build it now)")
 
 

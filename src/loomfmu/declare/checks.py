@@ -292,6 +292,15 @@ def check_output_options(args, *, files: Iterable[str] = (), folders: Iterable[s
         p.mkdir(parents=True, exist_ok=True)
 
 
+def path_arg(text: str):
+    """argparse ``type=`` of a path option: a ``pathlib.Path``; an empty
+    string is refused (``Path("")`` would be the current directory)."""
+    from pathlib import Path
+    if not text:
+        raise argparse.ArgumentTypeError("an empty path; allowed: a file or directory name")
+    return Path(text)
+
+
 class OneLineParser(argparse.ArgumentParser):
     """argparse's parser with a usage error in one line (its message and where
     the help is) and exit status 2, as every loomfmu command line answers bad

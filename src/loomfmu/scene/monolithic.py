@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from loomfmu.declare.checks import check_choice, check_number
+from loomfmu.declare.checks import check_choice, check_number, check_writable
 from loomfmu.declare.solvers import SOLVERS
 from loomfmu.scene.compose import compose
 from loomfmu.scene.declare import Scene
@@ -53,7 +53,8 @@ def run_monolithic(scene: Scene, *, step: float | None = None, stop: float | Non
     (loomfmu.declare.solvers.SOLVERS), rtol and atol its tolerances;
     fmu_dir: the folder the composed FMU is built into and reused from
     (default a temporary one); fmu: the path of a composed FMU built before
-    (:func:`composed_fmu`), to skip the build.  A run the FMU refuses
+    (:func:`composed_fmu`), to skip the build (the scene's parameter and
+    start values are set on it).  A run the FMU refuses
     raises RuntimeError with its last log lines."""
     if not isinstance(scene, Scene):
         raise ValueError(f"scene = {scene!r:.60}; allowed: a loomfmu.scene.Scene")
@@ -65,6 +66,8 @@ def run_monolithic(scene: Scene, *, step: float | None = None, stop: float | Non
     solver = check_choice("solver", solver, SOLVERS)
     rtol = check_number("rtol", rtol, lo=1e-14, hi=0.1)
     atol = check_number("atol", atol, lo=1e-16, hi=1.0)
+    if fmu_dir is not None:
+        check_writable("fmu_dir", fmu_dir, folder=True)
     if fmu is not None and not (isinstance(fmu, (str, Path)) and Path(fmu).is_file()):
         raise ValueError(f"fmu = {fmu!r:.80}; allowed: None or the path of a composed FMU "
                          "file of the scene")
@@ -76,14 +79,24 @@ def run_monolithic(scene: Scene, *, step: float | None = None, stop: float | Non
         if fmu is None:
             fmu, _ = composed_fmu(scene, fmu_dir if fmu_dir is not None else tmp)
         data, lines = _run_cs(Path(fmu), scene.name, names, md, stop=stop, step=step,
-                              solver=solver, rtol=rtol, atol=atol)
+                              solver=solver, rtol=rtol, atol=atol,
+                              values=_scene_values(scene))
     n = len(data) - 1
     return Result(data, MONOLITHIC, n, 0, np.diff(data["time"]), {scene.name: lines},
                   atol=atol)
 
 
+def _scene_values(scene: Scene) -> dict[str, float]:
+    """The scene's parameter and start values under the composed names: the
+    composed model's defaults, set on the instance too, so that a composed
+    FMU built before (``fmu=``) runs the scene as it is declared now."""
+    return {f"{c}.{k}": v for c, comp in scene.components.items()
+            for k, v in {**comp.parameters, **comp.start}.items()}
+
+
 def _run_cs(path: Path, name: str, names: list[str], md, *, stop: float, step: float,
-            solver: str, rtol: float, atol: float) -> tuple[np.ndarray, list[str]]:
+            solver: str, rtol: float, atol: float,
+            values: dict[str, float] | None = None) -> tuple[np.ndarray, list[str]]:
     """The composed FMU's co-simulation interface stepped from 0 to ``stop`` at
     ``step`` (the last step shortened to end at ``stop``), ``names`` read after
     each step: the loop calls FMPy's ctypes functions directly with arrays made
@@ -104,6 +117,11 @@ def _run_cs(path: Path, name: str, names: list[str], md, *, stop: float, step: f
     inst = None
     try:
         inst = Instance(name, path, md)
+        settable = {v.name for v in inst.md.modelVariables
+                    if v.causality in ("parameter", "input")
+                    or (v.initial in ("exact", "approx") and v.variability == "continuous")}
+        # a value the composition did not use (an input the scene drives) is not set
+        inst.set({k: v for k, v in (values or {}).items() if k in settable})
         inst.set({"solver": SOLVERS.index(solver) + 1, "solver_rtol": rtol,
                   "solver_atol": atol})
         inst.fmu.setupExperiment(tolerance=rtol, startTime=0.0, stopTime=stop)
