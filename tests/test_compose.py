@@ -469,6 +469,57 @@ def test_a_refused_composed_run_raises_with_the_fmus_log(tmp_path):
         run_monolithic(s, fmu_dir=tmp_path)
 
 
+def _gain_lag(k: float | None) -> Model:
+    """y = k u + x (k a parameter; None: the constant 1), x' = -x."""
+    m = Model("gain_lag", description="a lag plus a feedthrough gain", stop_time=0.5,
+              step_size=0.1)
+    gain = 1.0 if k is None else m.parameter("k", k, description="feedthrough gain",
+                                             source="test")
+    u = m.input("u", 0.0, unit="m", description="input")
+    x = m.state("x", 1.0, unit="m", description="lag")
+    m.eq(m.der(x), -x)
+    m.output("y", gain * u + x, unit="m", description="output")
+    return m
+
+
+def _linear_loop(k: float | None) -> Scene:
+    s = Scene("linear_loop", stop_time=0.5, step=0.1)
+    s.add("a", model=_gain_lag(k))
+    s.add("b", model=_echo())
+    s.connect("a.y", "b.u")
+    s.connect("b.y", "a.u")
+    return s
+
+
+def test_a_linear_loop_gets_a_regularity_condition():
+    """u = k u + x has the unique solution x / (1 - k) unless k = 1: solved in
+    closed form, the loop is checked by a constraint on k (the FMU refuses
+    to initialize where it fails); with constant gains it is decided here."""
+    m = compose(_linear_loop(0.5))
+    (c,) = [c for c in m.constraints if c.name.startswith("loop_")]
+    assert "algebraic loop (" in c.message and "singular" in c.message
+    f = ca.Function("f", [m.syms("parameter")], [c.expr])
+    k_index = [v.name for v in m.of_kind("parameter")].index("a.k")
+    p = np.array([v.start for v in m.of_kind("parameter")], float)
+    assert float(f(p)) > 0
+    p[k_index] = 1.0
+    assert float(f(p)) < 0
+    with pytest.raises(ValueError, match="singular.*for every parameter value"):
+        compose(_linear_loop(None))
+
+
+@pytest.mark.slow
+def test_a_singular_linear_loop_is_refused_at_initialization(tmp_path):
+    from loomfmu.scene.monolithic import run_monolithic
+    s = _linear_loop(0.5)
+    ok = run_monolithic(s, fmu_dir=tmp_path)
+    t = ok["time"]
+    assert np.allclose(ok["a.y"], np.exp(-t) / 0.5, rtol=1e-6)   # x / (1 - k)
+    s.set("a", parameters={"k": 1.0})
+    with pytest.raises(RuntimeError, match=r"algebraic loop \(.*\) is singular"):
+        run_monolithic(s, fmu_dir=tmp_path)
+
+
 @pytest.mark.slow
 def test_a_composed_fmu_built_before_runs_the_scene_as_declared_now(tmp_path):
     """fmu= skips the build; the scene's parameter and start values are set

@@ -103,9 +103,55 @@ def compose(scene: Scene, *, name: str | None = None) -> Model:
     for (dst, var), c in driven.items():
         if (dst, var) in loops:
             m.eq(sub[dst][var], c.gain * final[(c.src, f"output {c.src_var}")] + c.bias)
+    _loop_conditions(m, scene, sub, final)
     _initial_starts(m)
     m.connections = list(scene.connections)  # for the documentation page
     return m
+
+
+#: a linear loop is regular while |det(I - dG/du)| is at least this fraction
+#: of the product of its rows' lengths (Hadamard's bound: 1 for orthogonal rows)
+LOOP_REGULARITY = 1e-10
+#: loops of more unknowns than this are left to the runtime's own checks
+LOOP_CHECK_MAX = 6
+
+
+def _loop_conditions(m: Model, scene: Scene, sub: dict, final: dict) -> None:
+    """A loop of direct feedthrough that is linear in its unknowns is solved in
+    closed form with the other unknowns (no Newton, whose singular dF/dw the
+    runtime reports): where its matrix I - dG/du is singular the closed form
+    returns numbers that solve nothing.  Each such loop gets a condition: a
+    constraint where the matrix depends on parameters only (the FMU refuses
+    to initialize, naming the loop), else a validity condition (the step
+    ends with Discard at the time it fails)."""
+    for k, block in enumerate(scene.loops()):
+        us = [sub[c.dst][c.dst_var] for c in block]
+        if len(us) > LOOP_CHECK_MAX:
+            continue
+        U = ca.vertcat(*us)
+        R = ca.vertcat(*[u - (c.gain * final[(c.src, f"output {c.src_var}")] + c.bias)
+                         for u, c in zip(us, block)])
+        J = ca.jacobian(R, U)
+        if ca.depends_on(J, U):
+            continue   # nonlinear: Newton in the runtime
+        norms = [ca.norm_2(J[i, :]) for i in range(J.size1())]
+        scale = norms[0]
+        for n in norms[1:]:
+            scale = scale * n
+        indicator = ca.fabs(ca.det(J)) - LOOP_REGULARITY * scale
+        names = ", ".join(f"{c.dst}.{c.dst_var}" for c in block)
+        message = (f"algebraic loop ({names}) is singular: no unique solution (|det(I - "
+                   f"dG/du)| below {LOOP_REGULARITY:g} of its rows' lengths' product)")
+        others = ca.vertcat(m.t, m.syms("state"), m.syms("input"), m.syms("algebraic"),
+                            m.syms("mode"))
+        if not ca.symvar(indicator):   # constant gains: decided here
+            if float(ca.evalf(indicator)) < 0:
+                raise ValueError(f"scene {scene.name}: {message} for every parameter value")
+            continue
+        if ca.depends_on(indicator, others):
+            m.require(f"loop_{k}_regular", indicator, message)
+        else:
+            m.constraint(f"loop_{k}_regular", indicator, message)
 
 
 def _old_symbol(part: Model, name: str) -> ca.SX:
