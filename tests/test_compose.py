@@ -257,6 +257,9 @@ def test_the_command_line_builds_the_scene_and_runs_it_either_way(tmp_path, caps
     assert main(["run", "two_mass", "--coupling", "monolithic", "--master", "jacobi"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--master: options of the co-simulation master" in err
+    assert main(["build", "two_mass", "--platforms", "foo", "--out-dir", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--platforms: unknown platform 'foo'" in err
     for bad in (["--rtol", "1e-5"], ["--rtol", "nan"]):   # the adaptive master's, not the FMU's
         assert main(["run", "two_mass", "--coupling", "monolithic", *bad]) == 2
         err = capsys.readouterr().err

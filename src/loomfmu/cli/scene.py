@@ -68,6 +68,10 @@ def _parser(prog: str) -> argparse.ArgumentParser:
                    help="co-simulation (default), model exchange or both")
     b.add_argument("--out-dir", type=path_arg, default=Path("dist"),
                    help="folder of the FMU (default: dist)")
+    b.add_argument("--platforms", default=None, metavar="LIST",
+                   help="binaries to build, comma-separated (as loomfmu build --platforms); "
+                        "default: $LOOMFMU_PLATFORMS, else every platform whose compiler is "
+                        "installed")
     i = sub.add_parser("inspect", help="the scene composed into one model: its derivation "
                        "and equations as loomfmu inspect writes a model's")
     i.add_argument("scene", help=f"one of {', '.join(sorted(SCENES))}")
@@ -103,10 +107,14 @@ def _list() -> int:
 def _build(args) -> int:
     from loomfmu.fmu.builder import build_fmu
     from loomfmu.scene.compose import compose
+    from loomfmu.fmu.platforms import parse
     check_output_options(args, folders=["out_dir"])
+    if args.platforms is not None:   # a bad list: one line before any work
+        parse(args.platforms, args.fmi_version, arg="--platforms")
     model = compose(load_scene(args.scene))
     res = build_fmu(model, out_dir=args.out_dir, fmi_version=args.fmi_version,
-                    interface=args.interface, reference_results=False)  # see run_monolithic
+                    interface=args.interface, platforms=args.platforms,
+                    reference_results=False)  # see composed_fmu
     n = {k: len(model.of_kind(k)) for k in ("state", "algebraic", "input", "output")}
     print(f"written: {res.path} ({res.build_seconds:.1f} s; {n['state']} states, "
           f"{n['algebraic']} algebraic variables, {n['input']} inputs, {n['output']} "
