@@ -106,8 +106,8 @@ def _list() -> int:
 
 def _build(args) -> int:
     from loomfmu.fmu.builder import build_fmu
-    from loomfmu.scene.compose import compose
     from loomfmu.fmu.platforms import parse
+    from loomfmu.scene.compose import compose
     check_output_options(args, folders=["out_dir"])
     if args.platforms is not None:   # a bad list: one line before any work
         parse(args.platforms, args.fmi_version, arg="--platforms")
