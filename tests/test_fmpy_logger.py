@@ -11,6 +11,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import oracles
 import pytest
 
 from loomfmu import build_fmu
@@ -21,15 +22,7 @@ pytestmark = pytest.mark.slow  # builds FMUs
 
 
 def _spring() -> Model:
-    m = Model("spring_log", description="mass on a spring", stop_time=1.0, step_size=0.01)
-    k = m.parameter("k", 4.0, unit="N/m", description="stiffness per unit mass",
-                    source="assumption: test oracle")
-    x = m.state("x", 1.0, unit="m", description="position")
-    v = m.state("v", 0.0, unit="m/s", description="velocity")
-    m.eq(m.der(x), v)
-    m.eq(m.der(v), -k * x)
-    m.output("x_out", x, unit="m", description="position")
-    return m
+    return oracles.spring("spring_log", stop_time=1.0)
 
 
 @pytest.fixture(scope="module")

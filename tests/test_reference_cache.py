@@ -3,9 +3,10 @@ that asks for the same reference, and nothing else."""
 from __future__ import annotations
 
 import numpy as np
+import oracles
 import pytest
 
-from loomfmu import Model, load_model
+from loomfmu import load_model
 from loomfmu.verification import reference_cache
 from loomfmu.verification.reference import reference
 
@@ -80,17 +81,7 @@ def test_a_damaged_entry_is_computed_again_and_overwritten(cache):
 
 def test_a_violation_is_cached_with_the_result_that_ends_before_it(cache):
     def spring():
-        m = Model("spring_taut", description="mass on a spring", stop_time=2.0,
-                  step_size=0.01)
-        k = m.parameter("k", 4.0, unit="N/m", description="stiffness per unit mass",
-                        source="assumption: test oracle")
-        x = m.state("x", 1.0, unit="m", description="position")
-        v = m.state("v", 0.0, unit="m/s", description="velocity")
-        m.eq(m.der(x), v)
-        m.eq(m.der(v), -k * x)
-        m.require("taut", m.output("x_out", x, unit="m", description="position") + 0.5,
-                  "the spring went slack")
-        return m
+        return oracles.spring("spring_taut", require="the spring went slack")
 
     first, again = reference(spring()), reference(spring())
     assert first.violation[0] == "taut" and again.cached

@@ -11,6 +11,7 @@ import math
 
 import casadi as ca
 import fmpy
+import oracles
 import pytest
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import fmi2LastSuccessfulTime, fmi2Terminated
@@ -27,17 +28,7 @@ MESSAGE = "string in compression"
 
 
 def _spring(require: bool, name: str) -> Model:
-    m = Model(name, description="mass on a spring", stop_time=2.0, step_size=0.01)
-    k = m.parameter("k", OMEGA**2, unit="N/m", description="stiffness per unit mass",
-                    source="assumption: test oracle")
-    x = m.state("x", 1.0, unit="m", description="position")
-    v = m.state("v", 0.0, unit="m/s", description="velocity")
-    m.eq(m.der(x), v)
-    m.eq(m.der(v), -k * x)
-    xo = m.output("x_out", x, unit="m", description="position")
-    if require:
-        m.require("taut", xo + 0.5, MESSAGE)  # through an output's symbol
-    return m
+    return oracles.spring(name, k=OMEGA**2, require=MESSAGE if require else None)
 
 
 @pytest.fixture(scope="module")
