@@ -40,14 +40,8 @@ def fmu_file_name(comp: Component) -> str:
 def declaration_key(decl, options: dict) -> str:
     """Eight hex digits of a hash of what the generated code of declaration
     ``decl`` (built with ``options``) is made of (see the module's doc)."""
-    from loomfmu.export.dae import dae_form
-    dae = dae_form(decl)
-    key = "\n".join(f"{k}={v}" for k, v in sorted(vars(dae).items()) if k != "model")
-    key += "\n" + "\n".join(f"{v.name}:{v.kind}:{v.start}:{v.unit}:{getattr(v, 'min', '')}:"
-                            f"{getattr(v, 'max', '')}" for v in decl.variables)
-    key += "\n" + "\n".join(f"{c.name}:{c.expr}:{c.message}"
-                            for what in ("validity", "constraints")
-                            for c in getattr(decl, what, []))
+    from loomfmu.export.caches import declaration_parts
+    key = "\n".join(declaration_parts(decl))
     key += "\n" + json.dumps(options, sort_keys=True, default=repr)
     key += "\n" + _generator_text()
     return hashlib.sha1(key.encode()).hexdigest()[:8]

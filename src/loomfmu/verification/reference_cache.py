@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from loomfmu.export.caches import reference_cache_dir
+from loomfmu.export.caches import declaration_parts, reference_cache_dir
 
 #: the entry's format; a new one makes older entries misses
 FORMAT = 1
@@ -39,12 +39,7 @@ FORMAT = 1
 def model_key(model) -> str:
     """SHA-256 (hex) of what a reference of ``model`` depends on in its
     declaration: the same for two declarations of the same equations."""
-    from loomfmu.export.dae import dae_form
-    dae = dae_form(model)
-    parts = [f"{k}={v}" for k, v in sorted(vars(dae).items()) if k != "model"]
-    parts += [f"{v.name}:{v.kind}:{v.start}:{v.unit}:{getattr(v, 'min', '')}:"
-              f"{getattr(v, 'max', '')}" for v in model.variables]
-    parts += [f"{c.name}:{c.expr}:{c.message}" for c in model.validity]
+    parts = declaration_parts(model)
     parts += [json.dumps(model.mode_values, sort_keys=True, default=repr),
               json.dumps(model.event_modes, sort_keys=True, default=repr),
               repr((model.name, model.stop_time, model.step_size, model.reference_method))]
