@@ -314,7 +314,7 @@ static inline int torn_linear_solve(double *a, double *b) {
 static int torn_solve(LfInstance *c, double t, const double *x, double *w) {
     enum { NP = LF_NT_PRE + LF_NT_HOIST, NT = LF_DIM(LF_NT_TORN) };
     /* wh = [w; h]: the argument w of tres and tpost */
-    double wh[LF_NW + LF_NT_HOIST], part[LF_DIM(NP > LF_NT_POST ? NP : LF_NT_POST)];
+    double wh[LF_DIM(LF_NW + LF_NT_HOIST)], part[LF_DIM(NP > LF_NT_POST ? NP : LF_NT_POST)];
     double F[NT], J[NT * NT], w0[NT], prev = INFINITY, q_prev = INFINITY;
     int it, i;
     memcpy(wh, w, sizeof(double) * LF_NW);
