@@ -332,6 +332,20 @@ static LfStatus sample_inside(LfInstance *c, double ta, double h, double th, dou
 #define LF_HIST_EST_MARGIN 0.125
 #define LF_HIST_EST_RATIO 4.0
 
+/* P - H = Q(th) (m0 + m1 (th - thp)) over the interval from a (value ga,
+ * slope da) to b (gb, db) of length h, with the sample before a (gp, dp) at
+ * thp = (t_p - t_a) / h < 0 (see above): m0, m1. */
+static void quintic_terms(double gp, double dp, double thp, double ga, double da, double gb,
+                          double db, double h, double *m0, double *m1) {
+    double q = thp * thp * (thp - 1) * (thp - 1);
+    double dq = 2 * thp * (thp - 1) * (2 * thp - 1);
+    double r0 = gp - hermite(ga, da, gb, db, h, thp);
+    double r1 = h * dp - ((6 * thp * thp - 6 * thp) * (ga - gb) +
+                          h * ((3 * thp * thp - 4 * thp + 1) * da + (3 * thp * thp - 2 * thp) * db));
+    *m0 = r0 / q;
+    *m1 = (r1 - dq * *m0) / q;
+}
+
 /* Is the estimated error of the cubic Hermite over the accepted step
  * (ta, tb] (samples ga, gb) at the quarter points within
  * LF_HIST_EST_MARGIN x LF_HIST_QUARTER_SCALE x the tolerance, for every
@@ -344,22 +358,15 @@ static int estimate_fine(const LfInstance *c, double ta, const double *ga, doubl
     int k, i;
     for (k = 0; k < LF_ND; k++) {
         long n = c->dl.hist_count[k];
-        double tp, thp, q, dq, r0, r1, m0, m1;
+        double tp, thp, m0, m1;
         if (c->dl.tau[k] == 0) continue;
         if (n < 2) return 0;
         tp = LF_HT(c, k, n - 2); /* the sample at ta is n - 1 */
         if (LF_HT(c, k, n - 1) != ta || !(tp < ta) || ta - tp > LF_HIST_EST_RATIO * h || LF_HIST_EST_RATIO * (ta - tp) < h)
             return 0;
         thp = (tp - ta) / h;
-        q = thp * thp * (thp - 1) * (thp - 1);
-        dq = 2 * thp * (thp - 1) * (2 * thp - 1);
-        r0 = LF_HG(c, k, n - 2) - hermite(ga[k], ga[LF_ND + k], gb[k], gb[LF_ND + k], h, thp);
-        r1 = h * LF_HD(c, k, n - 2) -
-             ((6 * thp * thp - 6 * thp) * (ga[k] - gb[k]) +
-              h * ((3 * thp * thp - 4 * thp + 1) * ga[LF_ND + k] +
-                   (3 * thp * thp - 2 * thp) * gb[LF_ND + k]));
-        m0 = r0 / q;
-        m1 = (r1 - dq * m0) / q;
+        quintic_terms(LF_HG(c, k, n - 2), LF_HD(c, k, n - 2), thp, ga[k], ga[LF_ND + k], gb[k],
+                      gb[LF_ND + k], h, &m0, &m1);
         for (i = 0; i < 2; i++) {
             double e = 0.03515625 * (m0 + m1 * (th[i] - thp)); /* Q(1/4) = Q(3/4) = 9/256 */
             double g = hermite(ga[k], ga[LF_ND + k], gb[k], gb[LF_ND + k], h, th[i]);
@@ -453,7 +460,7 @@ static int stored_start(const LfInstance *c, double t_old, double *ga) {
  * estimate allows (0: none, e.g. fewer than three samples or a jump). */
 static double allowed_spacing(const LfInstance *c, int k) {
     long n = c->dl.hist_count[k];
-    double t0, t1, t2, h, hp, thp, q, dq, r0, r1, m0, m1, e, g1, g2, d1, d2, tol, ratio;
+    double t0, t1, t2, h, hp, thp, m0, m1, e, g2, tol, ratio;
     if (n < 3) return 0.0;
     t0 = LF_HT(c, k, n - 3);
     t1 = LF_HT(c, k, n - 2);
@@ -462,19 +469,10 @@ static double allowed_spacing(const LfInstance *c, int k) {
     hp = t1 - t0;
     if (!(h > 0) || !(hp > 0) || hp > LF_HIST_EST_RATIO * h || LF_HIST_EST_RATIO * hp < h)
         return 0.0;
-    g1 = LF_HG(c, k, n - 2);
     g2 = LF_HG(c, k, n - 1);
-    d1 = LF_HD(c, k, n - 2);
-    d2 = LF_HD(c, k, n - 1);
-    thp = -hp / h;
-    q = thp * thp * (thp - 1) * (thp - 1);
-    dq = 2 * thp * (thp - 1) * (2 * thp - 1);
-    r0 = LF_HG(c, k, n - 3) - hermite(g1, d1, g2, d2, h, thp);
-    r1 = h * LF_HD(c, k, n - 3) -
-         ((6 * thp * thp - 6 * thp) * (g1 - g2) +
-          h * ((3 * thp * thp - 4 * thp + 1) * d1 + (3 * thp * thp - 2 * thp) * d2));
-    m0 = r0 / q;
-    m1 = (r1 - dq * m0) / q;
+    thp = (t0 - t1) / h;
+    quintic_terms(LF_HG(c, k, n - 3), LF_HD(c, k, n - 3), thp, LF_HG(c, k, n - 2),
+                  LF_HD(c, k, n - 2), g2, LF_HD(c, k, n - 1), h, &m0, &m1);
     /* the larger of the estimates at the quarter points */
     e = 0.03515625 * fmax(fabs(m0 + m1 * (0.25 - thp)), fabs(m0 + m1 * (0.75 - thp)));
     tol = LF_HIST_SKIP_SAFETY * LF_HIST_QUARTER_SCALE *
