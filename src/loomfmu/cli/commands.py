@@ -327,12 +327,6 @@ def _description_of(target: str, options: dict):
         return fmpy.read_model_description(str(path)), model
 
 
-def _settable(md) -> set[str]:
-    return {v.name for v in md.modelVariables
-            if v.causality in ("parameter", "input")
-            or (v.initial in ("exact", "approx") and v.variability == "continuous")}
-
-
 def _unit(var) -> str:
     unit = getattr(var, "unit", None) or (var.declaredType.unit if getattr(
         var, "declaredType", None) is not None else None)
@@ -400,7 +394,8 @@ def check_start_values(md, start: dict) -> dict:
     '240rpm' or '240 rpm', converted to the variable's unit); an
     Enumeration also takes its item names."""
     variables = {v.name: v for v in md.modelVariables}
-    settable = _settable(md)
+    from loomfmu.verification.fmpy_logger import settable_names
+    settable = settable_names(md)
     out = {}
     for name, value in start.items():
         if name not in settable:

@@ -109,6 +109,7 @@ def _run_cs(path: Path, name: str, names: list[str], md, *, stop: float, step: f
     from fmpy.fmi2 import fmi2True
 
     from loomfmu.scene.system import FMI2_WARNING, Instance, Values
+    from loomfmu.verification.fmpy_logger import settable_names
     n = max(1, math.ceil(stop / step * (1 - 1e-12)))
     times = np.minimum(np.arange(n + 1) * step, stop)
     times[-1] = stop
@@ -117,9 +118,7 @@ def _run_cs(path: Path, name: str, names: list[str], md, *, stop: float, step: f
     inst = None
     try:
         inst = Instance(name, path, md)
-        settable = {v.name for v in inst.md.modelVariables
-                    if v.causality in ("parameter", "input")
-                    or (v.initial in ("exact", "approx") and v.variability == "continuous")}
+        settable = settable_names(inst.md)
         # a value the composition did not use (an input the scene drives) is not set
         inst.set({k: v for k, v in (values or {}).items() if k in settable})
         inst.set({"solver": SOLVERS.index(solver) + 1, "solver_rtol": rtol,

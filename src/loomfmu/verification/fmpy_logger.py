@@ -113,3 +113,12 @@ def restore_fmpy_proxy() -> None:
     scratch = fmi2CallbackFunctions()
     scratch.logger = _FMPY_PRINTER
     addLoggerProxy(ctypes.byref(scratch))  # s_logger = _FMPY_PRINTER
+
+
+def settable_names(md) -> set[str]:
+    """Names of the variables of FMPy's model description ``md`` an importer may
+    set before initialization: parameters, inputs, and continuous variables
+    with an exact or approximate start (states)."""
+    return {v.name for v in md.modelVariables
+            if v.causality in ("parameter", "input")
+            or (v.initial in ("exact", "approx") and v.variability == "continuous")}
