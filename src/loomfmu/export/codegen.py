@@ -13,6 +13,10 @@ A model contributes to the FMU only
   ranges, kinds), the solver names and the runtime settings, all written from
   the Python declaration.
 
+The CasADi code calls the elementary functions of the runtime's lf_math.c
+(MATH_FUNCTIONS) in place of the C library's: they give the same bits on
+every platform, where the C libraries differ in the last bit.
+
 Value references of Real variables are laid out in this order, which is also
 the order of ``ModelVariables`` in the model description::
 
@@ -26,6 +30,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import re
 import uuid
 from dataclasses import dataclass
 from pathlib import Path
@@ -472,6 +477,24 @@ def prefix_header(model: Model) -> str:
     return "\n".join(lines + ["#endif", ""])
 
 
+#: The C library's functions CasADi's code may call and the runtime's own
+#: (lf_math.h) that replace them. sqrt, fabs, floor, ceil, fmod, fmin and
+#: fmax are exactly rounded on every platform and stay; so do erf and erfinv
+#: (no runtime version: a model calling them may differ across platforms in
+#: the last bits).
+MATH_FUNCTIONS = {f: f"lf_{f}" for f in (
+    "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "exp",
+    "expm1", "log1p", "log10", "pow", "hypot", "asinh", "acosh", "atanh")} | {"log": "lf_ln"}
+_MATH_CALL = re.compile(r"\b(" + "|".join(MATH_FUNCTIONS) + r")\(")
+
+
+def use_runtime_math(source: str) -> str:
+    """CasADi's C code with every call of MATH_FUNCTIONS made to the
+    runtime's function, and lf_math.h included after math.h."""
+    source = _MATH_CALL.sub(lambda m: MATH_FUNCTIONS[m.group(1)] + "(", source)
+    return source.replace("#include <math.h>\n", '#include <math.h>\n#include "lf_math.h"\n', 1)
+
+
 def generate_sources(model: Model, dae: DaeForm, outdir: Path) -> tuple[list[str], str]:
     """Write the model's C files into ``outdir``; return (file names, guid)."""
     outdir.mkdir(parents=True, exist_ok=True)
@@ -483,6 +506,8 @@ def generate_sources(model: Model, dae: DaeForm, outdir: Path) -> tuple[list[str
     for f in fns:
         cg.add(f)
     cg.generate(str(outdir) + "/")
+    csource = outdir / f"{cname}.c"
+    csource.write_text(use_runtime_math(csource.read_text()))
     (outdir / "model_decl.h").write_text(declaration_header(model, dae, n_folded(fns)))
     (outdir / "lf_prefix.h").write_text(prefix_header(model))
     (outdir / "model_decl.c").write_text(declaration_source(model, dae, guid))

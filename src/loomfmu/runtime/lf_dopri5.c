@@ -1,6 +1,7 @@
 /* loomfmu runtime: dopri5, explicit Dormand-Prince 5(4) with FSAL and
  * Hairer's 4th-order dense output (contract: lf_solver.h). */
 #include "lf_solver_impl.h"
+#include "lf_math.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -78,7 +79,7 @@ enum { DP_S_LERR, DP_S_H, DP_NSCAL };
  * the literal 4.0e-8 above); the same result bit for bit (fac = 0.1 either way,
  * and log(err) < log(1e-4) would leave the slot at its floor). */
 #ifndef DP_ERR_TINY
-#define DP_ERR_TINY (0.5 * exp((log(0.09) + DP_BETA * DP_LERR_OLD0) / DP_EXPO1))
+#define DP_ERR_TINY (0.5 * lf_exp((lf_ln(0.09) + DP_BETA * DP_LERR_OLD0) / DP_EXPO1))
 #endif
 /* Where the step is bound by stability rather than accuracy, Hairer's
  * estimate of the stiffness (his DOPRI5's detection: h |lambda| ~ h

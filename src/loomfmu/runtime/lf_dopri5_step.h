@@ -138,13 +138,13 @@ static LfStatus DP_STEP_FN(LfSolver *s, double t_bound) {
             lerr = DP_LERR_OLD0; /* what the slot would keep: err < 1e-4 */
             fac = 0.1;
         } else {
-            lerr = log(err);
+            lerr = lf_ln(err);
             if (err > 1.0) /* a rejected step: the error's own power */
-                fac = exp(DP_EXPO1 * lerr) / 0.9;
+                fac = lf_exp(DP_EXPO1 * lerr) / 0.9;
             else if (stiff)
-                fac = exp(DP_EXPO1_S * lerr - DP_BETA_S * *lerr_old) / 0.9;
+                fac = lf_exp(DP_EXPO1_S * lerr - DP_BETA_S * *lerr_old) / 0.9;
             else
-                fac = exp(DP_EXPO1 * lerr - DP_BETA * *lerr_old) / 0.9;
+                fac = lf_exp(DP_EXPO1 * lerr - DP_BETA * *lerr_old) / 0.9;
         }
         if (err <= 1.0) {
             double hnew, *k1old = w + DP_K1OLD * n;

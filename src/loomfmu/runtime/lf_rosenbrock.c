@@ -2,6 +2,7 @@
  * lf_rosenbrock.h; the methods: lf_rodas4.c, lf_wmethod.c). */
 #include "lf_rosenbrock.h"
 #include "lf_linalg.h"
+#include "lf_math.h"
 
 #include <math.h>
 
@@ -229,7 +230,7 @@ LfStatus lf_rb_step(LfSolver *s, const LfRosenbrock *m, double t_bound) {
             st = LF_DISCARD;
             goto failed;
         }
-        fac = rb_clamp(pow(err, m->expo) / 0.9);
+        fac = rb_clamp(lf_pow(err, m->expo) / 0.9);
         hnew = h / fac;
         if (err <= 1.0) {
             if (m->accept) {
@@ -239,7 +240,7 @@ LfStatus lf_rb_step(LfSolver *s, const LfRosenbrock *m, double t_bound) {
             if (hist[LF_RB_HISTOK] != 0.0) {
                 /* predictive controller of Gustafsson */
                 double facgus = rb_clamp((hist[LF_RB_HACC] / h) *
-                                         pow(err * err / hist[LF_RB_ERRACC], m->expo) / 0.9);
+                                         lf_pow(err * err / hist[LF_RB_ERRACC], m->expo) / 0.9);
                 fac = fmax(fac, facgus);
                 hnew = h / fac;
             }

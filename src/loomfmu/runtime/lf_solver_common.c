@@ -4,6 +4,7 @@
  * lf_solver_impl.h.  They call nothing of the methods: the registry
  * (lf_solvers.c) sits on top of the methods, and the methods on these. */
 #include "lf_solver_impl.h"
+#include "lf_math.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -70,7 +71,7 @@ double lf_sv_initial_step(LfSolver *s, const double *f0, double *y1, double *f1,
     if (dmax <= 1e-15)
         h1 = fmax(1e-6, h0 * 1e-3);
     else
-        h1 = pow(0.01 / dmax, 1.0 / order);
+        h1 = lf_pow(0.01 / dmax, 1.0 / order);
     return fmin(fmin(100.0 * h0, h1), hmax);
 }
 
