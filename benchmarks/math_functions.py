@@ -32,6 +32,7 @@ import mpmath as mp
 
 ROOT = Path(__file__).resolve().parent.parent
 RUNTIME = ROOT / "src" / "loomfmu" / "runtime"
+MATH_SOURCES = [str(RUNTIME / f) for f in ("lf_math.c", "lf_trig.c")]
 HEADER = RUNTIME / "lf_math_coeffs.h"
 
 mp.mp.dps = 50
@@ -253,7 +254,7 @@ def measure(n: int = 200_000, n_exact: int = 4_000) -> dict:
         tmp = Path(tmp)
         (tmp / "probe.c").write_text(_probe_source(names))
         subprocess.run(["gcc", "-std=c99", "-O2", "-ffp-contract=off", f"-I{RUNTIME}",
-                        str(tmp / "probe.c"), str(RUNTIME / "lf_math.c"), "-lm",
+                        str(tmp / "probe.c"), *MATH_SOURCES, "-lm",
                         "-o", str(tmp / "probe")], check=True)
         for k, name in enumerate(names):
             arity, gen, exact_fn = FUNCTIONS[name]

@@ -26,7 +26,9 @@ same way: what the flag buys.
 --libm: compile benchmarks/platforms_libm.c for each platform (the C
 library's sin, cos, exp, pow, ... on 100000 arguments each), run it the same
 way and count, per function, the results whose bits differ from the native
-run's; with --json, only that entry of an existing file is replaced.
+run's; then the same for the runtime's own functions (tests/c/math_probe.c
+with lf_math.c: 20 000 arguments each and the special values, under
+"lf_math"); with --json, only that entry of an existing file is replaced.
 
 --solvers-of MODEL: MODEL's FMI 3.0 co-simulation FMU run with each embedded
 solver (dopri5, rk4, ros34pw2: ``solver_index`` set by the driver) natively
@@ -59,6 +61,10 @@ from loomfmu.registry import MODELS
 
 EMULATOR = {"linux64": "native", "win64": "wine", "aarch64": "qemu-aarch64"}
 LIBM_PROBE = Path(__file__).with_name("platforms_libm.c")
+#: the runtime's own functions on 20 000 arguments each and the special ones
+MATH_PROBE = Path(__file__).resolve().parent.parent / "tests" / "c" / "math_probe.c"
+RUNTIME = Path(__file__).resolve().parent.parent / "src" / "loomfmu" / "runtime"
+MATH_SOURCES = [str(RUNTIME / f) for f in ("lf_math.c", "lf_trig.c")]
 
 
 def solvers_of(model: str, work: Path) -> dict:
@@ -91,6 +97,24 @@ def libm(work: Path) -> dict:
         outs[name] = subprocess.run([*p.emulator, str(exe)], capture_output=True, text=True,
                                     check=True, env=wine_env() if p.windows else None
                                     ).stdout.replace("\r", "").split("\n")
+    result = _differing(outs)
+    ours = {}
+    for name in outs:  # the runtime's own functions (lf_math.c) the same way
+        p = PLATFORMS[name]
+        exe = work / f"lf_math_{name}{'.exe' if p.windows else ''}"
+        subprocess.run([p.cc, "-std=c99", "-O2", "-ffp-contract=off", f"-I{RUNTIME}", "-o",
+                        str(exe), str(MATH_PROBE), *MATH_SOURCES,
+                        *(["-static-libgcc"] if p.windows else ["-lm"])], check=True)
+        ours[name] = subprocess.run([*p.emulator, str(exe), "20000"], capture_output=True,
+                                    text=True, check=True,
+                                    env=wine_env() if p.windows else None
+                                    ).stdout.replace("\r", "").split("\n")
+    result["lf_math"] = _differing(ours)
+    return result
+
+
+def _differing(outs: dict[str, list[str]]) -> dict:
+    """Per platform other than linux64 and function: lines that differ."""
     native = outs["linux64"]
     result = {}
     for name, lines in outs.items():

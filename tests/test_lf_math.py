@@ -22,6 +22,7 @@ from loomfmu.fmu.platforms import PLATFORMS
 
 ROOT = Path(__file__).resolve().parent.parent
 PROBE = ROOT / "tests" / "c" / "math_probe.c"
+MATH_SOURCES = [str(RUNTIME_DIR / f) for f in ("lf_math.c", "lf_trig.c")]
 FLAGS = ["-std=c99", "-O2", "-ffp-contract=off", "-Wall", "-Wextra", "-Werror"]
 
 #: largest error in ulp allowed per function (lf_math.h; measured by
@@ -36,7 +37,7 @@ def _probe(work: Path, platform: str = "linux64", libm: bool = False) -> Path:
     p = PLATFORMS[platform]
     exe = work / f"probe_{platform}{'_libm' if libm else ''}{'.exe' if p.windows else ''}"
     subprocess.run([p.cc, *FLAGS, *(["-DPROBE_LIBM"] if libm else []), f"-I{RUNTIME_DIR}",
-                    str(PROBE), str(RUNTIME_DIR / "lf_math.c"), "-o", str(exe),
+                    str(PROBE), *MATH_SOURCES, "-o", str(exe),
                     *(["-static-libgcc"] if p.windows else ["-lm"])], check=True)
     return exe
 
@@ -171,7 +172,7 @@ def test_generated_code_calls_the_runtime_functions(tmp_path):
     exe = tmp_path / "probe_f"
     subprocess.run(["gcc", *FLAGS[:3], f"-I{tmp_path}", f"-I{RUNTIME_DIR}",
                     str(tmp_path / "main.c"), str(tmp_path / "probe_f.c"),
-                    str(RUNTIME_DIR / "lf_math.c"), "-lm", "-o", str(exe)], check=True)
+                    *MATH_SOURCES, "-lm", "-o", str(exe)], check=True)
     got = [float(v) for v in subprocess.run([str(exe)], capture_output=True, text=True,
                                             check=True).stdout.split()]
     want = f(0.75, 1.5).full().ravel()  # CasADi's own evaluation: the C library's

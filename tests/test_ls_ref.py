@@ -363,3 +363,23 @@ def test_the_suite_leaves_the_reference_out_unless_asked(tmp_path, monkeypatch):
     with pytest.raises(ValueError, match="reference_results"):
         build_fmu(model, out_dir=tmp_path, reference_results="yes")
 
+
+
+@pytest.mark.slow
+def test_a_composed_scene_carries_its_reference_when_asked(tmp_path, monkeypatch):
+    """`loomfmu scene build two_mass --reference`: the composed FMU carries
+    the reference of its default experiment, which FMPy alone reproduces;
+    without the option it carries none."""
+    from loomfmu.cli import main
+    monkeypatch.setenv("LOOMFMU_PLATFORMS", "linux64")
+    assert main(["scene", "build", "two_mass", "--out-dir", str(tmp_path / "a"),
+                 "--reference"]) == 0
+    (path,) = (tmp_path / "a").glob("*.fmu")
+    rc, rows, mods = fmpy_only(path)
+    assert mods == [] and rc == 0, rows
+    (r,) = rows
+    assert r["ok"] and r["worst"] <= r["tolerance"], r
+    assert main(["scene", "build", "two_mass", "--out-dir", str(tmp_path / "b")]) == 0
+    (plain,) = (tmp_path / "b").glob("*.fmu")
+    with zipfile.ZipFile(plain) as z:
+        assert not [n for n in z.namelist() if n.startswith("extra/")]

@@ -2,7 +2,7 @@
 tested where they run: our driver (src/loomfmu/fmu/platform_driver.c),
 compiled for each platform, runs each FMU's default experiment natively,
 under wine and under qemu-aarch64, and the outputs are compared with the
-native run (aarch64 bit for bit, Windows within 1e-12 of the range). Small models only (two_mass_force in both FMI
+native run, bit for bit. Small models only (two_mass_force in both FMI
 versions and both interfaces, heald_frame_rigid with its events and
 trigonometry in FMI 3.0): the rest of the suite builds for linux64 only
 (``LOOMFMU_PLATFORMS`` in conftest.py); benchmarks/platforms.py runs every
@@ -140,6 +140,17 @@ def _declared(version: int) -> set[str]:
 
 
 @pytest.mark.slow
+def test_the_generated_code_calls_the_runtimes_elementary_functions(built):
+    """heald_frame_rigid's sin and cos are the runtime's (lf_math.c), the
+    same bits on every platform, not the C library's."""
+    res, _ = built
+    with zipfile.ZipFile(res[3, "heald_frame_rigid"].path) as z:
+        src = z.read("sources/heald_frame_rigid_casadi.c").decode()
+    assert "lf_sin(" in src and "lf_cos(" in src
+    assert not re.search(r"(?<![\w.])(sin|cos|exp|log|pow|tanh)\(", src)
+
+
+@pytest.mark.slow
 def test_every_binary_exports_the_fmi_functions_and_nothing_else(built, tmp_path):
     """The same export table on every platform: only names the standard's
     header declares (nm -D for ELF, objdump -p's export table for the DLL)."""
@@ -211,13 +222,11 @@ def _key(run):
 def test_cross_binaries_give_the_native_numbers(built, native_runs, name):
     """One driver process per platform (wine starts once) runs FMI 2.0 CS
     (dopri5 and rk4) and ME (win64 only: FMI 2.0 has no aarch64 folder) and
-    FMI 3.0 CS (dopri5, rk4) and ME of each FMU. aarch64: every output at
-    every output time equals the native run's bits (the same operations in
-    the same order, no fused multiply-add: -ffp-contract=off, and glibc's
-    sin/cos/exp on both). win64: within 1e-12 of each output's range, since
-    the Windows C library (wine's here) rounds some sin/exp/pow results
-    differently from glibc (benchmarks/platforms.py --libm); one run gave
-    1.3e-16 on heald_frame_rigid, another the same bits."""
+    FMI 3.0 CS (dopri5, rk4) and ME of each FMU: every output at every
+    output time equals the native run's bits (the same operations in the
+    same order, no fused multiply-add: -ffp-contract=off, and the runtime's
+    own sin, cos, exp, ... (lf_math.c) in place of the C library's, which
+    differ between glibc and wine's msvcrt)."""
     _need(name)
     res, _ = built
     runs = _runs(res, (2, 3) if name == "win64" else (3,))
@@ -226,7 +235,4 @@ def test_cross_binaries_give_the_native_numbers(built, native_runs, name):
         assert r.ok, (run, r.message)
         assert len(r.time) > 100
         c = compare(native_runs[_key(run)], r)
-        if name == "aarch64":
-            assert c["identical"], (run, c)
-        else:
-            assert c["max_rel_range"] <= 1e-12, (run, c)
+        assert c["identical"], (run, c)

@@ -388,9 +388,10 @@ def _build(model: Model, md: ET.Element, members: list[str] | None) -> str:
     return ("<p>Binaries, each compiled from sources/ by gcc (C99) with the flags below; "
             "loomfmu's tests run binaries built this way for each platform through the FMI "
             "functions (natively, under wine, under qemu-aarch64) and compare their outputs "
-            "with the native run's: bit for bit on aarch64, within 1e-12 of each output's "
-            "range on Windows (its C math library rounds some sin, exp, pow results "
-            "differently from glibc's); this FMU's own binaries were not run at build:</p>"
+            "with the native run's: bit for bit on every platform, since the runtime "
+            "computes sin, exp, pow, ... itself (<code>lf_math.c</code>) where the C math "
+            "libraries differ in the last bit; this FMU's own binaries were not run at "
+            "build:</p>"
             + _table(["platform", "in this FMU", "compiled by", "tested under"], rows)
             + "<p>sources/ holds everything a binary needs: the generated model, the runtime "
             "and <code>lf_build.h</code>, which fixes the FMI version and the interfaces (no "

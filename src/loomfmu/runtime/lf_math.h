@@ -7,6 +7,8 @@
  * by the solver's tolerance.  These functions use only the operations IEEE
  * 754 rounds exactly (+ - * / and sqrt, in the order written; the runtime is
  * compiled with -ffp-contract=off), so every platform computes the same bits.
+ * Defined in lf_math.c (exp, log, pow, hyperbolic, hypot) and lf_trig.c (sin,
+ * cos, tan and their inverses), with the helpers of lf_math_bits.h.
  * codegen.py rewrites the generated model code to call them
  * (codegen.MATH_FUNCTIONS); functions outside this list stay the C library's.
  *
