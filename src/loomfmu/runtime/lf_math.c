@@ -20,14 +20,14 @@
 /* ---------------------------------------------------------- exp family */
 
 /* (exp(r) - 1 - r) / r^2 */
-static double exp_poly(double r) {
+LF_M_INLINE double exp_poly(double r) {
     return LF_M_EXP0 + r * (LF_M_EXP1 + r * (LF_M_EXP2 + r * (LF_M_EXP3 + r * (LF_M_EXP4
            + r * (LF_M_EXP5 + r * (LF_M_EXP6 + r * (LF_M_EXP7 + r * (LF_M_EXP8
            + r * (LF_M_EXP9 + r * LF_M_EXP10)))))))));
 }
 
 /* x = k ln2 + r + rerr, |r| <= ln2/2 (about); xlo is a low part of x */
-static int exp_reduce(double x, double xlo, double *r, double *rerr) {
+LF_M_INLINE int exp_reduce(double x, double xlo, double *r, double *rerr) {
     long long k = nearest(x * LF_M_INV_LN2);
     double kd = (double)k, hi = x - kd * LF_M_LN2_HI, lo = kd * LF_M_LN2_LO - xlo;
     *r = hi - lo;
@@ -36,14 +36,14 @@ static int exp_reduce(double x, double xlo, double *r, double *rerr) {
 }
 
 /* exp(r + rerr) - 1 */
-static double expm1_kernel(double r, double rerr) {
+LF_M_INLINE double expm1_kernel(double r, double rerr) {
     return r + (r * r * exp_poly(r) + rerr * (1.0 + r));
 }
 
 #define EXP_OVERFLOW 709.782712893384   /* largest x with exp(x) finite */
 #define EXP_UNDERFLOW -745.1332191019412 /* below: exp(x) rounds to 0 */
 
-static double exp_dd(double x, double xlo) {
+LF_M_INLINE double exp_dd(double x, double xlo) {
     double r, rerr;
     int k;
     if (is_nan(x)) return x;
@@ -127,7 +127,7 @@ double lf_tanh(double x) {
 /* ---------------------------------------------------------- log family */
 
 /* x > 0 finite: x = 2^e (1 + f), 1 + f in [sqrt(1/2), sqrt(2)) */
-static int log_split(double x, double *f) {
+LF_M_INLINE int log_split(double x, double *f) {
     int e = 0;
     u64 u;
     double m;
@@ -147,13 +147,13 @@ static int log_split(double x, double *f) {
 }
 
 /* R(z) = (2 atanh(s)/s - 2), z = s^2 */
-static double log_poly(double z) {
+LF_M_INLINE double log_poly(double z) {
     return z * (LF_M_LOG0 + z * (LF_M_LOG1 + z * (LF_M_LOG2 + z * (LF_M_LOG3 + z * (LF_M_LOG4
            + z * (LF_M_LOG5 + z * (LF_M_LOG6 + z * LF_M_LOG7)))))));
 }
 
 /* NaN, negative, zero and infinite arguments of the log family */
-static int log_special(double x, double *out) {
+LF_M_INLINE int log_special(double x, double *out) {
     if (is_nan(x)) *out = x;
     else if (x < 0) *out = nan_value();
     else if (x == 0) *out = -HUGE_VAL;

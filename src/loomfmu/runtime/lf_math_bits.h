@@ -8,6 +8,16 @@
 
 #include <string.h>
 
+/* the kernels of lf_sin and lf_cos inlined into them (their arguments stay
+ * in registers): the compilers' own spelling of "always inline" */
+#if defined(__GNUC__)
+#define LF_M_INLINE static inline __attribute__((always_inline))
+#elif defined(_MSC_VER)
+#define LF_M_INLINE static __forceinline
+#else
+#define LF_M_INLINE static inline
+#endif
+
 typedef unsigned long long u64;
 
 static inline u64 bits_of(double x) {

@@ -16,18 +16,18 @@
 /* ---------------------------------------------------------- sin and cos */
 
 /* sin(x + y), |x| <= pi/4 (about), |y| below half an ulp of x */
-static double sin_kernel(double x, double y) {
-    double z = x * x, v = z * x;
-    double r = LF_M_SIN1 + z * (LF_M_SIN2 + z * (LF_M_SIN3 + z * (LF_M_SIN4 + z * (LF_M_SIN5
-               + z * LF_M_SIN6))));
+LF_M_INLINE double sin_kernel(double x, double y) {
+    double z = x * x, v = z * x, z2 = z * z; /* Estrin's scheme: a shorter chain */
+    double r = (LF_M_SIN1 + z * LF_M_SIN2) + z2 * ((LF_M_SIN3 + z * LF_M_SIN4)
+               + z2 * (LF_M_SIN5 + z * LF_M_SIN6));
     return x - ((z * (0.5 * y - v * r) - y) - v * LF_M_SIN0);
 }
 
 /* cos(x + y) */
-static double cos_kernel(double x, double y) {
-    double z = x * x, hz = 0.5 * z, w = 1.0 - hz;
-    double r = z * (LF_M_COS0 + z * (LF_M_COS1 + z * (LF_M_COS2 + z * (LF_M_COS3 + z * (LF_M_COS4
-               + z * (LF_M_COS5 + z * LF_M_COS6))))));
+LF_M_INLINE double cos_kernel(double x, double y) {
+    double z = x * x, hz = 0.5 * z, w = 1.0 - hz, z2 = z * z;
+    double r = z * ((LF_M_COS0 + z * LF_M_COS1) + z2 * ((LF_M_COS2 + z * LF_M_COS3)
+               + z2 * ((LF_M_COS4 + z * LF_M_COS5) + z2 * LF_M_COS6)));
     return w + (((1.0 - w) - hz) + (z * r - x * y));
 }
 
@@ -95,7 +95,7 @@ static int trig_reduce_huge(double x, double *y0, double *y1) {
 }
 
 /* x = n pi/2 + y0 + y1 for finite x; returns n mod 4 */
-static int trig_reduce(double x, double *y0, double *y1) {
+LF_M_INLINE int trig_reduce(double x, double *y0, double *y1) {
     double fn, r, w, t;
     int ex;
     long long n;
@@ -130,10 +130,9 @@ static int trig_reduce(double x, double *y0, double *y1) {
 }
 
 double lf_sin(double x) {
-    double y0, y1;
-    if (is_nan(x)) return x;
-    if (fabs_(x) == HUGE_VAL) return nan_value();
-    if (fabs_(x) < TWO_M27) return x;
+    double ax = fabs_(x), y0, y1;
+    if (ax <= 0.7853981633974483) return ax < TWO_M27 ? x : sin_kernel(x, 0.0);
+    if (!(ax < HUGE_VAL)) return is_nan(x) ? x : nan_value();
     switch (trig_reduce(x, &y0, &y1)) {
     case 0: return sin_kernel(y0, y1);
     case 1: return cos_kernel(y0, y1);
@@ -143,10 +142,9 @@ double lf_sin(double x) {
 }
 
 double lf_cos(double x) {
-    double y0, y1;
-    if (is_nan(x)) return x;
-    if (fabs_(x) == HUGE_VAL) return nan_value();
-    if (fabs_(x) < TWO_M27) return 1.0;
+    double ax = fabs_(x), y0, y1;
+    if (ax <= 0.7853981633974483) return ax < TWO_M27 ? 1.0 : cos_kernel(x, 0.0);
+    if (!(ax < HUGE_VAL)) return is_nan(x) ? x : nan_value();
     switch (trig_reduce(x, &y0, &y1)) {
     case 0: return cos_kernel(y0, y1);
     case 1: return -sin_kernel(y0, y1);
