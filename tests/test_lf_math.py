@@ -156,11 +156,12 @@ def test_generated_code_calls_the_runtime_functions(tmp_path):
     cg = ca.CodeGenerator("probe_f.c", {"with_header": True, "casadi_real": "double"})
     cg.add(f)
     cg.generate(str(tmp_path) + "/")
-    src = use_runtime_math((tmp_path / "probe_f.c").read_text())
+    raw = (tmp_path / "probe_f.c").read_text()
+    apart, src = use_runtime_math(raw, pair=False), use_runtime_math(raw)
     left = re.findall(r"(?<![\w.])(" + "|".join(MATH_FUNCTIONS) + r")\(", src)
     assert not left, left
     for ours in set(MATH_FUNCTIONS.values()) - {"lf_log10"}:  # CasADi writes log(x)/log(10)
-        assert ours + "(" in src, ours
+        assert ours + "(" in apart, ours
     (tmp_path / "probe_f.c").write_text(src)
     (tmp_path / "lf_prefix.h").write_text("")
     (tmp_path / "main.c").write_text(
@@ -177,3 +178,39 @@ def test_generated_code_calls_the_runtime_functions(tmp_path):
                                             check=True).stdout.split()]
     want = f(0.75, 1.5).full().ravel()  # CasADi's own evaluation: the C library's
     assert np.allclose(got, want, rtol=4e-16, atol=0)
+
+
+def test_sin_and_cos_of_one_value_share_one_reduction(tmp_path):
+    """CasADi writes cos(j x) and sin(j x) apart, each of its own copy of
+    j x: the generated code computes each pair with one lf_sincos, and gives
+    the bits of the separate calls."""
+    x, y = ca.SX.sym("x"), ca.SX.sym("y")
+    ops = [c * ca.cos(j * x) + s * ca.sin(j * x) for j, (c, s) in
+           enumerate([(0.3, -1.2), (2.0, 0.7), (-0.4, 0.1), (1.1, 1.3)], 1)]
+    ops += [ca.sin(x + y) * ca.cos(x + y), ca.cos(y), ca.sin(x * y), ca.cos(x) ** 2]
+    f = ca.Function("pair_f", [x, y], [ca.vertcat(*ops)])
+    cg = ca.CodeGenerator("pair_f.c", {"with_header": True, "casadi_real": "double"})
+    cg.add(f)
+    cg.generate(str(tmp_path) + "/")
+    raw = (tmp_path / "pair_f.c").read_text()
+    (tmp_path / "lf_prefix.h").write_text("")
+    (tmp_path / "main.c").write_text(
+        '#include <stdio.h>\n#include <string.h>\n#include "pair_f.h"\n'
+        "int main(void) { double a[2], r[8]; const double *arg[2] = {a, a + 1};\n"
+        "double *res[1] = {r}; long long iw[64]; double w[256]; int i, k;\n"
+        "for (k = 0; k < 200; k++) { a[0] = -40.0 + 0.4 * k; a[1] = 1e3 - 17.0 * k;\n"
+        "probe: pair_f(arg, res, iw, w, 0);\n"
+        "for (i = 0; i < 8; i++) { unsigned long long u; memcpy(&u, r + i, 8);\n"
+        'printf("%llx\\n", u); } } return 0; }\n'.replace("probe: ", ""))
+    outs = []
+    for pair in (True, False):
+        src = use_runtime_math(raw, pair=pair)
+        assert (src.count("lf_sincos(") == 5) == pair  # j x for j = 1..4, and x + y
+        (tmp_path / "pair_f.c").write_text(src)
+        exe = tmp_path / f"pair_{pair}"
+        subprocess.run(["gcc", *FLAGS[:3], f"-I{tmp_path}", f"-I{RUNTIME_DIR}",
+                        str(tmp_path / "main.c"), str(tmp_path / "pair_f.c"), *MATH_SOURCES,
+                        "-lm", "-o", str(exe)], check=True)
+        outs.append(subprocess.run([str(exe)], capture_output=True, text=True,
+                                   check=True).stdout)
+    assert outs[0] == outs[1] and len(outs[0].split()) == 1600

@@ -488,11 +488,90 @@ MATH_FUNCTIONS = {f: f"lf_{f}" for f in (
 _MATH_CALL = re.compile(r"\b(" + "|".join(MATH_FUNCTIONS) + r")\(")
 
 
-def use_runtime_math(source: str) -> str:
+def use_runtime_math(source: str, pair: bool = True) -> str:
     """CasADi's C code with every call of MATH_FUNCTIONS made to the
-    runtime's function, and lf_math.h included after math.h."""
+    runtime's function, sin and cos of one value paired (pair_sin_cos; pair
+    False leaves them apart), and lf_math.h included after math.h."""
     source = _MATH_CALL.sub(lambda m: MATH_FUNCTIONS[m.group(1)] + "(", source)
+    if pair:
+        source = pair_sin_cos(source)
     return source.replace("#include <math.h>\n", '#include <math.h>\n#include "lf_math.h"\n', 1)
+
+
+_FUNCTION_START = re.compile(r"^static int casadi_f\d+\(.*\{$")
+_SCALAR = re.compile(r"^  (a\d+)=(.*);$")
+_TRIG = re.compile(r"^lf_(sin|cos)\((a\d+)\)$")
+_VAR = re.compile(r"\ba\d+\b")
+_OUTPUT = re.compile(r"^  if \(res\[\d+\]!=0\) res\[\d+\]\[\d+\]=a\d+;$")
+
+
+def pair_sin_cos(source: str) -> str:
+    """Where a generated function takes lf_sin and lf_cos of the same value,
+    the first call becomes one lf_sincos (one argument reduction, the same
+    bits) and the second reads its other result: CasADi writes cos(j phi) and
+    sin(j phi) apart, each of its own copy of j phi, so the values are
+    numbered (local value numbering over CasADi's straight-line statements
+    ``aN=EXPR;``; any other statement forgets everything)."""
+    lines = source.split("\n")
+    out: list[str] = []
+    start = None  # index in out of the current function's opening line
+    n_tmp = 0
+    value: dict[str, int] = {}     # scalar -> the number of its value
+    numbers: dict[str, int] = {}   # expression over value numbers -> its number
+    pending: dict[int, tuple[str, int, str]] = {}  # value -> (function, out index, target)
+
+    def number(expr: str) -> int:
+        key = _VAR.sub(lambda m: f"#{value.setdefault(m.group(0), -len(value) - 1)}", expr)
+        return numbers.setdefault(key, len(numbers))
+
+    def forget():
+        value.clear(), numbers.clear(), pending.clear()
+
+    for line in lines:
+        if _FUNCTION_START.match(line):
+            forget()
+            start, n_tmp = len(out), 0
+            out.append(line)
+            continue
+        if start is None:
+            out.append(line)
+            continue
+        if line == "}":
+            if n_tmp:
+                out.insert(start + 1, "  casadi_real " + ", ".join(
+                    f"lf_sc{i}" for i in range(n_tmp)) + ";")
+            start = None
+            out.append(line)
+            continue
+        m = _SCALAR.match(line)
+        if not m:
+            if not _OUTPUT.match(line) and line.strip() and not line.startswith("  casadi_real "):
+                forget()
+            out.append(line)
+            continue
+        target, expr = m.groups()
+        t = _TRIG.match(expr)
+        if t:
+            fn, x = t.groups()
+            v = number(x)
+            other = pending.get(v)
+            if other and other[0] != fn:
+                _, i, first_target = pending.pop(v)
+                tmp = f"lf_sc{n_tmp}"
+                n_tmp += 1
+                s_ptr, c_ptr = ((f"&{first_target}", f"&{tmp}") if other[0] == "sin"
+                                else (f"&{tmp}", f"&{first_target}"))
+                arg = _TRIG.match(_SCALAR.match(out[i]).group(2)).group(2)
+                out[i] = f"  lf_sincos({arg}, {s_ptr}, {c_ptr});"
+                out.append(f"  {target}={tmp};")
+            else:
+                pending.setdefault(v, (fn, len(out), target))
+                out.append(line)
+        else:
+            out.append(line)
+        value[target] = number(expr) if not t else numbers.setdefault(
+            f"{t.group(1)}#{number(t.group(2))}", len(numbers))
+    return "\n".join(out)
 
 
 def generate_sources(model: Model, dae: DaeForm, outdir: Path) -> tuple[list[str], str]:

@@ -28,6 +28,8 @@
 
 double lf_sin(double x);
 double lf_cos(double x);
+/* lf_sin(x) and lf_cos(x), the same bits, with one argument reduction */
+void lf_sincos(double x, double *s, double *c);
 double lf_tan(double x);
 double lf_asin(double x);
 double lf_acos(double x);

@@ -153,6 +153,29 @@ double lf_cos(double x) {
     }
 }
 
+void lf_sincos(double x, double *s, double *c) {
+    double ax = fabs_(x), y0, y1, ks, kc;
+    int n;
+    if (ax <= 0.7853981633974483) {
+        *s = ax < TWO_M27 ? x : sin_kernel(x, 0.0);
+        *c = ax < TWO_M27 ? 1.0 : cos_kernel(x, 0.0);
+        return;
+    }
+    if (!(ax < HUGE_VAL)) {
+        *s = *c = is_nan(x) ? x : nan_value();
+        return;
+    }
+    n = trig_reduce(x, &y0, &y1); /* once for both */
+    ks = sin_kernel(y0, y1);
+    kc = cos_kernel(y0, y1);
+    switch (n) {
+    case 0: *s = ks; *c = kc; break;
+    case 1: *s = kc; *c = -ks; break;
+    case 2: *s = -ks; *c = -kc; break;
+    default: *s = -kc; *c = ks; break;
+    }
+}
+
 double lf_tan(double x) {
     double y0, y1;
     int n;
