@@ -3,6 +3,7 @@ their coefficients, their accuracy and their speed against the C library.
 
     python benchmarks/math_functions.py --coefficients   # rewrite lf_math_coeffs.h
     python benchmarks/math_functions.py [--json docs/results/math_functions.json]
+    python benchmarks/math_functions.py --table-from docs/results/math_functions.json
 
 Every coefficient and constant of lf_math.c comes from here: polynomials
 fitted with mpmath at 50 digits (least squares on Chebyshev points, in the
@@ -283,11 +284,33 @@ def measure(n: int = 200_000, n_exact: int = 4_000) -> dict:
     return out
 
 
+def table(data: dict) -> str:
+    """The measurement as a markdown table."""
+    rows = ["| function | arguments | largest error, ours (ulp) | glibc's (ulp) | ns per call, "
+            "ours | glibc's |", "|---|---|---|---|---|---|"]
+    ranges = {"sin": "(-20, 20)", "sin_large": "(-1e6, 1e6)", "cos": "(-20, 20)",
+              "tan": "(-3, 3)", "exp": "(-700, 700)", "exp_small": "(-2, 2)",
+              "expm1": "(-2, 2)", "log": "1e-20 ... 1e20", "log_near1": "(0.5, 1.5)",
+              "log1p": "(-0.2, 1.8)", "log10": "1e-20 ... 1e20", "pow": "x in (0, 4), y in (-10, 10)",
+              "pow_wide": "x 1e-10 ... 1e10, y in (-15, 15)", "tanh": "(-5, 5)",
+              "sinh": "(-5, 5)", "cosh": "(-5, 5)", "atan": "(-5, 5)", "atan2": "(-2, 2)^2",
+              "asin": "(-1, 1)", "acos": "(-1, 1)", "hypot": "(-500, 500)^2",
+              "asinh": "(-5, 5)", "acosh": "(1, 11)", "atanh": "(-1, 1)"}
+    for name, r in data["functions"].items():
+        rows.append(f"| {name.split('_')[0]} | {ranges.get(name, '')} | {r['max_ulp_ours']:.2f} | "
+                    f"{r['max_ulp_libm']:.2f} | {r['ns_ours']:.0f} | {r['ns_libm']:.0f} |")
+    return "\n".join(rows) + "\n"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--coefficients", action="store_true", help=f"rewrite {HEADER.name}")
     ap.add_argument("--json", type=Path, help="write the measurement there")
+    ap.add_argument("--table-from", type=Path, help="print the table of a measurement")
     args = ap.parse_args(argv)
+    if args.table_from:
+        print(table(json.loads(args.table_from.read_text())), end="")
+        return 0
     if args.coefficients:
         HEADER.write_text(header_text())
         print(f"wrote {HEADER.relative_to(ROOT)}")

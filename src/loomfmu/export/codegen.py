@@ -14,8 +14,9 @@ A model contributes to the FMU only
   the Python declaration.
 
 The CasADi code calls the elementary functions of the runtime's lf_math.c
-(MATH_FUNCTIONS) in place of the C library's: they give the same bits on
-every platform, where the C libraries differ in the last bit.
+and lf_trig.c (MATH_FUNCTIONS) in place of the C library's: they give the
+same bits on every platform, where the C libraries differ in the last bit;
+sin and cos of one value share one argument reduction (pair_sin_cos).
 
 Value references of Real variables are laid out in this order, which is also
 the order of ``ModelVariables`` in the model description::

@@ -10,7 +10,8 @@
  * Defined in lf_math.c (exp, log, pow, hyperbolic, hypot) and lf_trig.c (sin,
  * cos, tan and their inverses), with the helpers of lf_math_bits.h.
  * codegen.py rewrites the generated model code to call them
- * (codegen.MATH_FUNCTIONS); functions outside this list stay the C library's.
+ * (codegen.MATH_FUNCTIONS; sin and cos of one value become one lf_sincos,
+ * codegen.pair_sin_cos); functions outside this list stay the C library's.
  *
  * Accuracy against the exact value, in units in the last place (measured by
  * benchmarks/math_functions.py and checked by tests/test_lf_math.py): sin,
