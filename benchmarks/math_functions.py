@@ -132,7 +132,8 @@ def constants() -> dict[str, tuple[float, str]]:
                           "is exact for |n| < 2^20")
         rest -= mp.mpf(part)
         c[f"PIO2_{k}T"] = (float(rest), "pi/2 - " + " - ".join(f"PIO2_{j}" for j in range(1, k + 1)))
-    for name, value in (("ATAN_HALF", mp.atan(mp.mpf(1) / 2)), ("PIO4", mp.pi / 4),
+    for name, value in (("TWO_THIRDS", mp.mpf(2) / 3), ("ATAN_HALF", mp.atan(mp.mpf(1) / 2)),
+                        ("PIO4", mp.pi / 4),
                         ("ATAN_3HALF", mp.atan(mp.mpf(3) / 2)), ("PIO2", pio2),
                         ("PI", mp.pi)):
         hi, lo = _hi_lo(value)
@@ -197,6 +198,8 @@ FUNCTIONS = {  # name: (arity, argument generator over u, v in [0, 1), mpmath fu
     "log10": (1, lambda u, v: 10 ** ((u - 0.5) * 40), mp.log10),
     "pow": (2, lambda u, v: (4 * u, (v - 0.5) * 20), mp.power),
     "pow_wide": (2, lambda u, v: (10 ** ((u - 0.5) * 20), (v - 0.5) * 30), mp.power),
+    "pow_large": (2, lambda u, v: (0.5 + 1.5 * u, (v - 0.5) * 1400 / _ln(0.5 + 1.5 * u)),
+                  mp.power),
     "tanh": (1, lambda u, v: (u - 0.5) * 10, mp.tanh),
     "sinh": (1, lambda u, v: (u - 0.5) * 10, mp.sinh),
     "cosh": (1, lambda u, v: (u - 0.5) * 10, mp.cosh),
@@ -210,6 +213,13 @@ FUNCTIONS = {  # name: (arity, argument generator over u, v in [0, 1), mpmath fu
     "atanh": (1, lambda u, v: 2 * u - 1, mp.atanh),
 }
 C_NAME = {"log": "ln"}
+
+
+def _ln(x):
+    """log x for the pow_large arguments, 1 where it is 0 (y then stays finite)."""
+    import numpy as np
+    lx = np.log(x)
+    return np.where(lx == 0, 1.0, lx)
 
 
 def _probe_source(names) -> str:
@@ -292,7 +302,8 @@ def table(data: dict) -> str:
               "tan": "(-3, 3)", "exp": "(-700, 700)", "exp_small": "(-2, 2)",
               "expm1": "(-2, 2)", "log": "1e-20 ... 1e20", "log_near1": "(0.5, 1.5)",
               "log1p": "(-0.2, 1.8)", "log10": "1e-20 ... 1e20", "pow": "x in (0, 4), y in (-10, 10)",
-              "pow_wide": "x 1e-10 ... 1e10, y in (-15, 15)", "tanh": "(-5, 5)",
+              "pow_wide": "x 1e-10 ... 1e10, y in (-15, 15)",
+              "pow_large": "x in (0.5, 2), y log x in (-700, 700)", "tanh": "(-5, 5)",
               "sinh": "(-5, 5)", "cosh": "(-5, 5)", "atan": "(-5, 5)", "atan2": "(-2, 2)^2",
               "asin": "(-1, 1)", "acos": "(-1, 1)", "hypot": "(-500, 500)^2",
               "asinh": "(-5, 5)", "acosh": "(1, 11)", "atanh": "(-1, 1)"}

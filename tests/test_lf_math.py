@@ -27,7 +27,7 @@ FLAGS = ["-std=c99", "-O2", "-ffp-contract=off", "-Wall", "-Wextra", "-Werror"]
 
 #: largest error in ulp allowed per function (lf_math.h; measured by
 #: benchmarks/math_functions.py)
-MAX_ULP = {"sin": 1, "cos": 1, "exp": 1, "log": 1, "atan": 1, "pow": 1, "hypot": 1,
+MAX_ULP = {"sin": 1, "cos": 1, "exp": 1, "log": 1, "atan": 1, "pow": 1.2, "hypot": 1,
            "expm1": 1.5, "log1p": 1.5, "tan": 2, "asin": 2, "acos": 2, "atan2": 2,
            "sinh": 2, "cosh": 2, "tanh": 2, "log10": 2, "asinh": 2, "acosh": 2.5, "atanh": 2}
 MP = {"log": mp.log, "asin": mp.asin, "acos": mp.acos, "atan2": mp.atan2, "pow": mp.power}

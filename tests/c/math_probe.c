@@ -99,6 +99,10 @@ static void draw(int f, double u, double v, double *a, double *b) {
     default:
         *a = w < 0.5 ? 4.0 * u : lf_exp((u - 0.5) * 40.0);
         *b = (v - 0.5) * (w < 0.5 ? 20.0 : 30.0);
+        if (w > 0.8) { /* |y log x| up to 700: the result near overflow or underflow */
+            *a = 0.5 + 1.5 * u;
+            *b = (v - 0.5) * 1400.0 / (lf_ln(*a) == 0.0 ? 1.0 : lf_ln(*a));
+        }
         if (rnd() < 0.1) { /* negative bases with integer exponents */
             *a = -*a;
             *b = (double)(long long)*b;

@@ -74,7 +74,7 @@ def _parser(prog: str) -> argparse.ArgumentParser:
                         "installed")
     b.add_argument("--reference", action="store_true",
                    help="carry the default experiment's reference result (FMI-LS-REF), "
-                        "computed by the scipy reference: seconds for two_mass, about 100 s for "
+                        "computed by the scipy reference: a second for two_mass, about 80 s for "
                         "loom, far longer for spinning")
     i = sub.add_parser("inspect", help="the scene composed into one model: its derivation "
                        "and equations as loomfmu inspect writes a model's")

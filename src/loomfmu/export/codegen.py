@@ -480,9 +480,9 @@ def prefix_header(model: Model) -> str:
 
 #: The C library's functions CasADi's code may call and the runtime's own
 #: (lf_math.h) that replace them. sqrt, fabs, floor, ceil, fmod, fmin and
-#: fmax are exactly rounded on every platform and stay; so do erf and erfinv
-#: (no runtime version: a model calling them may differ across platforms in
-#: the last bits).
+#: fmax are exactly rounded on every platform and stay; so does erf (no
+#: runtime version: a model calling it may differ across platforms in the
+#: last bits). CasADi's erfinv has no C library function at all.
 MATH_FUNCTIONS = {f: f"lf_{f}" for f in (
     "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "exp",
     "expm1", "log1p", "log10", "pow", "hypot", "asinh", "acosh", "atanh")} | {"log": "lf_ln"}

@@ -193,20 +193,39 @@ double lf_log10(double x) {
 
 /* ---------------------------------------------------------- pow */
 
-/* log(x) = *hi + *lo for finite x > 0, to about 2^-57 of |log x| */
+/* log(x) = *hi + *lo for finite x > 0, to about 2^-66 absolute: lf_ln's
+ * formula with every rounding of its large terms carried (s = f/(2+f), s^2,
+ * f^2/2 and R's leading term 2/3 s^2 as double-doubles, the products and
+ * sums error-free); what is left is the rest of R, below 4e-4 */
 static void ln_dd(double x, double *hi, double *lo) {
-    double f, s, z, ff, ffe, hfsq, d, s1, e1, s2, e2;
+    double f, u, ue, s, p, pe, s_lo, z, zl, r1, r1e, q, ff, ffe, hfsq, a, ae, t, te, d;
+    double s1, e1, s2, e2, s3, e3;
     int e = log_split(x, &f);
-    s = f / (2.0 + f);
-    z = s * s;
+    u = 2.0 + f; /* 2 + f = u + ue exactly (|f| < 2) */
+    ue = (2.0 - u) + f;
+    s = f / u;
+    two_prod(s, u, &p, &pe);
+    s_lo = (((f - p) - pe) - s * ue) / u; /* f / (2 + f) = s + s_lo */
+    two_prod(s, s, &z, &zl);
+    zl += 2.0 * s * s_lo; /* s^2 = z + zl */
+    /* R = 2/3 z + z^2 Q(z): its leading term as a double-double */
+    two_prod(LF_M_TWO_THIRDS_HI, z, &r1, &r1e);
+    r1e += LF_M_TWO_THIRDS_HI * zl + LF_M_TWO_THIRDS_LO * z;
+    q = z * z * (LF_M_LOG1 + z * (LF_M_LOG2 + z * (LF_M_LOG3 + z * (LF_M_LOG4 + z * (LF_M_LOG5
+        + z * (LF_M_LOG6 + z * LF_M_LOG7))))));
     two_prod(f, f, &ff, &ffe);
-    hfsq = 0.5 * ff;
-    d = s * (hfsq + log_poly(z)) + e * LF_M_LN2_LO - 0.5 * ffe;
+    hfsq = 0.5 * ff; /* f^2 / 2 = hfsq + ffe / 2 exactly */
+    two_sum(hfsq, r1, &a, &ae);
+    ae += (r1e + q) + 0.5 * ffe; /* f^2 / 2 + R = a + ae */
+    two_prod(s, a, &t, &te);
+    te += s * ae + s_lo * a; /* (s + s_lo)(a + ae) = t + te */
+    /* log x = e LN2_HI + f - f^2/2 + (s + s_lo)(f^2/2 + R) + e LN2_LO */
     two_sum(e * LF_M_LN2_HI, f, &s1, &e1);
     two_sum(s1, -hfsq, &s2, &e2);
-    d += e1 + e2;
-    *hi = s2 + d;
-    *lo = d - (*hi - s2);
+    two_sum(s2, t, &s3, &e3);
+    d = (e1 + e2 + e3) + (te - 0.5 * ffe + e * LF_M_LN2_LO);
+    *hi = s3 + d;
+    *lo = d - (*hi - s3);
 }
 
 /* 0: y is not an integer, 1: an odd one, 2: an even one (y finite) */

@@ -19,6 +19,8 @@
 #define LF_M_PIO2_2T 2.0222662487959506e-21 /* pi/2 - PIO2_1 - PIO2_2 */
 #define LF_M_PIO2_3 2.0222662487111665e-21 /* bits 67..99 of pi/2: n * PIO2_3 is exact for |n| < 2^20 */
 #define LF_M_PIO2_3T 8.4784276603689e-32 /* pi/2 - PIO2_1 - PIO2_2 - PIO2_3 */
+#define LF_M_TWO_THIRDS_HI 0.6666666666666666 /* two_thirds rounded */
+#define LF_M_TWO_THIRDS_LO 3.700743415417188e-17 /* two_thirds - TWO_THIRDS_HI */
 #define LF_M_ATAN_HALF_HI 0.4636476090008061 /* atan_half rounded */
 #define LF_M_ATAN_HALF_LO 2.2698777452961687e-17 /* atan_half - ATAN_HALF_HI */
 #define LF_M_PIO4_HI 0.7853981633974483 /* pio4 rounded */
