@@ -19,7 +19,7 @@ RUNTIME = ROOT / "src" / "loomfmu" / "runtime"
 HARNESS = ROOT / "tests" / "c" / "stiff_harness.c"
 SOURCES = [RUNTIME / f for f in ("lf_solvers.c", "lf_dopri5.c", "lf_rodas4.c", "lf_linalg.c",
                                    "lf_schur.c", "lf_wmethod.c", "lf_rosenbrock.c",
-                                   "lf_solver_common.c")]
+                                   "lf_solver_common.c", "lf_math.c", "lf_trig.c")]
 CFLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
           "-fvisibility=hidden", "-fPIC"]
 # builds: default; dense Newton matrices only; ros34pw2 renewing J and its
