@@ -246,7 +246,7 @@ def _probe_source(names) -> str:
         "    fwrite(r, 8, n, stdout);", "    return 0;", "}", ""])
 
 
-def _ulps(x: float, exact) -> float:
+def ulps(x: float, exact) -> float:
     """|x - exact| in units of the last place of the double nearest to exact."""
     e = float(exact)
     if e == 0 or not mp.isfinite(exact):
@@ -287,7 +287,7 @@ def measure(n: int = 200_000, n_exact: int = 4_000) -> dict:
                 if not mp.isfinite(ex) or abs(ex) > 1.7e308 or (ex != 0 and abs(ex) < 2.3e-308):
                     continue
                 for ours in (1, 0):
-                    worst[ours] = max(worst[ours], _ulps(res[ours][i], ex))
+                    worst[ours] = max(worst[ours], ulps(res[ours][i], ex))
             out[name] = {"max_ulp_ours": round(worst[1], 3), "max_ulp_libm": round(worst[0], 3),
                          "ns_ours": round(ns[1], 2), "ns_libm": round(ns[0], 2),
                          "differing_from_libm": int(np.sum(res[1] != res[0]))}

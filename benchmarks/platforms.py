@@ -23,12 +23,11 @@ output at every output time has the native run's bits, else the largest
 a * b + c into one fused multiply-add, rounded once) and compared in the
 same way: what the flag buys.
 
---libm: compile benchmarks/platforms_libm.c for each platform (the C
-library's sin, cos, exp, pow, ... on 100000 arguments each), run it the same
+--libm: compile tests/c/math_probe.c for each platform with the C library's
+sin, cos, exp, pow, ... (-DPROBE_LIBM) and with the runtime's own (under
+"lf_math"), 20 000 arguments each and the special values, run it the same
 way and count, per function, the results whose bits differ from the native
-run's; then the same for the runtime's own functions (tests/c/math_probe.c
-with lf_math.c: 20 000 arguments each and the special values, under
-"lf_math"); with --json, only that entry of an existing file is replaced.
+run's; with --json, only that entry of an existing file is replaced.
 
 --solvers-of MODEL: MODEL's FMI 3.0 co-simulation FMU run with each embedded
 solver (dopri5, rk4, ros34pw2: ``solver_index`` set by the driver) natively
@@ -60,8 +59,9 @@ from loomfmu.fmu.platforms import PLATFORMS
 from loomfmu.registry import MODELS
 
 EMULATOR = {"linux64": "native", "win64": "wine", "aarch64": "qemu-aarch64"}
-LIBM_PROBE = Path(__file__).with_name("platforms_libm.c")
-#: the runtime's own functions on 20 000 arguments each and the special ones
+#: the elementary functions on MATH_PROBE_N arguments each and the special
+#: ones: the C library's (built with -DPROBE_LIBM) and the runtime's own
+MATH_PROBE_N = 20000
 MATH_PROBE = Path(__file__).resolve().parent.parent / "tests" / "c" / "math_probe.c"
 RUNTIME = Path(__file__).resolve().parent.parent / "src" / "loomfmu" / "runtime"
 MATH_SOURCES = [str(RUNTIME / f) for f in ("lf_math.c", "lf_trig.c")]
@@ -84,33 +84,23 @@ def solvers_of(model: str, work: Path) -> dict:
 
 
 def libm(work: Path) -> dict:
-    """Per platform and function: results of platforms_libm.c whose bits
-    differ from the native run's (of 100000)."""
+    """Per platform and function: results of tests/c/math_probe.c whose bits
+    differ from the native run's, with the C library's functions and (under
+    "lf_math") with the runtime's own."""
     from loomfmu.fmu.platform_run import wine_env
-    outs = {}
+    outs: dict[str, dict[str, list[str]]] = {"libm": {}, "lf_math": {}}
     for name in [n for n in PLATFORMS if missing_tools(n) is None]:
         p = PLATFORMS[name]
-        exe = work / f"libm_{name}{'.exe' if p.windows else ''}"
-        subprocess.run([p.cc, "-std=c99", "-O2", "-ffp-contract=off", "-o", str(exe),
-                        str(LIBM_PROBE), *(["-static-libgcc"] if p.windows else ["-lm"])],
-                       check=True)
-        outs[name] = subprocess.run([*p.emulator, str(exe)], capture_output=True, text=True,
-                                    check=True, env=wine_env() if p.windows else None
-                                    ).stdout.replace("\r", "").split("\n")
-    result = _differing(outs)
-    ours = {}
-    for name in outs:  # the runtime's own functions (lf_math.c) the same way
-        p = PLATFORMS[name]
-        exe = work / f"lf_math_{name}{'.exe' if p.windows else ''}"
-        subprocess.run([p.cc, "-std=c99", "-O2", "-ffp-contract=off", f"-I{RUNTIME}", "-o",
-                        str(exe), str(MATH_PROBE), *MATH_SOURCES,
-                        *(["-static-libgcc"] if p.windows else ["-lm"])], check=True)
-        ours[name] = subprocess.run([*p.emulator, str(exe), "20000"], capture_output=True,
-                                    text=True, check=True,
-                                    env=wine_env() if p.windows else None
-                                    ).stdout.replace("\r", "").split("\n")
-    result["lf_math"] = _differing(ours)
-    return result
+        for kind, flags in (("libm", ["-DPROBE_LIBM"]), ("lf_math", [])):
+            exe = work / f"{kind}_{name}{'.exe' if p.windows else ''}"
+            subprocess.run([p.cc, "-std=c99", "-O2", "-ffp-contract=off", *flags, f"-I{RUNTIME}",
+                            "-o", str(exe), str(MATH_PROBE), *MATH_SOURCES,
+                            *(["-static-libgcc"] if p.windows else ["-lm"])], check=True)
+            outs[kind][name] = subprocess.run(
+                [*p.emulator, str(exe), str(MATH_PROBE_N)], capture_output=True, text=True,
+                check=True, env=wine_env() if p.windows else None
+            ).stdout.replace("\r", "").split("\n")
+    return _differing(outs["libm"]) | {"lf_math": _differing(outs["lf_math"])}
 
 
 def _differing(outs: dict[str, list[str]]) -> dict:
@@ -253,7 +243,7 @@ def main(argv=None) -> int:
     ap.add_argument("--solvers-of", default=None, metavar="MODEL",
                     help="only MODEL, with each embedded solver")
     ap.add_argument("--libm", action="store_true",
-                    help="only the math-library comparison (platforms_libm.c)")
+                    help="only the math-library comparison (tests/c/math_probe.c)")
     args = ap.parse_args(argv)
     if args.solvers_of:
         if args.solvers_of not in MODELS:
@@ -273,7 +263,7 @@ def main(argv=None) -> int:
         print(json.dumps(res, indent=1))
         if args.json:
             data = json.loads(args.json.read_text()) if args.json.exists() else {}
-            data["libm_differing_bits_of_100000"] = res
+            data["libm_differing_bits"] = res
             data["libm_command"] = "python benchmarks/platforms.py --libm " + \
                 " ".join(a for a in (argv or sys.argv[1:]) if a != "--libm")
             args.json.write_text(json.dumps(data, indent=2) + "\n")

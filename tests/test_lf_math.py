@@ -63,20 +63,15 @@ def native(tmp_path_factory):
     return work, _run(_probe(work), 1000)
 
 
+_spec = importlib.util.spec_from_file_location(
+    "math_functions", ROOT / "benchmarks" / "math_functions.py")
+gen = importlib.util.module_from_spec(_spec)  # the coefficients' generator and ulp measure
+_spec.loader.exec_module(gen)
+
+
 def test_the_coefficients_are_what_the_generator_writes():
-    spec = importlib.util.spec_from_file_location(
-        "math_functions", ROOT / "benchmarks" / "math_functions.py")
-    gen = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(gen)
     assert (RUNTIME_DIR / "lf_math_coeffs.h").read_text() == gen.header_text(), (
         "run python benchmarks/math_functions.py --coefficients")
-
-
-def _ulps(x: float, exact) -> float:
-    e = float(exact)
-    b = struct.unpack("<q", struct.pack("<d", abs(e)))[0]
-    ulp = struct.unpack("<d", struct.pack("<q", b + 1))[0] - abs(e)
-    return float(abs(mp.mpf(x) - exact) / ulp)
 
 
 def test_accuracy_against_mpmath(native):
@@ -97,7 +92,7 @@ def test_accuracy_against_mpmath(native):
             if isinstance(exact, mp.mpc) or not mp.isfinite(exact) or abs(exact) > 1.7e308 \
                     or (exact != 0 and abs(exact) < 2.3e-308):
                 continue
-            worst[name] = max(worst.get(name, 0.0), _ulps(_double(r), exact))
+            worst[name] = max(worst.get(name, 0.0), gen.ulps(_double(r), exact))
     assert set(worst) == set(MAX_ULP)
     over = {k: round(v, 3) for k, v in worst.items() if v > MAX_ULP[k]}
     assert not over, over

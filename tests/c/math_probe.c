@@ -3,7 +3,8 @@
  * same on every platform).  One line per call: the function, the bits of its
  * arguments and of its result, in hex.  Built with -DPROBE_LIBM it calls the
  * C library's functions instead.  tests/test_lf_math.py runs it natively,
- * under wine and under qemu-aarch64. */
+ * under wine and under qemu-aarch64; benchmarks/platforms.py --libm counts
+ * the results of both builds that differ between platforms. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>

@@ -570,8 +570,7 @@ def pair_sin_cos(source: str) -> str:
                 out.append(line)
         else:
             out.append(line)
-        value[target] = number(expr) if not t else numbers.setdefault(
-            f"{t.group(1)}#{number(t.group(2))}", len(numbers))
+        value[target] = number(expr)
     return "\n".join(out)
 
 

@@ -187,7 +187,7 @@ double lf_log1p(double x) {
 
 double lf_log10(double x) {
     double l = lf_ln(x);
-    if (l != l || fabs_(l) == HUGE_VAL || l == 0) return l == 0 ? 0.0 : l;
+    if (!(fabs_(l) < HUGE_VAL) || l == 0) return l; /* NaN, infinite, log 1 */
     return l * LF_M_INV_LN10_LO + l * LF_M_INV_LN10_HI;
 }
 
